@@ -1,0 +1,39 @@
+#pragma once
+// Settings of a `terrabake tile` run: every key of the YAML file, with its
+// default. config/README.md documents each one; keep the two in step.
+#include <string>
+#include <vector>
+
+namespace terrabake::config {
+
+struct TileJob {
+  std::vector<std::string> dems;     // dem: one path or a list (required)
+  std::string output_dir = "tiles";  // output.dir
+  std::string layer = "default";     // output.layer
+  int bits = 8;                      // output.bits: 8 or 16
+  std::string green = "up";          // output.green: "up" (OpenGL) or "down" (DirectX)
+  std::string scheme = "webmercator";  // tiling.scheme: webmercator | native
+  int min_zoom = 0;                  // tiling.zoom: N or [min, max] or "min-max"
+  int max_zoom = 0;
+  bool zoom_set = false;             // tiling.zoom given at all (it is required)
+  int tile_size = 256;               // tiling.tile_size: texels a side, 16..4096
+  int low_poly_grid = 17;            // low_poly.grid: vertices a side, 2..257
+  std::string backend = "auto";      // bake.backend: auto | osmesa | egl | cpu
+  int workers = 0;                   // bake.workers: 0 = one per core
+};
+
+// Reads a YAML file. Relative paths in it resolve against the file's folder.
+// Throws UsageError "<file>:<line>: <key>: <problem>" for unknown keys,
+// wrong types and out-of-range values, InputError if the file cannot be read.
+TileJob loadTileJob(const std::string& yaml_path);
+
+// Sets one key ("output.layer", "tiling.zoom", ...) from command-line text,
+// validated exactly like the file. `origin` names the flag in messages.
+// Relative paths resolve against the working directory.
+void applyOverride(TileJob& job, const std::string& key, const std::string& value,
+                   const std::string& origin);
+
+// Checks the settings as a whole (required keys present, zoom order, ...).
+void validate(const TileJob& job, const std::string& origin);
+
+}  // namespace terrabake::config

@@ -1,0 +1,38 @@
+#pragma once
+// A tile's metric frame: the local east-north-up frame at a point on the
+// WGS84 ellipsoid, with glTF's axes (+X east, +Y up, +Z south).
+#include <array>
+#include <memory>
+
+#include <glm/vec3.hpp>
+
+namespace terrabake::geo {
+
+class LocalFrame {
+ public:
+  // Origin at (lon_deg, lat_deg) on the ellipsoid (height 0).
+  LocalFrame(double lon_deg, double lat_deg);
+  ~LocalFrame();
+  LocalFrame(LocalFrame&&) noexcept;
+  LocalFrame& operator=(LocalFrame&&) noexcept;
+
+  double originLonDeg() const { return m_lon_deg; }
+  double originLatDeg() const { return m_lat_deg; }
+
+  // Geodetic point (height in metres above the ellipsoid) to glTF-axis metres.
+  glm::dvec3 toLocal(double lon_deg, double lat_deg, double height_m) const;
+
+  // Column-major 4x4 matrix taking glTF-axis local coordinates to ECEF metres.
+  std::array<double, 16> localToEcef() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+  double m_lon_deg;
+  double m_lat_deg;
+};
+
+// Geodetic point to earth-centred earth-fixed metres (WGS84).
+glm::dvec3 geodeticToEcef(double lon_deg, double lat_deg, double height_m);
+
+}  // namespace terrabake::geo

@@ -1,0 +1,50 @@
+#pragma once
+// Writing a layer's files: normal-map images, low-poly meshes, tilejson.
+// Every file appears atomically under its final name (temp file + rename).
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "core/types.hpp"
+#include "mesh/mesh.hpp"
+
+namespace terrabake::io {
+
+// Writes bytes to path through a temporary file in the same folder and a
+// rename, creating missing parent folders. Throws InputError naming the path.
+void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t>& bytes);
+
+// PNG bytes of an RGB image whose samples are 8-bit (0..255) or 16-bit
+// (0..65535) values. Linear data: no sRGB or gamma chunk.
+std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& rgb, int bits);
+
+// Where a tile's mesh sits on the globe and which image it wears.
+struct GlbInfo {
+  std::string normal_texture_uri;         // e.g. "5.png", relative to the .glb
+  double origin_lon_deg = 0;
+  double origin_lat_deg = 0;
+  std::array<double, 16> enu_to_ecef{};  // column-major, glTF axes -> ECEF
+};
+
+// glTF 2.0 binary of the low-poly mesh (CONTRACT section 5).
+std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo& info);
+
+struct TileJsonInfo {
+  std::string name;                    // the layer
+  std::string scheme;                  // "webmercator", "native", ...
+  bool tms_rows = false;               // true when y = 0 is the south edge
+  int min_zoom = 0;
+  int max_zoom = 0;
+  std::array<double, 4> bounds_deg{};  // west, south, east, north
+  int tile_size = 256;
+  int bits = 8;
+  bool green_up = true;
+  int low_poly_grid = 17;
+  std::vector<std::string> sources;    // DEM paths as the user gave them
+};
+
+// TileJSON 3.0.0 text with the "terrabake" object (CONTRACT section 6).
+std::string tileJson(const TileJsonInfo& info);
+
+}  // namespace terrabake::io

@@ -1,0 +1,68 @@
+#pragma once
+// The two meshes of a tile, over one planar UV mapping: u grows east, v grows
+// south, (0, 0) is the tile's north-west corner (glTF's top-left UV origin).
+// Coordinates are metres in the tile's local frame (geo::LocalFrame, glTF axes).
+#include <cstdint>
+#include <vector>
+
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+#include <glm/vec4.hpp>
+
+#include "core/types.hpp"
+
+namespace terrabake::mesh {
+
+// Positions of a tile's height samples. The samples sit at the centres of the
+// tile's texels and run on `apron` samples beyond each tile edge, so sample
+// (apron + i, apron + j) is the centre of texel (i, j).
+struct SampleGrid {
+  int tile_size = 0;
+  int apron = 0;
+  Raster<glm::dvec3> position;
+};
+
+// One vertex per height sample, as a row-major grid (row 0 north). Each grid
+// cell is split along its north-west to south-east diagonal into the
+// triangles (NW, SW, SE) and (NW, SE, NE), counter-clockwise seen from above.
+// The grid runs one sample beyond each tile edge so that it covers the whole
+// tile in UV space; apron vertices have UVs outside [0, 1].
+struct HighResMesh {
+  int cols = 0;
+  int rows = 0;
+  std::vector<glm::vec2> uv;
+  std::vector<glm::vec3> position;
+  std::vector<glm::vec3> normal;  // unit, smooth (central differences)
+};
+
+// A regular grid of `grid` x `grid` vertices spanning UV [0, 1] exactly, split
+// into triangles like HighResMesh. Vertex (c, r) has index r * grid + c.
+struct LowPolyMesh {
+  int grid = 0;
+  std::vector<glm::vec3> position;
+  std::vector<glm::vec3> normal;   // unit
+  std::vector<glm::vec4> tangent;  // xyz unit and orthogonal to normal; w = handedness
+  std::vector<glm::vec2> uv;
+  std::vector<std::uint32_t> indices;
+};
+
+// The tangent frame a glTF renderer reconstructs at a point (CONTRACT 4):
+// normal and tangent interpolated over the triangle and normalised, then
+// b = w * cross(n, t). t and b need not be orthogonal to each other.
+struct TangentFrame {
+  glm::dvec3 t;
+  glm::dvec3 b;
+  glm::dvec3 n;
+};
+
+// Samples each side of the tile needed for a mesh of `grid` vertices a side:
+// two for the high-res normals at the edge, and one low-poly cell (plus one
+// sample to interpolate in) for the low-poly normals at the edge.
+int requiredApron(int tile_size, int grid);
+
+HighResMesh buildHighResMesh(const SampleGrid& samples);
+LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
+
+TangentFrame lowPolyFrameAt(const LowPolyMesh& mesh, glm::dvec2 uv);
+
+}  // namespace terrabake::mesh
