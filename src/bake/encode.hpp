@@ -13,7 +13,4 @@ enum class Green { kUp, kDown };  // +Y of tangent space north (OpenGL) or south
 // stored in uint16_t whatever the depth.
 Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green);
 
-// The inverse used by a renderer: 2 * value / (2^bits - 1) - 1 per channel.
-glm::dvec3 decodeTexel(const std::uint16_t* rgb, int bits, Green green);
-
 }  // namespace terrabake::bake

@@ -1,0 +1,6 @@
+#pragma once
+// GLSL sources from shaders/, compiled into the binary at build time.
+namespace terrabake::gl::shaders {
+extern const char* const kBakeVertex;
+extern const char* const kBakeFragment;
+}  // namespace terrabake::gl::shaders

@@ -1,0 +1,150 @@
+#include "mesh/mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+namespace terrabake::mesh {
+namespace {
+
+// Bilinear interpolation of sample positions at fractional sample
+// coordinates (s_col, s_row) in the SampleGrid's raster. Interpolating
+// positions, not heights, keeps the result frame-independent: two tiles that
+// interpolate the same samples get the same ECEF point.
+glm::dvec3 interpolatePosition(const Raster<glm::dvec3>& grid, double s_col, double s_row) {
+  const int c0 = std::clamp(int(std::floor(s_col)), 0, grid.width - 2);
+  const int r0 = std::clamp(int(std::floor(s_row)), 0, grid.height - 2);
+  const double fc = s_col - c0;
+  const double fr = s_row - r0;
+  const glm::dvec3 top = grid.at(c0, r0) * (1 - fc) + grid.at(c0 + 1, r0) * fc;
+  const glm::dvec3 bottom = grid.at(c0, r0 + 1) * (1 - fc) + grid.at(c0 + 1, r0 + 1) * fc;
+  return top * (1 - fr) + bottom * fr;
+}
+
+// Normal and tangent from central differences: du runs east (u grows), dv
+// runs south (v grows). cross(dv, du) points up for a surface seen from above.
+struct Frame {
+  glm::dvec3 normal;
+  glm::dvec4 tangent;
+};
+
+Frame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
+  const glm::dvec3 n = glm::normalize(glm::cross(dv, du));
+  const glm::dvec3 t = glm::normalize(du - n * glm::dot(n, du));
+  // Bitangent should follow -v (north, glTF's "green up"); w records whether
+  // cross(n, t) does.
+  const double w = glm::dot(glm::cross(n, t), -dv) >= 0 ? 1.0 : -1.0;
+  return {n, glm::dvec4(t, w)};
+}
+
+std::vector<std::uint32_t> gridIndices(int cols, int rows) {
+  std::vector<std::uint32_t> indices;
+  indices.reserve(std::size_t(cols - 1) * (rows - 1) * 6);
+  for (int r = 0; r + 1 < rows; ++r) {
+    for (int c = 0; c + 1 < cols; ++c) {
+      const std::uint32_t nw = r * cols + c, ne = nw + 1;
+      const std::uint32_t sw = nw + cols, se = sw + 1;
+      indices.insert(indices.end(), {nw, sw, se, nw, se, ne});
+    }
+  }
+  return indices;
+}
+
+}  // namespace
+
+int requiredApron(int tile_size, int grid) {
+  const double cell_texels = double(tile_size) / (grid - 1);
+  // The low-poly neighbour one cell out lies at texel-centre coordinate
+  // -(cell + 0.5); bilinear interpolation needs the sample below that.
+  const int low_poly_apron = int(std::ceil(cell_texels + 0.5));
+  return std::max(2, low_poly_apron);
+}
+
+HighResMesh buildHighResMesh(const SampleGrid& samples) {
+  const int s = samples.tile_size;
+  const int a = samples.apron;
+  const auto& p = samples.position;
+  HighResMesh mesh;
+  // Vertices for texel indices -1 .. s: one beyond each edge covers the tile.
+  mesh.cols = s + 2;
+  mesh.rows = s + 2;
+  const std::size_t count = std::size_t(mesh.cols) * mesh.rows;
+  mesh.uv.reserve(count);
+  mesh.position.reserve(count);
+  mesh.normal.reserve(count);
+  for (int j = -1; j <= s; ++j) {
+    for (int i = -1; i <= s; ++i) {
+      const int c = a + i, r = a + j;
+      const glm::dvec3 du = p.at(c + 1, r) - p.at(c - 1, r);
+      const glm::dvec3 dv = p.at(c, r + 1) - p.at(c, r - 1);
+      mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
+      mesh.position.emplace_back(p.at(c, r));
+      mesh.normal.emplace_back(frameFromDifferences(du, dv).normal);
+    }
+  }
+  return mesh;
+}
+
+LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
+  const int s = samples.tile_size;
+  const int a = samples.apron;
+  // Low-poly vertex k sits at texel-corner coordinate k * s / (grid - 1); the
+  // sample raster has texel centre i at index a + i, i.e. corner t at a + t - 0.5.
+  // (k * s) / (grid - 1) is exact at k = grid - 1, so neighbouring tiles
+  // compute bit-identical edge positions.
+  auto sampleCoord = [&](int k) { return a + double(k * s) / (grid - 1) - 0.5; };
+  auto positionAt = [&](int kc, int kr) {
+    return interpolatePosition(samples.position, sampleCoord(kc), sampleCoord(kr));
+  };
+
+  LowPolyMesh mesh;
+  mesh.grid = grid;
+  for (int r = 0; r < grid; ++r) {
+    for (int c = 0; c < grid; ++c) {
+      // Differences reach one cell beyond the tile, so edge vertices get the
+      // same frame as the neighbouring tile computes for them.
+      const glm::dvec3 du = positionAt(c + 1, r) - positionAt(c - 1, r);
+      const glm::dvec3 dv = positionAt(c, r + 1) - positionAt(c, r - 1);
+      const Frame frame = frameFromDifferences(du, dv);
+      mesh.position.emplace_back(positionAt(c, r));
+      mesh.normal.emplace_back(frame.normal);
+      mesh.tangent.emplace_back(frame.tangent);
+      mesh.uv.emplace_back(float(double(c) / (grid - 1)), float(double(r) / (grid - 1)));
+    }
+  }
+  mesh.indices = gridIndices(grid, grid);
+  return mesh;
+}
+
+TangentFrame lowPolyFrameAt(const LowPolyMesh& mesh, glm::dvec2 uv) {
+  const int cells = mesh.grid - 1;
+  const double gu = uv.x * cells, gv = uv.y * cells;
+  const int c = std::clamp(int(std::floor(gu)), 0, cells - 1);
+  const int r = std::clamp(int(std::floor(gv)), 0, cells - 1);
+  const double fu = gu - c, fv = gv - r;
+  const int nw = r * mesh.grid + c, ne = nw + 1, sw = nw + mesh.grid, se = sw + 1;
+
+  // Barycentric weights in the cell's triangle (split along NW-SE).
+  int v0, v1, v2;
+  double w0, w1, w2;
+  if (fv >= fu) {  // triangle (NW, SW, SE)
+    v0 = nw, v1 = sw, v2 = se;
+    w0 = 1 - fv, w1 = fv - fu, w2 = fu;
+  } else {  // triangle (NW, SE, NE)
+    v0 = nw, v1 = se, v2 = ne;
+    w0 = 1 - fu, w1 = fv, w2 = fu - fv;
+  }
+  auto mix3 = [&](const auto& attr) {
+    return glm::dvec3(attr[v0]) * w0 + glm::dvec3(attr[v1]) * w1 + glm::dvec3(attr[v2]) * w2;
+  };
+  const double w = double(mesh.tangent[v0].w) * w0 + double(mesh.tangent[v1].w) * w1 +
+                   double(mesh.tangent[v2].w) * w2;
+  TangentFrame frame;
+  frame.n = glm::normalize(mix3(mesh.normal));
+  frame.t = glm::normalize(mix3(mesh.tangent));
+  frame.b = w * glm::cross(frame.n, frame.t);  // as a renderer does, w interpolated too
+  return frame;
+}
+
+}  // namespace terrabake::mesh

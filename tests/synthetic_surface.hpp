@@ -1,0 +1,43 @@
+#pragma once
+// Sample grids over analytic height fields in a flat local frame, for tests
+// that exercise meshes and bakers without a DEM.
+#include <algorithm>
+#include <cmath>
+#include <functional>
+
+#include <glm/geometric.hpp>
+
+#include "mesh/mesh.hpp"
+
+namespace terrabake::test {
+
+// Height in metres as a function of east and north metres.
+using HeightField = std::function<double(double east_m, double north_m)>;
+
+// The samples of a tile of `tile_size` texels of `texel_m` metres, with the
+// apron a low-poly grid of `grid` vertices needs. The tile's north-west corner
+// sits at (east, north) = (origin_east_m, origin_north_m).
+inline mesh::SampleGrid sampleHeightField(const HeightField& height, int tile_size, int grid,
+                                          double texel_m, double origin_east_m = 0,
+                                          double origin_north_m = 0) {
+  mesh::SampleGrid samples;
+  samples.tile_size = tile_size;
+  samples.apron = mesh::requiredApron(tile_size, grid);
+  const int n = tile_size + 2 * samples.apron;
+  samples.position = Raster<glm::dvec3>(n, n);
+  for (int r = 0; r < n; ++r) {
+    for (int c = 0; c < n; ++c) {
+      const double east = origin_east_m + (c - samples.apron + 0.5) * texel_m;
+      const double north = origin_north_m - (r - samples.apron + 0.5) * texel_m;
+      samples.position.at(c, r) = {east, height(east, north), -north};  // glTF axes
+    }
+  }
+  return samples;
+}
+
+inline double angleDeg(const glm::dvec3& a, const glm::dvec3& b) {
+  const double c = glm::dot(glm::normalize(a), glm::normalize(b));
+  return std::acos(std::clamp(c, -1.0, 1.0)) * 180.0 / M_PI;
+}
+
+}  // namespace terrabake::test
