@@ -7,24 +7,26 @@
 namespace terrabake::config {
 
 struct TileJob {
-  std::vector<std::string> dems;     // dem: one path or a list (required)
-  std::string output_dir = "tiles";  // output.dir
-  std::string layer = "default";     // output.layer
-  int bits = 8;                      // output.bits: 8 or 16
-  std::string green = "up";          // output.green: "up" (OpenGL) or "down" (DirectX)
-  std::string scheme = "webmercator";  // tiling.scheme: webmercator | native
-  int min_zoom = 0;                  // tiling.zoom: N or [min, max] or "min-max"
+  std::vector<std::string> dems;       // dem: one path or a list (required)
+  std::string output_dir = "tiles";    // output.dir
+  std::string layer = "default";       // output.layer
+  int bits = 8;                        // output.bits: 8 or 16
+  std::string green = "up";            // output.green: "up" (OpenGL) or "down" (DirectX)
+  std::string scheme = "webmercator";  // tiling.scheme: webmercator | geodetic | native
+  int min_zoom = 0;                    // tiling.zoom: N or [min, max] or "min-max"
   int max_zoom = 0;
-  bool zoom_set = false;             // tiling.zoom given at all (it is required)
-  int tile_size = 256;               // tiling.tile_size: texels a side, 16..4096
-  int low_poly_grid = 17;            // low_poly.grid: vertices a side, 2..257
-  std::string backend = "auto";      // bake.backend: auto | osmesa | egl | cpu
-  int workers = 0;                   // bake.workers: 0 = one per core
+  bool zoom_set = false;         // tiling.zoom given at all (it is required)
+  int tile_size = 256;           // tiling.tile_size: texels a side, 16..4096
+  int low_poly_grid = 17;        // low_poly.grid: vertices a side, 2..257
+  std::string backend = "auto";  // bake.backend: auto | osmesa | egl | cpu
+  int workers = 0;               // bake.workers: 0 = one per core
 };
 
 // Reads a YAML file. Relative paths in it resolve against the file's folder.
 // Throws UsageError "<file>:<line>: <key>: <problem>" for unknown keys,
-// wrong types and out-of-range values, InputError if the file cannot be read.
+// wrong types, out-of-range values and YAML syntax errors, UsageError
+// "<file>: ..." for an empty file, InputError if the file cannot be read.
+// Required keys may be left to overrides: call validate() once they are applied.
 TileJob loadTileJob(const std::string& yaml_path);
 
 // Sets one key ("output.layer", "tiling.zoom", ...) from command-line text,
@@ -34,6 +36,18 @@ void applyOverride(TileJob& job, const std::string& key, const std::string& valu
                    const std::string& origin);
 
 // Checks the settings as a whole (required keys present, zoom order, ...).
+// Throws UsageError "<origin>: <key>: <problem>".
 void validate(const TileJob& job, const std::string& origin);
+
+// One key as documented: for --help texts and for checking the docs.
+struct KeyInfo {
+  std::string name;           // "tiling.tile_size"
+  std::string type;           // "integer", "path", ...
+  std::string default_value;  // as written in YAML; empty for a required key
+  std::string description;    // one line, with unit and range
+};
+
+// Every key, in the order of config/sample.yaml.
+std::vector<KeyInfo> listKeys();
 
 }  // namespace terrabake::config

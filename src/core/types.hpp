@@ -37,7 +37,7 @@ struct Extent {
 // (origin_x + (col + 0.5) * cell_w, origin_y - (row + 0.5) * cell_h).
 // Row 0 is the north edge.
 struct GridSpec {
-  std::string crs_wkt;
+  std::string crs;  // any CRS definition GDAL accepts: WKT, "EPSG:3857", ...
   double origin_x = 0;  // west edge
   double origin_y = 0;  // north edge
   double cell_w = 1;

@@ -1,0 +1,47 @@
+#include <exception>
+#include <iostream>
+
+#include "app/commands.hpp"
+#include "core/error.hpp"
+#include "core/log.hpp"
+
+namespace {
+
+constexpr const char* kExitCodes =
+    "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
+    "output or no GL context; 4 the run finished but some tiles failed.";
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  using namespace terrabake;
+  CLI::App cli("terrabake: seamless tangent-space normal-map tiles and low-poly glTF meshes from a DEM",
+               "terrabake");
+  cli.footer(kExitCodes);
+  cli.require_subcommand(1);
+  bool verbose = false;
+  cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");
+  const app::Action tile = app::addTileCommand(cli);
+
+  try {
+    cli.parse(argc, argv);
+  } catch (const CLI::CallForHelp& e) {
+    return cli.exit(e);
+  } catch (const CLI::CallForAllHelp& e) {
+    return cli.exit(e);
+  } catch (const CLI::ParseError& e) {
+    std::cerr << "terrabake: error: " << oneLine(e.what()) << " (see terrabake --help)\n";
+    return int(ExitCode::kUsage);
+  }
+  if (verbose) log::setLevel(log::Level::kDebug);
+
+  try {
+    return tile();
+  } catch (const Error& e) {
+    log::error(oneLine(e.what()));
+    return int(e.code());
+  } catch (const std::exception& e) {
+    log::error("unexpected: " + oneLine(e.what()));
+    return int(ExitCode::kInput);
+  }
+}

@@ -1,0 +1,40 @@
+#include "dem/crs_transform.hpp"
+
+#include <ogr_spatialref.h>
+
+#include "core/error.hpp"
+#include "dem/gdal_setup.hpp"
+
+namespace terrabake::dem {
+
+struct ToLonLat::Impl {
+  std::unique_ptr<OGRCoordinateTransformation> transform;
+};
+
+ToLonLat::ToLonLat(const std::string& crs) : m_impl(std::make_unique<Impl>()) {
+  ensureGdalReady();
+  OGRSpatialReference source, wgs84;
+  if (source.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
+    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
+  }
+  wgs84.importFromEPSG(4326);
+  source.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  m_impl->transform.reset(OGRCreateCoordinateTransformation(&source, &wgs84));
+  if (!m_impl->transform) throw InputError("dem: no transformation from '" + crs.substr(0, 80) + "' to WGS84");
+}
+
+ToLonLat::~ToLonLat() = default;
+ToLonLat::ToLonLat(ToLonLat&&) noexcept = default;
+
+void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
+  std::vector<double> x(points.size()), y(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) x[i] = points[i].x, y[i] = points[i].y;
+  std::vector<int> ok(points.size());
+  if (!m_impl->transform->Transform(points.size(), x.data(), y.data(), nullptr, ok.data())) {
+    throw InputError("dem: cannot transform tile coordinates to longitude/latitude");
+  }
+  for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};
+}
+
+}  // namespace terrabake::dem

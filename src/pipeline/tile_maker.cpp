@@ -1,0 +1,102 @@
+#include "pipeline/tile_maker.hpp"
+
+#include <cmath>
+
+#include "dem/crs_transform.hpp"
+#include "dem/fill_holes.hpp"
+#include "geo/local_frame.hpp"
+#include "io/tile_files.hpp"
+#include "mesh/mesh.hpp"
+
+namespace terrabake::pipeline {
+namespace {
+
+bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
+  for (int r = apron; r < apron + tile_size; ++r) {
+    for (int c = apron; c < apron + tile_size; ++c) {
+      if (!std::isnan(heights.at(c, r))) return true;
+    }
+  }
+  return false;
+}
+
+}  // namespace
+
+struct TileMaker::Impl {
+  dem::DemSource dem;
+  const tiling::Scheme& scheme;
+  TileSettings settings;
+  dem::ToLonLat to_lon_lat;
+  std::unique_ptr<bake::Baker> baker;
+  int apron;
+
+  Impl(const std::string& dem_path, const tiling::Scheme& s, const TileSettings& ts, gl::Backend backend)
+      : dem(dem_path),
+        scheme(s),
+        settings(ts),
+        to_lon_lat(s.crs()),
+        baker(gl::createBaker(backend)),
+        apron(mesh::requiredApron(ts.tile_size, ts.low_poly_grid)) {}
+
+  // Positions of every sample in the frame of the tile's centre.
+  mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
+                                   const geo::LocalFrame& frame) const {
+    std::vector<glm::dvec2> lon_lat;
+    lon_lat.reserve(heights.data.size());
+    for (int r = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c) lon_lat.emplace_back(grid.centreX(c), grid.centreY(r));
+    }
+    to_lon_lat.transform(lon_lat);
+    mesh::SampleGrid samples;
+    samples.tile_size = settings.tile_size;
+    samples.apron = apron;
+    samples.position = Raster<glm::dvec3>(grid.width, grid.height);
+    for (std::size_t k = 0; k < lon_lat.size(); ++k) {
+      samples.position.data[k] = frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+    }
+    return samples;
+  }
+
+  geo::LocalFrame frameAtCentre(const TileId& tile) const {
+    const Extent e = scheme.tileExtent(tile);
+    std::vector<glm::dvec2> centre = {{(e.min_x + e.max_x) / 2, (e.min_y + e.max_y) / 2}};
+    to_lon_lat.transform(centre);
+    return geo::LocalFrame(centre[0].x, centre[0].y);
+  }
+};
+
+TileMaker::TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, const TileSettings& settings,
+                     gl::Backend backend)
+    : m_impl(std::make_unique<Impl>(dem_path, scheme, settings, backend)) {}
+
+TileMaker::~TileMaker() = default;
+
+std::string TileMaker::bakerDescription() const { return m_impl->baker->description(); }
+const dem::DemSource& TileMaker::dem() const { return m_impl->dem; }
+
+std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan& plan) {
+  Impl& s = *m_impl;
+  const int size = s.settings.tile_size;
+  const GridSpec grid = s.scheme.texelGrid(tile, size, s.apron);
+  Raster<float> heights = s.dem.read(grid, plan);
+  if (!hasValidSample(heights, s.apron, size)) return std::nullopt;
+  dem::fillHoles(heights);
+
+  const geo::LocalFrame frame = s.frameAtCentre(tile);
+  const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
+  const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
+  const mesh::LowPolyMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
+  const bake::NormalMap map = s.baker->bake(high, low, size);
+
+  io::GlbInfo glb_info;
+  glb_info.normal_texture_uri = std::to_string(tile.y) + ".png";
+  glb_info.origin_lon_deg = frame.originLonDeg();
+  glb_info.origin_lat_deg = frame.originLatDeg();
+  glb_info.enu_to_ecef = frame.localToEcef();
+  TileFiles files;
+  files.png = io::encodePng(bake::encodeNormalMap(map, s.settings.bits, s.settings.green), s.settings.bits);
+  files.glb = io::encodeGlb(low, glb_info);
+  return files;
+}
+
+}  // namespace terrabake::pipeline

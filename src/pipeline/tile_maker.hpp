@@ -1,0 +1,49 @@
+#pragma once
+// Makes one tile's files in memory: read the DEM window with its apron,
+// build both meshes, bake, encode. One TileMaker per worker thread: it owns
+// that thread's GDAL handle and GL context.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "bake/encode.hpp"
+#include "core/types.hpp"
+#include "dem/dem_source.hpp"
+#include "gl/baker_factory.hpp"
+#include "tiling/scheme.hpp"
+
+namespace terrabake::pipeline {
+
+struct TileSettings {
+  int tile_size = 256;
+  int low_poly_grid = 17;
+  int bits = 8;
+  bake::Green green = bake::Green::kUp;
+};
+
+struct TileFiles {
+  std::vector<std::uint8_t> png;
+  std::vector<std::uint8_t> glb;
+};
+
+class TileMaker {
+ public:
+  // Opens the DEM and makes the baker on the calling thread.
+  TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, const TileSettings& settings,
+            gl::Backend backend);
+  ~TileMaker();
+
+  // nullopt when the tile holds no valid DEM sample (it is not written).
+  std::optional<TileFiles> make(const TileId& tile, const dem::ReadPlan& plan);
+
+  std::string bakerDescription() const;
+  const dem::DemSource& dem() const;
+
+ private:
+  struct Impl;
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace terrabake::pipeline

@@ -1,0 +1,28 @@
+#include "tiling/scheme.hpp"
+
+namespace terrabake::tiling {
+namespace {
+
+constexpr int kMaxZoom = 24;
+
+// Cesium's geographic grid: two 180-degree tiles at zoom 0, rows counted from
+// the south (TMS).
+class Geodetic : public Scheme {
+ public:
+  std::string name() const override { return "geodetic"; }
+  std::string crs() const override { return "EPSG:4326"; }
+  bool tmsRows() const override { return true; }
+  int maxZoom() const override { return kMaxZoom; }
+
+  LevelGrid levelGrid(int zoom) const override {
+    const int rows = 1 << zoom;
+    const double size_deg = 180.0 / rows;
+    return {-180.0, 90.0, size_deg, size_deg, 2 * rows, rows};
+  }
+};
+
+}  // namespace
+
+std::unique_ptr<Scheme> makeGeodetic() { return std::make_unique<Geodetic>(); }
+
+}  // namespace terrabake::tiling

@@ -1,0 +1,372 @@
+// Tests of the YAML job file and its command-line overrides: values, defaults,
+// path resolution, and that every error names file (or flag), line and key.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <functional>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "config/tile_job.hpp"
+#include "core/error.hpp"
+
+namespace terrabake::config {
+namespace {
+
+namespace fs = std::filesystem;
+
+const fs::path kSourceDir = fs::path(TERRABAKE_SOURCE_DIR).lexically_normal();
+const fs::path kOutputDir = fs::path(TERRABAKE_TEST_OUTPUT) / "config";
+
+// Writes under a folder named after the running test, so tests run in parallel safely.
+std::string writeYaml(const std::string& file_name, const std::string& text) {
+  const fs::path path =
+      kOutputDir / ::testing::UnitTest::GetInstance()->current_test_info()->name() / file_name;
+  fs::create_directories(path.parent_path());
+  std::ofstream(path) << text;
+  return path.string();
+}
+
+// The message of the UsageError `action` throws; any other outcome fails the test.
+std::string usageMessage(const std::function<void()>& action) {
+  try {
+    action();
+  } catch (const UsageError& error) {
+    EXPECT_EQ(error.code(), ExitCode::kUsage);
+    return error.what();
+  }
+  ADD_FAILURE() << "no UsageError thrown";
+  return {};
+}
+
+std::string loadMessage(const std::string& path) {
+  return usageMessage([&] { loadTileJob(path); });
+}
+
+std::string overrideMessage(const std::string& key, const std::string& value,
+                            const std::string& origin) {
+  TileJob job;
+  return usageMessage([&] { applyOverride(job, key, value, origin); });
+}
+
+std::string normal(const fs::path& path) { return path.lexically_normal().string(); }
+
+TEST(ConfigSample, LoadsTheMainJob) {
+  const std::string path = (kSourceDir / "config" / "sample.yaml").string();
+  const TileJob job = loadTileJob(path);
+  EXPECT_EQ(job.dems, std::vector<std::string>{normal(kSourceDir / "tests/data/sample_dem.tif")});
+  EXPECT_EQ(job.output_dir, normal(kSourceDir / "tiles"));
+  EXPECT_EQ(job.layer, "sample");
+  EXPECT_EQ(job.bits, 8);
+  EXPECT_EQ(job.green, "up");
+  EXPECT_EQ(job.scheme, "webmercator");
+  EXPECT_TRUE(job.zoom_set);
+  EXPECT_EQ(job.min_zoom, 9);
+  EXPECT_EQ(job.max_zoom, 12);
+  EXPECT_EQ(job.tile_size, 256);
+  EXPECT_EQ(job.low_poly_grid, 17);
+  EXPECT_EQ(job.backend, "auto");
+  EXPECT_EQ(job.workers, 0);
+  EXPECT_NO_THROW(validate(job, path));
+}
+
+TEST(ConfigSample, ReadmeDocumentsEveryKey) {
+  std::ifstream in(kSourceDir / "config" / "README.md");
+  ASSERT_TRUE(in) << "config/README.md is missing";
+  std::ostringstream readme;
+  readme << in.rdbuf();
+  for (const KeyInfo& key : listKeys()) {
+    EXPECT_NE(readme.str().find("`" + key.name + "`"), std::string::npos) << key.name;
+  }
+}
+
+TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
+  const std::string path = writeYaml("minimal.yaml", "dem: a.tif\ntiling:\n  zoom: 5\n");
+  const TileJob job = loadTileJob(path);
+  const TileJob defaults;
+  EXPECT_EQ(job.output_dir, "tiles");  // a default is relative to the working directory
+  EXPECT_EQ(job.layer, "default");
+  EXPECT_EQ(job.bits, 8);
+  EXPECT_EQ(job.green, "up");
+  EXPECT_EQ(job.scheme, "webmercator");
+  EXPECT_EQ(job.tile_size, 256);
+  EXPECT_EQ(job.low_poly_grid, 17);
+  EXPECT_EQ(job.backend, "auto");
+  EXPECT_EQ(job.workers, 0);
+  EXPECT_EQ(job.layer, defaults.layer);
+  EXPECT_NO_THROW(validate(job, path));
+}
+
+TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
+  const std::vector<KeyInfo> keys = listKeys();
+  ASSERT_EQ(keys.size(), 11u);
+  EXPECT_EQ(keys.front().name, "dem");
+  EXPECT_EQ(keys.front().default_value, "");  // required
+  for (const KeyInfo& key : keys) {
+    EXPECT_FALSE(key.type.empty()) << key.name;
+    EXPECT_FALSE(key.description.empty()) << key.name;
+  }
+  const auto defaultOf = [&](const std::string& name) {
+    for (const KeyInfo& key : keys) {
+      if (key.name == name) return key.default_value;
+    }
+    ADD_FAILURE() << "no key " << name;
+    return std::string();
+  };
+  EXPECT_EQ(defaultOf("output.bits"), "8");
+  EXPECT_EQ(defaultOf("output.layer"), "default");
+  EXPECT_EQ(defaultOf("tiling.zoom"), "");
+}
+
+TEST(ConfigDefaults, EmptySectionsAreAllowed) {
+  const std::string path =
+      writeYaml("empty_section.yaml", "dem: a.tif\noutput:\ntiling: {zoom: 3}\n");
+  EXPECT_EQ(loadTileJob(path).layer, "default");
+}
+
+TEST(ConfigZoom, FileForms) {
+  const std::vector<std::pair<std::string, std::pair<int, int>>> cases = {
+      {"zoom: 7", {7, 7}},         {"zoom: [9, 12]", {9, 12}},
+      {"zoom: \"9-12\"", {9, 12}}, {"zoom: 9-12", {9, 12}},  // a plain YAML scalar too
+      {"zoom: 9 - 12", {9, 12}},   {"zoom:\n    - 0\n    - 24", {0, 24}},
+  };
+  for (const auto& [text, expected] : cases) {
+    SCOPED_TRACE(text);
+    const TileJob job =
+        loadTileJob(writeYaml("zoom.yaml", "dem: a.tif\ntiling:\n  " + text + "\n"));
+    EXPECT_TRUE(job.zoom_set);
+    EXPECT_EQ(job.min_zoom, expected.first);
+    EXPECT_EQ(job.max_zoom, expected.second);
+  }
+}
+
+TEST(ConfigZoom, OverrideForms) {
+  TileJob job;
+  applyOverride(job, "tiling.zoom", "4", "--zoom");
+  EXPECT_TRUE(job.zoom_set);
+  EXPECT_EQ(job.min_zoom, 4);
+  EXPECT_EQ(job.max_zoom, 4);
+  applyOverride(job, "tiling.zoom", "3-14", "--zoom");
+  EXPECT_EQ(job.min_zoom, 3);
+  EXPECT_EQ(job.max_zoom, 14);
+}
+
+// Each case: file text, then the message after "<path>:" (line, key, problem).
+struct FileErrorCase {
+  std::string yaml;
+  std::string message;
+};
+
+TEST(ConfigErrors, NameFileLineAndKey) {
+  const std::string head = "dem: a.tif\n";
+  const std::vector<FileErrorCase> cases = {
+      {head + "output:\n  bits: 16\ntiling:\n  zoom: 3\n  zomm: 4\n",
+       "6: tiling.zomm: unknown key (did you mean 'tiling.zoom'?)"},
+      {head + "tilling:\n  zoom: 3\n", "2: tilling: unknown key (did you mean 'tiling'?)"},
+      {head + "zoom: 3\n", "2: zoom: unknown key (did you mean 'tiling.zoom'?)"},
+      {head + "colour: red\n", "2: colour: unknown key"},
+      {head + "output.bits: 16\n",
+       "2: output.bits: unknown key (write one map per dot, as in config/sample.yaml)"},
+      {head + "output:\n  bits: 12\n", "3: output.bits: must be 8 or 16, got 12"},
+      {head + "output:\n  bits:\n", "3: output.bits: expected an integer, got nothing"},
+      {head + "output:\n  bits: [8]\n", "3: output.bits: expected an integer, got a list"},
+      {head + "output:\n  green: left\n", "3: output.green: must be up or down, got 'left'"},
+      {head + "output:\n  layer: ../up\n",
+       "3: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+       "(not '.' or '..'), got '../up'"},
+      {head + "output:\n  layer: ..\n",
+       "3: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+       "(not '.' or '..'), got '..'"},
+      {head + "output:\n  dir: ''\n", "3: output.dir: must not be empty"},
+      {head + "output: 5\n", "2: output: expected a map of keys, got '5'"},
+      {head + "tiling:\n  tile_size: big\n", "3: tiling.tile_size: expected an integer, got 'big'"},
+      {head + "tiling:\n  tile_size: 8\n",
+       "3: tiling.tile_size: must be between 16 and 4096, got 8"},
+      {head + "tiling:\n  scheme: mercator\n",
+       "3: tiling.scheme: must be webmercator, geodetic or native, got 'mercator'"},
+      {head + "tiling:\n  zoom: 25\n", "3: tiling.zoom: must be between 0 and 24, got 25"},
+      {head + "tiling:\n  zoom: [12, 9]\n", "3: tiling.zoom: min 12 is above max 9"},
+      {head + "tiling:\n  zoom: [1, 2, 3]\n",
+       "3: tiling.zoom: expected [min, max], got a list of 3"},
+      {head + "tiling:\n  zoom:\n    - 1\n    - x\n",
+       "5: tiling.zoom: expected an integer, got 'x'"},
+      {head + "tiling:\n  zoom: low\n",
+       "3: tiling.zoom: expected an integer, [min, max] or \"min-max\", got 'low'"},
+      {head + "low_poly:\n  grid: 1\n", "3: low_poly.grid: must be between 2 and 257, got 1"},
+      {head + "bake:\n  backend: vulkan\n",
+       "3: bake.backend: must be auto, osmesa, egl or cpu, got 'vulkan'"},
+      {head + "bake:\n  workers: -1\n", "3: bake.workers: must be between 0 and 256, got -1"},
+      {head + "bake:\n  workers: 2\n  workers: 3\n",
+       "4: bake.workers: given twice (first on line 3)"},
+      {"dem: {path: a.tif}\n", "1: dem: expected a path or list of paths, got a map"},
+      {"dem: []\n", "1: dem: expected at least one path, got an empty list"},
+      {"dem:\n  - a.tif\n  - [b.tif]\n", "3: dem: list items must be plain values, got a list"},
+      {"- a.tif\n", "1: expected a map of keys, got a list"},
+  };
+  for (const FileErrorCase& error_case : cases) {
+    SCOPED_TRACE(error_case.yaml);
+    const std::string path = writeYaml("bad.yaml", error_case.yaml);
+    EXPECT_EQ(loadMessage(path), path + ":" + error_case.message);
+  }
+}
+
+TEST(ConfigErrors, SyntaxErrorNamesFileAndLine) {
+  const std::string path = writeYaml("syntax.yaml", "dem: a.tif\ntiling:\n  zoom: [9, 12\n");
+  const std::string message = loadMessage(path);
+  EXPECT_EQ(message.rfind(path + ":", 0), 0u) << message;
+  EXPECT_NE(message.find("YAML syntax error"), std::string::npos) << message;
+  const std::string line =
+      message.substr(path.size() + 1, message.find(':', path.size() + 1) - path.size() - 1);
+  EXPECT_GE(std::stoi(line), 3) << message;
+  EXPECT_EQ(message.find('\n'), std::string::npos);
+}
+
+TEST(ConfigErrors, EmptyFileNamesTheRequiredKeys) {
+  for (const std::string text : {"", "# only a comment\n"}) {
+    const std::string path = writeYaml("empty.yaml", text);
+    EXPECT_EQ(loadMessage(path),
+              path + ": the file is empty; it needs at least dem and tiling.zoom");
+  }
+}
+
+TEST(ConfigErrors, MissingRequiredKeysFoundByValidate) {
+  const std::string no_zoom = writeYaml("no_zoom.yaml", "dem: a.tif\n");
+  const TileJob without_zoom = loadTileJob(no_zoom);
+  EXPECT_EQ(usageMessage([&] { validate(without_zoom, no_zoom); }),
+            no_zoom + ": tiling.zoom: required, not set");
+
+  const std::string no_dem = writeYaml("no_dem.yaml", "tiling:\n  zoom: 3\n");
+  const TileJob without_dem = loadTileJob(no_dem);
+  EXPECT_EQ(usageMessage([&] { validate(without_dem, no_dem); }),
+            no_dem + ": dem: required, not set");
+}
+
+TEST(ConfigErrors, ValidateChecksValuesSetInCode) {
+  TileJob job;
+  job.dems = {"a.tif"};
+  job.zoom_set = true;
+  job.min_zoom = 3;
+  job.max_zoom = 5;
+  EXPECT_NO_THROW(validate(job, "test"));
+  job.tile_size = 8;
+  EXPECT_EQ(usageMessage([&] { validate(job, "test"); }),
+            "test: tiling.tile_size: must be between 16 and 4096, got 8");
+  job.tile_size = 256;
+  job.min_zoom = 6;
+  EXPECT_EQ(usageMessage([&] { validate(job, "test"); }),
+            "test: tiling.zoom: min 6 is above max 5");
+}
+
+TEST(ConfigErrors, MissingFileIsAnInputError) {
+  const std::string path = (kOutputDir / "does_not_exist.yaml").string();
+  try {
+    loadTileJob(path);
+    FAIL() << "no InputError thrown";
+  } catch (const InputError& error) {
+    EXPECT_EQ(error.code(), ExitCode::kInput);
+    EXPECT_EQ(std::string(error.what()),
+              "cannot read config '" + path + "': No such file or directory");
+  }
+}
+
+TEST(ConfigErrors, FolderIsAnInputError) {
+  fs::create_directories(kOutputDir);
+  EXPECT_THROW(loadTileJob(kOutputDir.string()), InputError);
+}
+
+TEST(ConfigPaths, RelativeToTheFileFolder) {
+  const std::string path = writeYaml("sub/job.yaml",
+                                     "dem:\n"
+                                     "  - a.tif\n"
+                                     "  - ../b.tif\n"
+                                     "  - /data/./dem/c.tif\n"
+                                     "output:\n"
+                                     "  dir: out/\n"
+                                     "tiling:\n"
+                                     "  zoom: 3\n");
+  const fs::path folder = fs::path(path).parent_path();
+  const std::vector<std::string> expected_dems = {
+      normal(folder / "a.tif"), normal(folder.parent_path() / "b.tif"), "/data/dem/c.tif"};
+  const std::string expected_dir = normal(folder / "out");
+
+  const TileJob job = loadTileJob(path);
+  EXPECT_EQ(job.dems, expected_dems);
+  EXPECT_EQ(job.output_dir, expected_dir);
+
+  // The same file named by a relative path resolves to the same places.
+  const std::string relative = fs::relative(path, fs::current_path()).string();
+  ASSERT_TRUE(fs::path(relative).is_relative());
+  const TileJob again = loadTileJob(relative);
+  EXPECT_EQ(again.dems, expected_dems);
+  EXPECT_EQ(again.output_dir, expected_dir);
+}
+
+TEST(ConfigOverrides, EveryKeyFromText) {
+  TileJob job = loadTileJob((kSourceDir / "config" / "sample.yaml").string());
+  applyOverride(job, "dem", "/data/other.tif", "--dem");
+  applyOverride(job, "output.dir", "/data/out", "--out");
+  applyOverride(job, "output.layer", "hires_v2", "--layer");
+  applyOverride(job, "output.bits", "16", "--bits");
+  applyOverride(job, "output.green", "down", "--green");
+  applyOverride(job, "tiling.scheme", "native", "--scheme");
+  applyOverride(job, "tiling.zoom", "10-11", "--zoom");
+  applyOverride(job, "tiling.tile_size", "512", "--tile-size");
+  applyOverride(job, "low_poly.grid", "33", "--low-poly-grid");
+  applyOverride(job, "bake.backend", "cpu", "--backend");
+  applyOverride(job, "bake.workers", "4", "--workers");
+  EXPECT_EQ(job.dems, std::vector<std::string>{"/data/other.tif"});  // replaces, not appends
+  EXPECT_EQ(job.output_dir, "/data/out");
+  EXPECT_EQ(job.layer, "hires_v2");
+  EXPECT_EQ(job.bits, 16);
+  EXPECT_EQ(job.green, "down");
+  EXPECT_EQ(job.scheme, "native");
+  EXPECT_EQ(job.min_zoom, 10);
+  EXPECT_EQ(job.max_zoom, 11);
+  EXPECT_EQ(job.tile_size, 512);
+  EXPECT_EQ(job.low_poly_grid, 33);
+  EXPECT_EQ(job.backend, "cpu");
+  EXPECT_EQ(job.workers, 4);
+  EXPECT_NO_THROW(validate(job, "--config"));
+}
+
+TEST(ConfigOverrides, RelativePathsUseTheWorkingDirectory) {
+  TileJob job;
+  applyOverride(job, "dem", "dems/../x.tif", "--dem");
+  applyOverride(job, "output.dir", "out", "--out");
+  EXPECT_EQ(job.dems, std::vector<std::string>{normal(fs::current_path() / "x.tif")});
+  EXPECT_EQ(job.output_dir, normal(fs::current_path() / "out"));
+}
+
+TEST(ConfigOverrides, BadValuesNameTheFlagAndKey) {
+  EXPECT_EQ(overrideMessage("output.bits", "12", "--bits"),
+            "--bits: output.bits: must be 8 or 16, got 12");
+  EXPECT_EQ(overrideMessage("tiling.tile_size", "big", "--tile-size"),
+            "--tile-size: tiling.tile_size: expected an integer, got 'big'");
+  EXPECT_EQ(overrideMessage("tiling.zoom", "12-9", "--zoom"),
+            "--zoom: tiling.zoom: min 12 is above max 9");
+  EXPECT_EQ(overrideMessage("tiling.zoom", "9-", "--zoom"),
+            "--zoom: tiling.zoom: expected an integer, [min, max] or \"min-max\", got '9-'");
+  EXPECT_EQ(overrideMessage("tiling.zoom", "-3", "--zoom"),
+            "--zoom: tiling.zoom: must be between 0 and 24, got -3");
+  EXPECT_EQ(overrideMessage("output.layer", "a/b", "--layer"),
+            "--layer: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+            "(not '.' or '..'), got 'a/b'");
+  EXPECT_EQ(overrideMessage("output.dir", "", "--out"), "--out: output.dir: must not be empty");
+  EXPECT_EQ(overrideMessage("bake.backend", "gl", "--backend"),
+            "--backend: bake.backend: must be auto, osmesa, egl or cpu, got 'gl'");
+  EXPECT_EQ(overrideMessage("tiling.zomm", "3", "--zoom"),
+            "--zoom: tiling.zomm: unknown key (did you mean 'tiling.zoom'?)");
+}
+
+TEST(ConfigOverrides, RejectedValueLeavesTheJobAsItWas) {
+  TileJob job;
+  applyOverride(job, "tiling.zoom", "5-6", "--zoom");
+  usageMessage([&] { applyOverride(job, "tiling.zoom", "9-2", "--zoom"); });
+  EXPECT_EQ(job.min_zoom, 5);
+  EXPECT_EQ(job.max_zoom, 6);
+}
+
+}  // namespace
+}  // namespace terrabake::config
