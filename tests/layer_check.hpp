@@ -1,0 +1,80 @@
+#pragma once
+// Runs tile jobs into the test output folder and decodes what they wrote the
+// way a glTF renderer would (tests/support), for tests that judge layers.
+#include <cmath>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include <glm/geometric.hpp>
+#include <glm/vec3.hpp>
+
+#include "config/tile_job.hpp"
+#include "core/types.hpp"
+#include "pipeline/tile_job_runner.hpp"
+#include "support/glb_reader.hpp"
+#include "support/image_reader.hpp"
+
+namespace terrabake::test {
+
+inline std::filesystem::path testOutput(const std::string& name) {
+  return std::filesystem::path(TERRABAKE_TEST_OUTPUT) / name;
+}
+
+inline config::TileJob tileJob(const std::filesystem::path& dem, const std::string& out_name,
+                               const std::string& scheme, int min_zoom, int max_zoom) {
+  config::TileJob job;
+  job.dems = {dem.string()};
+  job.output_dir = testOutput(out_name).string();
+  job.layer = "layer";
+  job.scheme = scheme;
+  job.min_zoom = min_zoom;
+  job.max_zoom = max_zoom;
+  job.zoom_set = true;
+  job.workers = 2;
+  return job;
+}
+
+inline std::filesystem::path layerDir(const config::TileJob& job) {
+  return std::filesystem::path(job.output_dir) / job.layer;
+}
+
+// A tile read back from disk: its normal map and its mesh.
+struct DecodedTile {
+  test_support::PngImage png;
+  test_support::GlbMesh glb;
+  bool green_up = true;
+
+  // World normal in ECEF a renderer shows at texel (i, j); empty if the
+  // texel's UV lies on no triangle (a defect the caller reports).
+  std::optional<glm::dvec3> ecefNormal(int i, int j) const {
+    const glm::dvec2 uv((i + 0.5) / png.width, (j + 0.5) / png.height);
+    const glm::dvec3 t = test_support::decodeRgb(png.sample(i, j, 0), png.sample(i, j, 1),
+                                                 png.sample(i, j, 2), png.bits, green_up);
+    const auto local = test_support::decodeWorldNormal(glb, uv, t);
+    if (!local) return std::nullopt;
+    return glm::normalize(test_support::localToEcefDirection(glb, *local));
+  }
+};
+
+inline DecodedTile readTile(const std::filesystem::path& layer, const TileId& tile) {
+  const auto base = layer / std::to_string(tile.z) / std::to_string(tile.x) / std::to_string(tile.y);
+  return {test_support::readPng(base.string() + ".png"), test_support::readGlb(base.string() + ".glb")};
+}
+
+inline double angleBetweenDeg(const glm::dvec3& a, const glm::dvec3& b) {
+  const double c = glm::dot(glm::normalize(a), glm::normalize(b));
+  return std::acos(std::min(1.0, std::max(-1.0, c))) * 180.0 / M_PI;
+}
+
+// Web Mercator texel centre to longitude / latitude (spherical formulas).
+inline glm::dvec2 webMercatorTexelLonLat(const TileId& tile, int tile_size, double i, double j) {
+  constexpr double kRadius = 6378137.0;
+  const double world = 2 * M_PI * kRadius, tile_m = world / (1 << tile.z);
+  const double x = -world / 2 + (tile.x + (i + 0.5) / tile_size) * tile_m;
+  const double y = world / 2 - (tile.y + (j + 0.5) / tile_size) * tile_m;
+  return {x / kRadius * 180 / M_PI, std::atan(std::sinh(y / kRadius)) * 180 / M_PI};
+}
+
+}  // namespace terrabake::test

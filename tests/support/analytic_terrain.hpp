@@ -1,0 +1,42 @@
+#pragma once
+// A smooth terrain known in closed form, and DEM writers for it, so tests can
+// compare what terrabake bakes with the true surface without using its code.
+// The terrain is defined on UTM zone 33N (EPSG:32633) coordinates, so a DEM of
+// it in any CRS describes the same physical surface.
+#include <filesystem>
+#include <glm/vec2.hpp>
+#include <glm/vec3.hpp>
+
+namespace terrabake::test_support {
+
+// EPSG:32633 easting/northing (metres) of a WGS84 point.
+glm::dvec2 utm33(double lon_deg, double lat_deg);
+
+// Height (metres above the ellipsoid) at an EPSG:32633 point: a sum of three
+// plane waves of 3-8 km wavelength, heights in [210, 1490] m.
+double heightUtm(double easting, double northing);
+double heightLonLat(double lon_deg, double lat_deg);
+
+// Unit ellipsoid normal (geodetic up) at a point, in ECEF.
+glm::dvec3 ellipsoidUpEcef(double lon_deg, double lat_deg);
+
+// Exact unit normal of the analytic surface at a point, in ECEF (WGS84),
+// pointing away from the earth.
+glm::dvec3 normalEcef(double lon_deg, double lat_deg);
+
+// Float32 GeoTIFF in EPSG:32633, north-up, centred on the given point; each
+// pixel holds heightUtm at its centre. No nodata.
+void writeUtmDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
+                 double pixel_m, int width, int height);
+
+// Float32 GeoTIFF in EPSG:4326 (lon/lat order), north-up, centred on the given
+// point; each pixel holds heightLonLat at its centre. No nodata.
+void writeGeographicDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
+                        double pixel_lon_deg, double pixel_lat_deg, int width, int height);
+
+// The bundled sample (tests/data/sample_dem.tif): deterministic ridged-noise
+// mountains, 1024 x 1024 Int16 pixels of 30 m in EPSG:32632 around lon 10,
+// lat 46.5, heights 400-3500 m, deflate-compressed and tiled.
+void writeSampleDem(const std::filesystem::path& path);
+
+}  // namespace terrabake::test_support
