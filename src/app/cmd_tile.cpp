@@ -50,7 +50,7 @@ struct TileOptions {
 Action addTileCommand(CLI::App& app) {
   auto options = std::make_shared<TileOptions>();
   CLI::App* cmd = app.add_subcommand("tile", "Tile a DEM into normal maps and low-poly meshes");
-  cmd->footer(kTileExamples);
+  cmd->footer(std::string(kTileExamples) + "\n\n" + kExitCodes);
   cmd->add_option("-c,--config", options->config_path, "YAML job file (keys: config/README.md)");
   for (std::size_t i = 0; i < std::size(kOverrides); ++i) {
     cmd->add_option(kOverrides[i].flag, options->override_text[i], kOverrides[i].help);

@@ -9,6 +9,12 @@ namespace terrabake::app {
 
 using Action = std::function<int()>;  // returns the process exit code
 
+// Shown by `terrabake --help` and by every subcommand's --help, which is where
+// a script writer looks. Keep in step with ExitCode in core/error.hpp.
+inline constexpr const char* kExitCodes =
+    "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
+    "output or no GL context; 4 the run finished but some tiles failed.";
+
 Action addTileCommand(CLI::App& app);
 
 }  // namespace terrabake::app

@@ -5,19 +5,11 @@
 #include "core/error.hpp"
 #include "core/log.hpp"
 
-namespace {
-
-constexpr const char* kExitCodes =
-    "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
-    "output or no GL context; 4 the run finished but some tiles failed.";
-
-}  // namespace
-
 int main(int argc, char** argv) {
   using namespace terrabake;
   CLI::App cli("terrabake: seamless tangent-space normal-map tiles and low-poly glTF meshes from a DEM",
                "terrabake");
-  cli.footer(kExitCodes);
+  cli.footer(app::kExitCodes);
   cli.require_subcommand(1);
   bool verbose = false;
   cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");

@@ -70,7 +70,7 @@ DemSource::DemSource(const std::string& path) : m_impl(std::make_unique<Impl>())
   if (!std::filesystem::exists(path, ec)) throw InputError("dem: cannot open '" + path + "': no such file");
   CPLErrorReset();
   m_impl->dataset.reset(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, nullptr, nullptr)));
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
   if (!m_impl->dataset) {
     throw InputError("dem: '" + path + "' is not a raster GDAL can read (" + lastGdalError() + ")");
   }

@@ -50,7 +50,6 @@ WorkList planWork(const config::TileJob& job, const tiling::Scheme& scheme, cons
   WorkList work;
   for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
     const auto tiles = scheme.tilesCovering(area, z);
-    log::info("zoom " + std::to_string(z) + ": " + std::to_string(tiles.size()) + " tiles");
     work.tiles.insert(work.tiles.end(), tiles.begin(), tiles.end());
     // Read plans are judged at a tile in the middle of the DEM.
     work.plans[z] = dem.planFor(scheme.texelGrid(tiles[tiles.size() / 2], job.tile_size, apron));
@@ -100,6 +99,11 @@ RunSummary runTileJob(const config::TileJob& job) {
   RunSummary summary;
   summary.layer_dir = (std::filesystem::path(job.output_dir) / job.layer).lexically_normal().string();
   prepareOutputFolder(summary.layer_dir);
+  // Logged only now, so a run that cannot start prints its one error line alone.
+  for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
+    const auto count = std::count_if(work.tiles.begin(), work.tiles.end(), [z](const TileId& t) { return t.z == z; });
+    log::info("zoom " + std::to_string(z) + ": " + std::to_string(count) + " tiles");
+  }
 
   const int workers = std::max(1, std::min<int>(job.workers > 0 ? job.workers : int(std::thread::hardware_concurrency()),
                                                 int(work.tiles.size())));

@@ -1,0 +1,436 @@
+// End-to-end tests of the terrabake executable (issue item f): the real
+// binary runs as a subprocess, and each failure must give one line on stderr
+// naming the culprit, a documented exit code, and no partial file.
+#include <gtest/gtest.h>
+
+#include <fcntl.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+#include <poll.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <array>
+#include <cerrno>
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <memory>
+#include <set>
+#include <sstream>
+#include <string>
+#include <vector>
+
+extern char** environ;
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+
+// The documented exit codes, written out rather than taken from
+// core/error.hpp: the numbers are the contract with scripts, not the enum.
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 2;
+constexpr int kExitInput = 3;
+
+// A hang must fail the test, not block the whole test run.
+constexpr auto kRunTimeLimit = std::chrono::seconds(120);
+
+constexpr int kDemPixels = 64;
+constexpr double kDemPixelM = 30.0;
+// UTM 33N near 60 degrees north, where the sample DEM lies too.
+constexpr double kDemWest = 500000.0;
+constexpr double kDemNorth = 6650000.0;
+
+struct RunResult {
+  int exit_code = -1;  // -1: killed by a signal or the time limit
+  bool timed_out = false;
+  std::string out;
+  std::string err;
+};
+
+// For failure messages: everything the run said.
+std::string describe(const RunResult& r) {
+  std::ostringstream s;
+  s << "exit code " << r.exit_code << (r.timed_out ? " (timed out)" : "") << "\n--- stdout:\n"
+    << r.out << "--- stderr:\n"
+    << r.err << "---";
+  return s.str();
+}
+
+// Runs terrabake with `args`, no shell in between, and collects stdout and
+// stderr separately. Both pipes are drained together so that a chatty child
+// cannot block on a full pipe while we wait on the other one.
+RunResult runTerrabake(const std::vector<std::string>& args) {
+  RunResult result;
+  int out_pipe[2], err_pipe[2];
+  // CLOEXEC: only the dup2'ed copies reach the child, so EOF comes when it exits.
+  if (::pipe2(out_pipe, O_CLOEXEC) != 0) {
+    ADD_FAILURE() << "pipe2: " << std::strerror(errno);
+    return result;
+  }
+  if (::pipe2(err_pipe, O_CLOEXEC) != 0) {
+    ADD_FAILURE() << "pipe2: " << std::strerror(errno);
+    ::close(out_pipe[0]);
+    ::close(out_pipe[1]);
+    return result;
+  }
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
+  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
+  posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
+
+  std::vector<std::string> words = {TERRABAKE_EXE};
+  words.insert(words.end(), args.begin(), args.end());
+  std::vector<char*> argv;
+  for (auto& word : words) argv.push_back(word.data());
+  argv.push_back(nullptr);
+
+  pid_t pid = 0;
+  const int spawn_error = ::posix_spawn(&pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  ::close(out_pipe[1]);
+  ::close(err_pipe[1]);
+  if (spawn_error != 0) {
+    ADD_FAILURE() << "cannot start " << TERRABAKE_EXE << ": " << std::strerror(spawn_error);
+    ::close(out_pipe[0]);
+    ::close(err_pipe[0]);
+    return result;
+  }
+
+  const auto deadline = std::chrono::steady_clock::now() + kRunTimeLimit;
+  std::array<pollfd, 2> fds = {{{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}}};
+  std::array<std::string*, 2> sinks = {&result.out, &result.err};
+  int open_pipes = 2;
+  while (open_pipes > 0) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+                          deadline - std::chrono::steady_clock::now())
+                          .count();
+    if (left <= 0) {
+      result.timed_out = true;
+      ::kill(pid, SIGKILL);
+      break;
+    }
+    const int ready = ::poll(fds.data(), fds.size(), int(left));
+    if (ready < 0) {
+      if (errno == EINTR) continue;
+      ADD_FAILURE() << "poll: " << std::strerror(errno);
+      ::kill(pid, SIGKILL);
+      break;
+    }
+    for (std::size_t i = 0; i < fds.size(); ++i) {
+      if (fds[i].fd < 0 || fds[i].revents == 0) continue;
+      char buffer[4096];
+      const ssize_t got = ::read(fds[i].fd, buffer, sizeof buffer);
+      if (got > 0) {
+        sinks[i]->append(buffer, std::size_t(got));
+      } else if (got == 0 || errno != EINTR) {
+        ::close(fds[i].fd);
+        fds[i].fd = -1;  // poll skips negative descriptors
+        --open_pipes;
+      }
+    }
+  }
+  for (const pollfd& fd : fds) {
+    if (fd.fd >= 0) ::close(fd.fd);
+  }
+
+  int status = 0;
+  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
+  }
+  if (!result.timed_out && WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
+  return result;
+}
+
+// A fresh, empty folder for the running test.
+fs::path caseDir() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  const fs::path dir = fs::path(TERRABAKE_TEST_OUTPUT) / "cli" / info->name();
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+// A small, smooth DEM; without a CRS when `with_crs` is false.
+void writeDem(const fs::path& path, bool with_crs) {
+  GDALAllRegister();
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  ASSERT_NE(driver, nullptr);
+  std::unique_ptr<GDALDataset> ds(
+      driver->Create(path.c_str(), kDemPixels, kDemPixels, 1, GDT_Float32, nullptr));
+  ASSERT_NE(ds, nullptr) << path;
+  double gt[6] = {kDemWest, kDemPixelM, 0, kDemNorth, 0, -kDemPixelM};
+  ds->SetGeoTransform(gt);
+  if (with_crs) {
+    OGRSpatialReference srs;
+    srs.importFromEPSG(32633);
+    ds->SetSpatialRef(&srs);
+  }
+  std::vector<float> heights(kDemPixels * kDemPixels);
+  for (int row = 0; row < kDemPixels; ++row) {
+    for (int col = 0; col < kDemPixels; ++col) {
+      heights[row * kDemPixels + col] =
+          float(400.0 + 60.0 * std::sin(col * 0.1) * std::cos(row * 0.07) + 2.0 * col);
+    }
+  }
+  ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kDemPixels, kDemPixels, heights.data(), kDemPixels,
+                                           kDemPixels, GDT_Float32, 0, 0),
+            CE_None);
+}
+
+void writeText(const fs::path& path, const std::string& text) {
+  std::ofstream(path, std::ios::binary) << text;
+}
+
+std::string readBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+// Every entry under `dir` that is not a folder (files, links, hidden temp
+// files), relative to `dir`; empty when `dir` does not exist.
+std::set<std::string> filesUnder(const fs::path& dir) {
+  std::set<std::string> files;
+  if (!fs::exists(dir)) return files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (!entry.is_directory()) files.insert(entry.path().lexically_relative(dir).string());
+  }
+  return files;
+}
+
+std::size_t countLines(const std::string& text) { return std::count(text.begin(), text.end(), '\n'); }
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// What every failing run owes the user: the documented code, exactly one
+// line on stderr, nothing on stdout.
+void expectOneLineError(const RunResult& r, int exit_code) {
+  EXPECT_FALSE(r.timed_out) << describe(r);
+  EXPECT_EQ(r.exit_code, exit_code) << describe(r);
+  EXPECT_EQ(countLines(r.err), 1u) << "stderr must be one line\n" << describe(r);
+  EXPECT_TRUE(!r.err.empty() && r.err.back() == '\n') << describe(r);
+  EXPECT_EQ(r.out, "") << describe(r);
+}
+
+// A finished layer: tilejson.json plus z/x/y.png and .glb in pairs, nothing
+// hidden (a leftover temp file) and nothing else. Returns the tiles "z/x/y".
+std::set<std::string> checkLayer(const fs::path& layer_dir) {
+  std::set<std::string> pngs, glbs;
+  bool has_tilejson = false;
+  for (const std::string& name : filesUnder(layer_dir)) {
+    const fs::path rel(name);
+    for (const auto& part : rel) {
+      EXPECT_NE(part.string().front(), '.') << "leftover temp file " << name;
+    }
+    const fs::path full = layer_dir / rel;
+    if (name == "tilejson.json") {
+      has_tilejson = true;
+      EXPECT_GT(fs::file_size(full), 0u);
+    } else if (rel.extension() == ".png") {
+      pngs.insert(fs::path(rel).replace_extension().string());
+      EXPECT_EQ(readBytes(full).substr(0, 4), "\x89PNG") << name;
+    } else if (rel.extension() == ".glb") {
+      glbs.insert(fs::path(rel).replace_extension().string());
+      EXPECT_EQ(readBytes(full).substr(0, 4), "glTF") << name;
+    } else {
+      ADD_FAILURE() << "unexpected file " << name;
+    }
+  }
+  EXPECT_TRUE(has_tilejson) << layer_dir;
+  EXPECT_EQ(pngs, glbs) << "every .png needs its .glb and the other way round";
+  return pngs;
+}
+
+std::map<std::string, std::string> snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> contents;
+  for (const std::string& name : filesUnder(dir)) contents[name] = readBytes(dir / name);
+  return contents;
+}
+
+// The small native run of case 8, into `out`.
+std::vector<std::string> smallRunArgs(const fs::path& dem, const fs::path& out) {
+  return {"tile",        "--dem", dem.string(), "--scheme", "native", "--zoom",    "0-1", "--tile-size",
+          "32",          "--out", out.string(), "--layer",  "ok",     "--backend", "cpu"};
+}
+
+TEST(Cli, MissingDemNamesThePath) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "no_such_dem.tif";
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
+                                    "--backend", "cpu"});
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, TextFileAsDemNamesTheFile) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "notes.txt";
+  writeText(dem, "these are notes, not heights\n1 2 3\n");
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
+                                    "--backend", "cpu"});
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, DemWithoutCrsNamesTheFileAndCrs) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "no_crs.tif";
+  writeDem(dem, false);
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--scheme", "native", "--zoom", "0",
+                                    "--tile-size", "32", "--out", out.string(), "--backend", "cpu"});
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
+  EXPECT_TRUE(contains(r.err, "CRS")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, MisspeltConfigKeyNamesFileLineAndKey) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path config = dir / "job.yaml";
+  const fs::path out = dir / "out";
+  // The typo is on line 5.
+  writeText(config, "dem: dem.tif\noutput:\n  dir: out\ntiling:\n  zomm: 3\n");
+  const RunResult r = runTerrabake({"tile", "--config", config.string()});
+  expectOneLineError(r, kExitUsage);
+  EXPECT_TRUE(contains(r.err, config.string() + ":5:")) << "file and line\n" << describe(r);
+  EXPECT_TRUE(contains(r.err, "zomm")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, UnwritableOutputNamesTheFolder) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  // Tests run as root, where permissions stop nothing; a file in the way does.
+  const fs::path blocker = dir / "blocker";
+  writeText(blocker, "a file, not a folder\n");
+  const fs::path out = blocker / "tiles";
+  const RunResult r = runTerrabake(smallRunArgs(dem, out));
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, out.string())) << describe(r);
+  EXPECT_EQ(readBytes(blocker), "a file, not a folder\n");
+  EXPECT_EQ(filesUnder(dir), (std::set<std::string>{"blocker", "dem.tif"}));
+}
+
+TEST(Cli, BadBitsValueNamesTheFlag) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  args.insert(args.end(), {"--bits", "12"});
+  const RunResult r = runTerrabake(args);
+  expectOneLineError(r, kExitUsage);
+  EXPECT_TRUE(contains(r.err, "--bits")) << describe(r);
+  EXPECT_TRUE(contains(r.err, "12")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, UnknownFlagIsAUsageError) {
+  const fs::path dir = caseDir();
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake({"tile", "--zoom", "3", "--frobnicate", "--out", out.string()});
+  expectOneLineError(r, kExitUsage);
+  EXPECT_TRUE(contains(r.err, "--frobnicate")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, NoSubcommandIsAUsageError) {
+  const RunResult r = runTerrabake({});
+  expectOneLineError(r, kExitUsage);
+}
+
+TEST(Cli, HelpExitsZero) {
+  const RunResult r = runTerrabake({"--help"});
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, "tile")) << describe(r);
+  EXPECT_EQ(r.err, "");
+}
+
+TEST(Cli, TileHelpShowsExamplesAndExitCodes) {
+  const RunResult r = runTerrabake({"tile", "--help"});
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_EQ(r.err, "");
+  EXPECT_TRUE(contains(r.out, "--dem")) << describe(r);
+  EXPECT_TRUE(contains(r.out, "Examples")) << describe(r);
+  EXPECT_TRUE(contains(r.out, "terrabake tile --")) << describe(r);
+  const std::size_t codes = r.out.find("Exit codes");
+  ASSERT_NE(codes, std::string::npos) << describe(r);
+  const std::string codes_text = r.out.substr(codes);
+  for (const char* code : {"0", "2", "3", "4"}) {
+    EXPECT_TRUE(contains(codes_text, code)) << "exit code " << code << " not explained\n" << describe(r);
+  }
+}
+
+TEST(Cli, SmallRunWritesPairsAndTileJson) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake(smallRunArgs(dem, out));
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, (out / "ok").string())) << "stdout says where the tiles went\n" << describe(r);
+  EXPECT_FALSE(contains(r.err, "error")) << describe(r);
+  EXPECT_FALSE(contains(r.err, "warning")) << describe(r);
+
+  const std::set<std::string> tiles = checkLayer(out / "ok");
+  // Native 64 px at 32 texels a tile: one tile at zoom 0, 2 x 2 at zoom 1.
+  EXPECT_EQ(tiles, (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
+  // Nothing outside the layer folder.
+  for (const std::string& name : filesUnder(out)) EXPECT_EQ(name.rfind("ok/", 0), 0u) << name;
+}
+
+TEST(Cli, SampleConfigRuns) {
+  const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
+  ASSERT_TRUE(fs::exists(fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif"));
+  const fs::path out = caseDir() / "out";
+  const RunResult r = runTerrabake({"tile", "--config", config.string(), "--out", out.string(), "--zoom", "10"});
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, (out / "sample").string())) << describe(r);
+  const std::set<std::string> tiles = checkLayer(out / "sample");
+  EXPECT_FALSE(tiles.empty());
+  for (const std::string& tile : tiles) EXPECT_EQ(tile.rfind("10/", 0), 0u) << tile;
+}
+
+TEST(Cli, RerunIntoSameFolderKeepsTheSameFiles) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  const RunResult first = runTerrabake(smallRunArgs(dem, out));
+  ASSERT_EQ(first.exit_code, kExitOk) << describe(first);
+  const auto before = snapshot(out);
+  ASSERT_FALSE(before.empty());
+
+  const RunResult second = runTerrabake(smallRunArgs(dem, out));
+  ASSERT_EQ(second.exit_code, kExitOk) << describe(second);
+  const auto after = snapshot(out);
+  std::vector<std::string> names_before, names_after;
+  for (const auto& [name, bytes] : before) names_before.push_back(name);
+  for (const auto& [name, bytes] : after) names_after.push_back(name);
+  // Same names (nothing lost, nothing added such as temp files or copies),
+  // and the same bytes: the input did not change.
+  EXPECT_EQ(names_after, names_before);
+  EXPECT_TRUE(after == before) << "a rerun changed the content of some files";
+  checkLayer(out / "ok");
+}
+
+}  // namespace
+}  // namespace terrabake
