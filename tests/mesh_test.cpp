@@ -1,0 +1,109 @@
+// Mesh invariants: tangent frames are orthonormal with cross(n, t) * w
+// pointing north, low-poly UVs span [0, 1] exactly, triangles face up, and
+// the renderer's frame interpolation has known answers.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include <glm/geometric.hpp>
+
+#include "mesh/mesh.hpp"
+#include "synthetic_surface.hpp"
+
+namespace terrabake {
+namespace {
+
+// Frames are computed in double and stored as float: 1e-6 is a few float
+// roundings of a unit vector.
+constexpr double kUnitTolerance = 1e-6;
+
+double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
+
+TEST(LowPolyMesh, FramesAreOrthonormalAndRightHanded) {
+  const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
+  const auto mesh = mesh::buildLowPolyMesh(samples, 9);
+  ASSERT_EQ(mesh.position.size(), 81u);
+  for (std::size_t k = 0; k < mesh.normal.size(); ++k) {
+    const glm::dvec3 n(mesh.normal[k]), t(mesh.tangent[k]);
+    EXPECT_NEAR(glm::length(n), 1.0, kUnitTolerance);
+    EXPECT_NEAR(glm::length(t), 1.0, kUnitTolerance);
+    EXPECT_NEAR(glm::dot(n, t), 0.0, kUnitTolerance);
+    EXPECT_EQ(mesh.tangent[k].w, 1.0f);
+    EXPECT_GT(n.y, 0.5);  // up
+    EXPECT_GT(t.x, 0.5);  // east
+    // b = w * cross(n, t) points north (-Z in glTF axes): green up.
+    const glm::dvec3 b = double(mesh.tangent[k].w) * glm::cross(n, t);
+    EXPECT_LT(b.z, -0.5);
+  }
+}
+
+TEST(LowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
+  const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
+  const auto mesh = mesh::buildLowPolyMesh(samples, 9);
+  EXPECT_EQ(mesh.uv.front(), glm::vec2(0, 0));
+  EXPECT_EQ(mesh.uv.back(), glm::vec2(1, 1));
+  ASSERT_EQ(mesh.indices.size(), 8u * 8u * 6u);
+  for (std::size_t i = 0; i < mesh.indices.size(); i += 3) {
+    const glm::dvec3 a(mesh.position[mesh.indices[i]]), b(mesh.position[mesh.indices[i + 1]]),
+        c(mesh.position[mesh.indices[i + 2]]);
+    EXPECT_GT(glm::cross(b - a, c - a).y, 0.0) << "triangle " << i / 3 << " faces down";
+  }
+}
+
+TEST(LowPolyMesh, VerticesSitOnTheSurface) {
+  // A low-poly vertex interpolates the samples around its texel corner; on a
+  // plane that is exactly the plane.
+  auto plane = [](double e, double n) { return 0.3 * e - 0.1 * n + 50; };
+  const auto samples = test::sampleHeightField(plane, 32, 5, 4.0);
+  const auto mesh = mesh::buildLowPolyMesh(samples, 5);
+  for (const glm::vec3& p : mesh.position) EXPECT_NEAR(p.y, plane(p.x, -p.z), 1e-3);
+  // The tile's north-west corner is at (0, 0).
+  EXPECT_NEAR(mesh.position.front().x, 0.0, 1e-4);
+  EXPECT_NEAR(mesh.position.front().z, 0.0, 1e-4);
+  EXPECT_NEAR(mesh.position.back().x, 32 * 4.0, 1e-4);
+  EXPECT_NEAR(mesh.position.back().z, 32 * 4.0, 1e-4);
+}
+
+TEST(HighResMesh, OneVertexPerSampleCoveringTheTile) {
+  const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
+  const auto mesh = mesh::buildHighResMesh(samples);
+  EXPECT_EQ(mesh.cols, 66);
+  EXPECT_EQ(mesh.rows, 66);
+  // First and last vertices lie half a texel beyond the tile edges.
+  EXPECT_FLOAT_EQ(mesh.uv.front().x, -0.5f / 64);
+  EXPECT_FLOAT_EQ(mesh.uv.back().y, 1 + 0.5f / 64);
+  // Vertex (1, 1) is texel (0, 0)'s centre, at that sample's position.
+  EXPECT_EQ(mesh.position[66 + 1], glm::vec3(samples.position.at(samples.apron, samples.apron)));
+}
+
+TEST(HighResMesh, NormalsMatchTheAnalyticSlope) {
+  auto plane = [](double e, double n) { return 0.5 * e + 0.2 * n; };
+  const auto mesh = mesh::buildHighResMesh(test::sampleHeightField(plane, 16, 5, 2.0));
+  // Up = (-dh/de, 1, +dh/dn) in glTF axes (Z is south).
+  const glm::dvec3 expected = glm::normalize(glm::dvec3(-0.5, 1.0, 0.2));
+  for (const glm::vec3& n : mesh.normal) EXPECT_LT(test::angleDeg(glm::dvec3(n), expected), 1e-4);
+}
+
+TEST(LowPolyFrame, InterpolatesLikeARenderer) {
+  auto flat = [](double, double) { return 0.0; };
+  auto mesh = mesh::buildLowPolyMesh(test::sampleHeightField(flat, 16, 3, 1.0), 3);
+  // Tilt one vertex's normal; at that vertex the frame is exactly it, half way
+  // along an edge it is the normalised mean.
+  mesh.normal[4] = glm::normalize(glm::vec3(1, 1, 0));  // centre vertex (1, 1)
+  const auto at_vertex = mesh::lowPolyFrameAt(mesh, {0.5, 0.5});
+  EXPECT_LT(test::angleDeg(at_vertex.n, glm::dvec3(mesh.normal[4])), 1e-6);
+  const auto half_way = mesh::lowPolyFrameAt(mesh, {0.25, 0.5});  // between (0, 1) and (1, 1)
+  const glm::dvec3 expected = glm::normalize(glm::dvec3(0, 1, 0) + glm::dvec3(mesh.normal[4]));
+  EXPECT_LT(test::angleDeg(half_way.n, expected), 1e-6);
+  // b follows w * cross(n, t) even where n and t are no longer orthogonal.
+  EXPECT_LT(test::angleDeg(half_way.b, glm::cross(half_way.n, half_way.t)), 1e-9);
+}
+
+TEST(Apron, CoversTheLowPolyNeighbourCell) {
+  EXPECT_EQ(mesh::requiredApron(256, 17), 17);  // 16-texel cells
+  EXPECT_EQ(mesh::requiredApron(256, 257), 2);  // the high-res normals' own need
+  EXPECT_EQ(mesh::requiredApron(128, 2), 129);
+}
+
+}  // namespace
+}  // namespace terrabake
