@@ -1,0 +1,118 @@
+#!/usr/bin/env bash
+# Runs terrabake_bench (it builds nothing: build the terrabake_bench target
+# first) and prints milliseconds per tile, each bake backend against the CPU
+# reference baker, and whole tiles per second.
+#
+#   tests/benchmarks/run_benchmarks.sh [build_dir] [benchmark options...]
+#
+# build_dir defaults to "build"; options go to terrabake_bench, for example
+# --benchmark_filter=BM_Bake or --benchmark_repetitions=5 (the table then
+# shows medians). Timings on a shared machine are noisy: compare rows of one
+# run, not runs on different days.
+set -euo pipefail
+
+build_dir=build
+if [[ $# -gt 0 && $1 != -* ]]; then
+  build_dir=$1
+  shift
+fi
+bench=$build_dir/tests/benchmarks/terrabake_bench
+if [[ ! -x $bench ]]; then
+  echo "run_benchmarks.sh: $bench not found; build it: cmake --build $build_dir --target terrabake_bench" >&2
+  exit 1
+fi
+
+json=$(mktemp "${TMPDIR:-/tmp}/terrabake_bench.XXXXXX.json")
+trap 'rm -f "$json"' EXIT
+
+echo "running $bench (about a minute)..." >&2
+"$bench" --benchmark_format=json "$@" >"$json"
+
+# python3 rather than jq: jq is not everywhere, Debian's python3 has json.
+/usr/bin/python3 - "$json" <<'PY'
+import json
+import sys
+
+with open(sys.argv[1]) as f:
+    report = json.load(f)
+
+to_ms = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}
+
+def case_name(bench):
+    # Drop the settings Google Benchmark appends: /min_time:2.000, /real_time...
+    parts = bench.get("run_name", bench["name"]).split("/")
+    return "/".join(p for p in parts if ":" not in p and p not in ("real_time", "manual_time"))
+
+# With repetitions the median stands for the case; otherwise its single run.
+medians = {case_name(b) for b in report["benchmarks"]
+           if b.get("run_type") == "aggregate" and b.get("aggregate_name") == "median"}
+rows = {}
+for b in report["benchmarks"]:
+    name = case_name(b)
+    if b.get("run_type") == "aggregate":
+        if b.get("aggregate_name") != "median":
+            continue
+    elif name in medians:
+        continue
+    rows[name] = b
+
+def ms(bench):
+    if bench is None or bench.get("error_occurred"):
+        return None
+    return bench["real_time"] * to_ms[bench.get("time_unit", "ns")]
+
+def reference_of(name):
+    # BM_Bake/osmesa/256 -> BM_Bake/cpu/256, BM_WholeTile/egl -> BM_WholeTile/cpu
+    parts = name.split("/")
+    if parts[0] not in ("BM_Bake", "BM_WholeTile") or len(parts) < 2:
+        return None
+    return "/".join([parts[0], "cpu"] + parts[2:])
+
+def versus_cpu(name, time_ms):
+    reference = reference_of(name)
+    if reference is None or time_ms is None:
+        return ""
+    if reference == name:
+        return "reference"
+    cpu_ms = ms(rows.get(reference))
+    if not cpu_ms:
+        return "(no cpu row)"
+    backend = name.split("/")[1]
+    ratio = time_ms / cpu_ms
+    if ratio < 1:
+        verdict = f"{backend} {1 / ratio:.1f}x faster"
+    else:
+        verdict = f"cpu {ratio:.1f}x faster"
+    return f"{backend}: {ratio:.2f}x cpu time ({verdict})"
+
+def fmt_ms(value):
+    return f"{value:.3g}" if value < 10 else f"{value:.1f}"
+
+table = [("case", "ms/tile (real)", "vs cpu reference baker", "tiles/s")]
+renderers = {}
+for name, bench in rows.items():
+    time_ms = ms(bench)
+    if time_ms is None:
+        table.append((name, "skipped", bench.get("error_message", "failed"), ""))
+        continue
+    tiles_per_s = f"{1000 / time_ms:.1f}" if name.startswith("BM_WholeTile/") else ""
+    table.append((name, fmt_ms(time_ms), versus_cpu(name, time_ms), tiles_per_s))
+    if bench.get("label") and len(name.split("/")) > 1:
+        renderers.setdefault(name.split("/")[1], bench["label"])
+
+widths = [max(len(row[i]) for row in table) for i in range(4)]
+for k, row in enumerate(table):
+    cells = [row[0].ljust(widths[0]), row[1].rjust(widths[1]), row[2].ljust(widths[2]), row[3].rjust(widths[3])]
+    print("  ".join(cells).rstrip())
+    if k == 0:
+        print("  ".join("-" * w for w in widths))
+
+context = report.get("context", {})
+print()
+print(f"{context.get('num_cpus', '?')} CPUs at {context.get('mhz_per_cpu', '?')} MHz, "
+      f"load average {', '.join(f'{x:.2f}' for x in context.get('load_avg', []))}; "
+      "256-texel tiles, 17x17 low-poly grid, real (wall-clock) time.")
+print("A ratio below 1: that backend is faster than the CPU reference baker in the same case.")
+for backend, label in renderers.items():
+    print(f"  {backend}: {label}")
+PY
