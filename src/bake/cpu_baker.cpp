@@ -1,8 +1,5 @@
 #include "bake/cpu_baker.hpp"
 
-#include <algorithm>
-#include <cmath>
-
 #include <glm/geometric.hpp>
 
 namespace terrabake::bake {
@@ -10,18 +7,11 @@ namespace terrabake::bake {
 glm::dvec3 highResNormalAt(const mesh::HighResMesh& mesh, glm::dvec2 uv) {
   // Vertex (c, r) sits at UV uv[0] + (c, r) * step: recover the grid coordinate.
   const glm::dvec2 first(mesh.uv.front());
-  const glm::dvec2 step = (glm::dvec2(mesh.uv.back()) - first) /
-                          glm::dvec2(mesh.cols - 1, mesh.rows - 1);
-  const glm::dvec2 g = (uv - first) / step;
-  const int c = std::clamp(int(std::floor(g.x)), 0, mesh.cols - 2);
-  const int r = std::clamp(int(std::floor(g.y)), 0, mesh.rows - 2);
-  const double fu = g.x - c, fv = g.y - r;
-  const int nw = r * mesh.cols + c, ne = nw + 1, sw = nw + mesh.cols, se = sw + 1;
-  const auto n = [&](int i) { return glm::dvec3(mesh.normal[i]); };
-  // Same NW-SE split as the GL index buffer.
-  const glm::dvec3 mixed = fv >= fu ? n(nw) * (1 - fv) + n(sw) * (fv - fu) + n(se) * fu
-                                    : n(nw) * (1 - fu) + n(se) * fv + n(ne) * (fu - fv);
-  return glm::normalize(mixed);
+  const glm::dvec2 step = (glm::dvec2(mesh.uv.back()) - first) / glm::dvec2(mesh.cols - 1, mesh.rows - 1);
+  const mesh::GridTriangle tri = mesh::gridTriangleAt((uv - first) / step, mesh.cols, mesh.rows);
+  glm::dvec3 n(0);
+  for (int k = 0; k < 3; ++k) n += glm::dvec3(mesh.normal[tri.vertex[k]]) * tri.weight[k];
+  return glm::normalize(n);
 }
 
 NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::LowPolyMesh& low, int size) {

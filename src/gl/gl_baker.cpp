@@ -44,19 +44,6 @@ GLuint linkProgram(const Functions& gl) {
   return program;
 }
 
-// Same triangulation as mesh::buildLowPolyMesh: NW-SE diagonal, CCW from above.
-std::vector<GLuint> gridIndices(int cols, int rows) {
-  std::vector<GLuint> indices;
-  indices.reserve(std::size_t(cols - 1) * (rows - 1) * 6);
-  for (int r = 0; r + 1 < rows; ++r) {
-    for (int c = 0; c + 1 < cols; ++c) {
-      const GLuint nw = r * cols + c, ne = nw + 1, sw = nw + cols, se = sw + 1;
-      indices.insert(indices.end(), {nw, sw, se, nw, se, ne});
-    }
-  }
-  return indices;
-}
-
 }  // namespace
 
 struct GlBaker::Impl {
@@ -140,8 +127,8 @@ struct GlBaker::Impl {
     gl.EnableVertexAttribArray(1);
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, index_buffer);
     if (high.cols != index_cols || high.rows != index_rows) {
-      const auto indices = gridIndices(high.cols, high.rows);
-      gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(GLuint)), indices.data(),
+      const auto indices = mesh::gridIndices(high.cols, high.rows);
+      gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(std::uint32_t)), indices.data(),
                     GL_STATIC_DRAW);
       index_cols = high.cols;
       index_rows = high.rows;

@@ -38,6 +38,8 @@ Frame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
   return {n, glm::dvec4(t, w)};
 }
 
+}  // namespace
+
 std::vector<std::uint32_t> gridIndices(int cols, int rows) {
   std::vector<std::uint32_t> indices;
   indices.reserve(std::size_t(cols - 1) * (rows - 1) * 6);
@@ -51,7 +53,14 @@ std::vector<std::uint32_t> gridIndices(int cols, int rows) {
   return indices;
 }
 
-}  // namespace
+GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows) {
+  const int c = std::clamp(int(std::floor(g.x)), 0, cols - 2);
+  const int r = std::clamp(int(std::floor(g.y)), 0, rows - 2);
+  const double fu = g.x - c, fv = g.y - r;
+  const int nw = r * cols + c, ne = nw + 1, sw = nw + cols, se = sw + 1;
+  if (fv >= fu) return {{nw, sw, se}, {1 - fv, fv - fu, fu}};  // south-west triangle
+  return {{nw, se, ne}, {1 - fu, fv, fu - fv}};                // north-east triangle
+}
 
 int requiredApron(int tile_size, int grid) {
   const double cell_texels = double(tile_size) / (grid - 1);
@@ -118,31 +127,17 @@ LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
 }
 
 TangentFrame lowPolyFrameAt(const LowPolyMesh& mesh, glm::dvec2 uv) {
-  const int cells = mesh.grid - 1;
-  const double gu = uv.x * cells, gv = uv.y * cells;
-  const int c = std::clamp(int(std::floor(gu)), 0, cells - 1);
-  const int r = std::clamp(int(std::floor(gv)), 0, cells - 1);
-  const double fu = gu - c, fv = gv - r;
-  const int nw = r * mesh.grid + c, ne = nw + 1, sw = nw + mesh.grid, se = sw + 1;
-
-  // Barycentric weights in the cell's triangle (split along NW-SE).
-  int v0, v1, v2;
-  double w0, w1, w2;
-  if (fv >= fu) {  // triangle (NW, SW, SE)
-    v0 = nw, v1 = sw, v2 = se;
-    w0 = 1 - fv, w1 = fv - fu, w2 = fu;
-  } else {  // triangle (NW, SE, NE)
-    v0 = nw, v1 = se, v2 = ne;
-    w0 = 1 - fu, w1 = fv, w2 = fu - fv;
+  const GridTriangle tri = gridTriangleAt(uv * double(mesh.grid - 1), mesh.grid, mesh.grid);
+  glm::dvec3 n(0), t(0);
+  double w = 0;
+  for (int k = 0; k < 3; ++k) {
+    n += glm::dvec3(mesh.normal[tri.vertex[k]]) * tri.weight[k];
+    t += glm::dvec3(mesh.tangent[tri.vertex[k]]) * tri.weight[k];
+    w += double(mesh.tangent[tri.vertex[k]].w) * tri.weight[k];
   }
-  auto mix3 = [&](const auto& attr) {
-    return glm::dvec3(attr[v0]) * w0 + glm::dvec3(attr[v1]) * w1 + glm::dvec3(attr[v2]) * w2;
-  };
-  const double w = double(mesh.tangent[v0].w) * w0 + double(mesh.tangent[v1].w) * w1 +
-                   double(mesh.tangent[v2].w) * w2;
   TangentFrame frame;
-  frame.n = glm::normalize(mix3(mesh.normal));
-  frame.t = glm::normalize(mix3(mesh.tangent));
+  frame.n = glm::normalize(n);
+  frame.t = glm::normalize(t);
   frame.b = w * glm::cross(frame.n, frame.t);  // as a renderer does, w interpolated too
   return frame;
 }

@@ -55,6 +55,18 @@ struct TangentFrame {
   glm::dvec3 n;
 };
 
+// Indices of a row-major grid of cols x rows vertices, split as above.
+std::vector<std::uint32_t> gridIndices(int cols, int rows);
+
+// The triangle of such a grid that holds the point at grid coordinate g
+// (vertex (c, r) at (c, r)), with its barycentric weights. Points beyond the
+// grid fall to the nearest cell.
+struct GridTriangle {
+  int vertex[3];
+  double weight[3];
+};
+GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows);
+
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
 // two for the high-res normals at the edge, and one low-poly cell (plus one
 // sample to interpolate in) for the low-poly normals at the edge.
