@@ -108,23 +108,17 @@ std::string caseName(const Case& c) {
 }
 
 std::filesystem::path demFor(DemCrs crs) {
-  const auto dir = test::testOutput("accuracy_dems");
-  std::filesystem::create_directories(dir);
   if (crs == DemCrs::kUtm) {
-    const auto path = dir / "analytic_utm33.tif";
-    if (!std::filesystem::exists(path)) {
+    return test::sharedFixture("analytic_utm33_512.tif", [](const auto& path) {
       ts::writeUtmDem(path, kCentreLon, kCentreLat, kPixelM, kDemPixels, kDemPixels);
-    }
-    return path;
+    });
   }
   // About 30 m square pixels at 60 degrees north: a degree of longitude is
   // half as long as a degree of latitude there.
-  const auto path = dir / "analytic_epsg4326.tif";
-  if (!std::filesystem::exists(path)) {
+  return test::sharedFixture("analytic_epsg4326_512.tif", [](const auto& path) {
     const double lat_deg = kPixelM / 111320.0;
     ts::writeGeographicDem(path, kCentreLon, kCentreLat, 2 * lat_deg, lat_deg, kDemPixels, kDemPixels);
-  }
-  return path;
+  });
 }
 
 class Accuracy : public ::testing::TestWithParam<Case> {};

@@ -40,10 +40,9 @@ TEST(FillHoles, RefusesAWindowWithoutData) {
 }
 
 TEST(DemSource, ReadsItsOwnGridExactly) {
-  const auto dir = test::testOutput("dem");
-  std::filesystem::create_directories(dir);
-  const auto path = dir / "utm.tif";
-  test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 64, 64);
+  const auto path = test::sharedFixture("analytic_utm33_64.tif", [](const auto& p) {
+    test_support::writeUtmDem(p, 15.3, 60.0, 30.0, 64, 64);
+  });
   const dem::DemSource dem(path.string());
   const GridSpec& g = dem.info().grid;
   EXPECT_EQ(g.width, 64);

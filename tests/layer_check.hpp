@@ -7,6 +7,8 @@
 #include <optional>
 #include <string>
 
+#include <unistd.h>
+
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
 
@@ -20,6 +22,21 @@ namespace terrabake::test {
 
 inline std::filesystem::path testOutput(const std::string& name) {
   return std::filesystem::path(TERRABAKE_TEST_OUTPUT) / name;
+}
+
+// A generated input shared by several test cases, made once. Cases may run in
+// parallel processes, so the file appears atomically under its final name.
+inline std::filesystem::path sharedFixture(const std::string& name,
+                                           const std::function<void(const std::filesystem::path&)>& write) {
+  const auto dir = testOutput("fixtures");
+  std::filesystem::create_directories(dir);
+  const auto path = dir / name;
+  if (!std::filesystem::exists(path)) {
+    const auto temp = dir / (name + ".tmp" + std::to_string(::getpid()));
+    write(temp);
+    std::filesystem::rename(temp, path);
+  }
+  return path;
 }
 
 inline config::TileJob tileJob(const std::filesystem::path& dem, const std::string& out_name,

@@ -45,14 +45,12 @@ TileId webMercatorTileAt(double lon, double lat, int zoom) {
           int(std::floor((1 - std::asinh(std::tan(lat_rad)) / M_PI) / 2 * n))};
 }
 
+// 30 km across: the zoom 11 tile (about 10 km of ground at 60 degrees north)
+// and its apron lie inside the DEM wherever the centre falls in it.
 std::filesystem::path analyticDem() {
-  const auto dir = test::testOutput("mosaic_dems");
-  std::filesystem::create_directories(dir);
-  const auto path = dir / "analytic_utm33.tif";
-  // 30 km across: the zoom 11 tile (about 10 km of ground at 60 degrees
-  // north) and its apron lie inside the DEM wherever the centre falls in it.
-  if (!std::filesystem::exists(path)) ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 1024, 1024);
-  return path;
+  return test::sharedFixture("analytic_utm33_1024.tif", [](const auto& path) {
+    ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 1024, 1024);
+  });
 }
 
 struct EdgeVertex {
