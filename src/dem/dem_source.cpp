@@ -2,17 +2,16 @@
 
 #include <cpl_conv.h>
 #include <gdal_priv.h>
-#include <gdal_utils.h>
+#include <gdalwarper.h>
 #include <ogr_spatialref.h>
 
 #include <cmath>
 #include <filesystem>
 #include <map>
-#include <mutex>
-#include <vector>
 
 #include "core/error.hpp"
 #include "dem/gdal_setup.hpp"
+#include "dem/lattice_transformer.hpp"
 
 namespace terrabake::dem {
 namespace {
@@ -45,22 +44,44 @@ struct GdalDatasetCloser {
 using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
 
 struct WarpOptionsDeleter {
-  void operator()(GDALWarpAppOptions* o) const { GDALWarpAppOptionsFree(o); }
+  void operator()(GDALWarpOptions* o) const { GDALDestroyWarpOptions(o); }
 };
 
 }  // namespace
+
+// What reads a DEM level onto grids of one CRS: the level's own handle (an
+// overview opens as a dataset of its own) and the transformer to the grids.
+struct LevelReader {
+  DatasetPtr dataset;
+  std::string target_wkt;
+  std::unique_ptr<LatticeTransformer> transformer;
+};
 
 struct DemSource::Impl {
   DatasetPtr dataset;
   OGRSpatialReference srs;
   bool float_samples = false;
-  // Destination CRS definitions resolved once: WKT for the MEM dataset.
-  mutable std::map<std::string, std::string> wkt_cache;
+  // Built on first use, per (overview level, target CRS).
+  std::map<std::pair<int, std::string>, LevelReader> readers;
 
-  const std::string& wktFor(const std::string& crs) const {
-    auto it = wkt_cache.find(crs);
-    if (it == wkt_cache.end()) it = wkt_cache.emplace(crs, toWkt(spatialReference(crs))).first;
-    return it->second;
+  LevelReader& readerFor(const std::string& path, int overview, const std::string& crs) {
+    auto it = readers.find({overview, crs});
+    if (it != readers.end()) return it->second;
+    LevelReader reader;
+    if (overview < 0) {
+      reader.dataset.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
+                                                              nullptr, nullptr, nullptr)));
+    } else {
+      const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
+      const char* options[] = {level.c_str(), nullptr};
+      reader.dataset.reset(GDALDataset::FromHandle(
+          GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
+    }
+    if (!reader.dataset) throw InputError("dem: cannot reopen '" + path + "' (" + lastGdalError() + ")");
+    reader.target_wkt = toWkt(spatialReference(crs));
+    reader.transformer =
+        std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);
+    return readers.emplace(std::make_pair(overview, crs), std::move(reader)).first->second;
   }
 };
 
@@ -152,30 +173,39 @@ ReadPlan DemSource::planFor(const GridSpec& grid) const {
 }
 
 Raster<float> DemSource::read(const GridSpec& grid, const ReadPlan& plan) const {
+  LevelReader& reader = m_impl->readerFor(m_info.path, plan.overview, grid.crs);
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
   double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
   target->SetGeoTransform(gt);
-  target->SetProjection(m_impl->wktFor(grid.crs).c_str());
+  target->SetProjection(reader.target_wkt.c_str());
+  reader.transformer->prepare(grid);
 
-  // -et 0: exact transforms for every texel, so a texel's value does not
-  // depend on which tile's window it was read through.
-  std::vector<std::string> args = {"-r", plan.average ? "average" : "cubic", "-et", "0",
-                                   "-dstnodata", "nan", "-wo", "INIT_DEST=NO_DATA",
-                                   "-ovr", plan.overview < 0 ? "NONE" : std::to_string(plan.overview)};
-  if (!m_info.nodata && m_impl->float_samples) {
-    // Float DEMs without a declared nodata value mark holes with NaN.
-    args.insert(args.end(), {"-srcnodata", "nan"});
+  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
+  options->hSrcDS = GDALDataset::ToHandle(reader.dataset.get());
+  options->hDstDS = GDALDataset::ToHandle(target.get());
+  options->nBandCount = 1;
+  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panSrcBands[0] = options->panDstBands[0] = 1;
+  options->eResampleAlg = plan.average ? GRA_Average : GRA_Cubic;
+  options->eWorkingDataType = GDT_Float32;
+  options->pfnTransformer = LatticeTransformer::transform;
+  options->pTransformerArg = reader.transformer.get();
+  // Holes become NaN; a float DEM without a declared nodata value marks its
+  // holes with NaN too.
+  if (m_info.nodata || m_impl->float_samples) {
+    options->padfSrcNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
+    options->padfSrcNoDataReal[0] = m_info.nodata ? *m_info.nodata : double(NAN);
   }
-  std::vector<char*> argv;
-  for (auto& a : args) argv.push_back(a.data());
-  argv.push_back(nullptr);
-  std::unique_ptr<GDALWarpAppOptions, WarpOptionsDeleter> options(GDALWarpAppOptionsNew(argv.data(), nullptr));
+  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
+  options->padfDstNoDataReal[0] = NAN;
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
 
-  GDALDatasetH source = GDALDataset::ToHandle(m_impl->dataset.get());
-  int usage_error = 0;
+  GDALWarpOperation warp;
   CPLErrorReset();
-  if (!GDALWarp(nullptr, GDALDataset::ToHandle(target.get()), 1, &source, options.get(), &usage_error)) {
+  if (warp.Initialize(options.get()) != CE_None ||
+      warp.ChunkAndWarpImage(0, 0, grid.width, grid.height) != CE_None) {
     throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
   }
 

@@ -1,0 +1,87 @@
+#include "dem/lattice_transformer.hpp"
+
+#include <gdal_alg.h>
+
+#include <algorithm>
+#include <cmath>
+
+#include "core/error.hpp"
+
+namespace terrabake::dem {
+
+LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& target_wkt) {
+  const std::string option = "DST_SRS=" + target_wkt;
+  const char* options[] = {option.c_str(), nullptr};
+  // No target dataset: the transformer's "destination" is CRS coordinates.
+  m_exact = GDALCreateGenImgProjTransformer2(source, nullptr, const_cast<char**>(options));
+  if (!m_exact) throw InputError("dem: no transformation from the DEM to the tiling CRS");
+}
+
+LatticeTransformer::~LatticeTransformer() { GDALDestroyGenImgProjTransformer(m_exact); }
+
+void LatticeTransformer::prepare(const GridSpec& grid) {
+  m_gt[0] = grid.origin_x, m_gt[1] = grid.cell_w, m_gt[2] = 0;
+  m_gt[3] = grid.origin_y, m_gt[4] = 0, m_gt[5] = -grid.cell_h;
+  m_spacing_x = kNodeSpacingCells * grid.cell_w;
+  m_spacing_y = kNodeSpacingCells * grid.cell_h;
+  // One node beyond each side: the warper also asks about points just
+  // outside the grid (pixel corners, kernel footprints).
+  const double west = grid.origin_x, east = grid.origin_x + grid.width * grid.cell_w;
+  const double north = grid.origin_y, south = grid.origin_y - grid.height * grid.cell_h;
+  m_first_x = long(std::floor(west / m_spacing_x)) - 1;
+  m_first_y = long(std::floor(south / m_spacing_y)) - 1;
+  m_nodes_x = int(long(std::ceil(east / m_spacing_x)) + 1 - m_first_x + 1);
+  m_nodes_y = int(long(std::ceil(north / m_spacing_y)) + 1 - m_first_y + 1);
+
+  const std::size_t count = std::size_t(m_nodes_x) * m_nodes_y;
+  m_source_x.resize(count);
+  m_source_y.resize(count);
+  m_valid.assign(count, 0);
+  std::vector<double> z(count, 0.0);
+  for (int j = 0; j < m_nodes_y; ++j) {
+    for (int i = 0; i < m_nodes_x; ++i) {
+      // Node coordinates from integers alone: identical for every window.
+      m_source_x[std::size_t(j) * m_nodes_x + i] = double(m_first_x + i) * m_spacing_x;
+      m_source_y[std::size_t(j) * m_nodes_x + i] = double(m_first_y + j) * m_spacing_y;
+    }
+  }
+  GDALGenImgProjTransform(m_exact, TRUE, int(count), m_source_x.data(), m_source_y.data(), z.data(),
+                          m_valid.data());
+}
+
+bool LatticeTransformer::targetToSource(double& x, double& y) const {
+  const double fx = (m_gt[0] + x * m_gt[1]) / m_spacing_x - double(m_first_x);
+  const double fy = (m_gt[3] + y * m_gt[5]) / m_spacing_y - double(m_first_y);
+  const int i = std::clamp(int(std::floor(fx)), 0, m_nodes_x - 2);
+  const int j = std::clamp(int(std::floor(fy)), 0, m_nodes_y - 2);
+  const double tx = fx - i, ty = fy - j;
+  const std::size_t k00 = std::size_t(j) * m_nodes_x + i, k10 = k00 + 1, k01 = k00 + m_nodes_x, k11 = k01 + 1;
+  if (!(m_valid[k00] && m_valid[k10] && m_valid[k01] && m_valid[k11])) return false;
+  auto mix = [&](const std::vector<double>& v) {
+    return (v[k00] * (1 - tx) + v[k10] * tx) * (1 - ty) + (v[k01] * (1 - tx) + v[k11] * tx) * ty;
+  };
+  x = mix(m_source_x);
+  y = mix(m_source_y);
+  return true;
+}
+
+bool LatticeTransformer::sourceToTarget(double& x, double& y) const {
+  double z = 0;
+  int ok = 0;
+  GDALGenImgProjTransform(m_exact, FALSE, 1, &x, &y, &z, &ok);
+  if (!ok) return false;
+  x = (x - m_gt[0]) / m_gt[1];
+  y = (y - m_gt[3]) / m_gt[5];
+  return true;
+}
+
+int LatticeTransformer::transform(void* self, int dst_to_src, int count, double* x, double* y, double*,
+                                  int* ok) {
+  const auto& t = *static_cast<const LatticeTransformer*>(self);
+  for (int k = 0; k < count; ++k) {
+    ok[k] = dst_to_src ? t.targetToSource(x[k], y[k]) : t.sourceToTarget(x[k], y[k]);
+  }
+  return TRUE;
+}
+
+}  // namespace terrabake::dem
