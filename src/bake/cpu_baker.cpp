@@ -3,7 +3,10 @@
 #include <glm/geometric.hpp>
 
 namespace terrabake::bake {
+namespace {
 
+// The high-res mesh's interpolated, normalised normal at a UV point, found by
+// locating the grid triangle that contains it (the mesh is a regular UV grid).
 glm::dvec3 highResNormalAt(const mesh::HighResMesh& mesh, glm::dvec2 uv) {
   // Vertex (c, r) sits at UV uv[0] + (c, r) * step: recover the grid coordinate.
   const glm::dvec2 first(mesh.uv.front());
@@ -13,6 +16,8 @@ glm::dvec3 highResNormalAt(const mesh::HighResMesh& mesh, glm::dvec2 uv) {
   for (int k = 0; k < 3; ++k) n += glm::dvec3(mesh.normal[tri.vertex[k]]) * tri.weight[k];
   return glm::normalize(n);
 }
+
+}  // namespace
 
 NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::LowPolyMesh& low, int size) {
   NormalMap map;

@@ -11,8 +11,4 @@ class CpuBaker : public Baker {
   std::string description() const override { return "cpu reference baker"; }
 };
 
-// The high-res mesh's interpolated, normalised normal at a UV point, found by
-// locating the grid triangle that contains it (the mesh is a regular UV grid).
-glm::dvec3 highResNormalAt(const mesh::HighResMesh& mesh, glm::dvec2 uv);
-
 }  // namespace terrabake::bake

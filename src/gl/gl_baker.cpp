@@ -44,6 +44,12 @@ GLuint linkProgram(const Functions& gl) {
   return program;
 }
 
+// Entry points can only be loaded once the context is current.
+const Context& makeCurrent(Context& context) {
+  context.makeCurrent();
+  return context;
+}
+
 }  // namespace
 
 struct GlBaker::Impl {
@@ -57,7 +63,7 @@ struct GlBaker::Impl {
   int index_cols = 0, index_rows = 0;  // grid the index buffer was built for
   GLsizei index_count = 0;
 
-  explicit Impl(std::unique_ptr<Context> ctx) : context(std::move(ctx)), gl((context->makeCurrent(), *context)) {
+  explicit Impl(std::unique_ptr<Context> ctx) : context(std::move(ctx)), gl(makeCurrent(*context)) {
     const auto* version = reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
     const auto* renderer = reinterpret_cast<const char*>(gl.GetString(GL_RENDERER));
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");

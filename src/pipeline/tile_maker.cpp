@@ -72,7 +72,6 @@ TileMaker::TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, 
 TileMaker::~TileMaker() = default;
 
 std::string TileMaker::bakerDescription() const { return m_impl->baker->description(); }
-const dem::DemSource& TileMaker::dem() const { return m_impl->dem; }
 
 std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan& plan) {
   Impl& s = *m_impl;

@@ -39,7 +39,6 @@ class TileMaker {
   std::optional<TileFiles> make(const TileId& tile, const dem::ReadPlan& plan);
 
   std::string bakerDescription() const;
-  const dem::DemSource& dem() const;
 
  private:
   struct Impl;
