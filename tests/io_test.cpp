@@ -22,7 +22,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using terrabake::Image;
 using terrabake::InputError;
-using terrabake::mesh::LowPolyMesh;
+using terrabake::mesh::GridMesh;
 namespace io = terrabake::io;
 
 namespace {
@@ -210,9 +210,9 @@ TEST(Png, RejectsBadInput) {
 // ------------------------------------------------------------------------ GLB
 
 // A flat cols x rows grid in the y = 0 plane, 10 m apart, centred on the
-// origin, triangulated like LowPolyMesh (NW, SW, SE) and (NW, SE, NE).
-LowPolyMesh planeMesh(int cols, int rows) {
-  LowPolyMesh m;
+// origin, triangulated like GridMesh (NW, SW, SE) and (NW, SE, NE).
+GridMesh planeMesh(int cols, int rows) {
+  GridMesh m;
   m.grid = cols;
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
@@ -306,7 +306,7 @@ std::vector<float> flatten(const std::vector<V>& vs) {
 }
 
 TEST(Glb, ContainerAndJsonFollowTheContract) {
-  const LowPolyMesh mesh = planeMesh(3, 3);
+  const GridMesh mesh = planeMesh(3, 3);
   const io::GlbInfo info = sampleInfo();
   const Glb glb = parseGlb(io::encodeGlb(mesh, info));
   const json& g = glb.gltf;
@@ -351,7 +351,7 @@ TEST(Glb, ContainerAndJsonFollowTheContract) {
 }
 
 TEST(Glb, AccessorsHoldTheMeshArrays) {
-  const LowPolyMesh mesh = planeMesh(3, 3);
+  const GridMesh mesh = planeMesh(3, 3);
   const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
   const json& g = glb.gltf;
   ASSERT_TRUE(g.is_object());
@@ -396,7 +396,7 @@ TEST(Glb, AccessorsHoldTheMeshArrays) {
 TEST(Glb, IndexTypeSwitchesAbove65535Vertices) {
   const std::pair<int, int> sizes[] = {{255, 257}, {256, 256}};  // 65535 and 65536 vertices
   for (const auto& [cols, rows] : sizes) {
-    const LowPolyMesh mesh = planeMesh(cols, rows);
+    const GridMesh mesh = planeMesh(cols, rows);
     SCOPED_TRACE(mesh.position.size());
     const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
     const json& g = glb.gltf;
@@ -415,7 +415,7 @@ TEST(Glb, IndexTypeSwitchesAbove65535Vertices) {
 
 TEST(Glb, OddIndexCountIsPaddedToFourBytes) {
   // One triangle: 6 bytes of 16-bit indices, the BIN chunk must still end 4-aligned.
-  LowPolyMesh mesh = planeMesh(2, 2);
+  GridMesh mesh = planeMesh(2, 2);
   mesh.indices.resize(3);
   const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
   ASSERT_TRUE(glb.gltf.is_object());
@@ -425,7 +425,7 @@ TEST(Glb, OddIndexCountIsPaddedToFourBytes) {
 }
 
 TEST(Glb, RejectsInconsistentMesh) {
-  LowPolyMesh mesh = planeMesh(3, 3);
+  GridMesh mesh = planeMesh(3, 3);
   mesh.indices.push_back(0);
   EXPECT_THROW(io::encodeGlb(mesh, sampleInfo()), std::invalid_argument);
   mesh = planeMesh(3, 3);
@@ -443,7 +443,7 @@ TEST(Glb, RejectsInconsistentMesh) {
 // public functions, for the glTF validator that checks TERRABAKE_TEST_OUTPUT.
 TEST(Glb, WritesATileTheValidatorCanCheck) {
   const fs::path dir = freshDir("layer");
-  const LowPolyMesh mesh = planeMesh(17, 17);
+  const GridMesh mesh = planeMesh(17, 17);
   io::writeFileAtomically((dir / "0/0/0.glb").string(), io::encodeGlb(mesh, sampleInfo()));
   Image<std::uint16_t> flat{16, 16, 3, {}};
   for (int k = 0; k < 16 * 16; ++k) flat.pixels.insert(flat.pixels.end(), {128, 128, 255});

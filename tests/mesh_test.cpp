@@ -19,7 +19,7 @@ constexpr double kUnitTolerance = 1e-6;
 
 double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
 
-TEST(LowPolyMesh, FramesAreOrthonormalAndRightHanded) {
+TEST(GridMesh, FramesAreOrthonormalAndRightHanded) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
   ASSERT_EQ(mesh.position.size(), 81u);
@@ -37,7 +37,7 @@ TEST(LowPolyMesh, FramesAreOrthonormalAndRightHanded) {
   }
 }
 
-TEST(LowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
+TEST(GridMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
   EXPECT_EQ(mesh.uv.front(), glm::vec2(0, 0));
@@ -50,7 +50,7 @@ TEST(LowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   }
 }
 
-TEST(LowPolyMesh, VerticesSitOnTheSurface) {
+TEST(GridMesh, VerticesSitOnTheSurface) {
   // A low-poly vertex interpolates the samples around its texel corner; on a
   // plane that is exactly the plane.
   auto plane = [](double e, double n) { return 0.3 * e - 0.1 * n + 50; };

@@ -32,6 +32,7 @@ constexpr Override kOverrides[] = {
     {"--layer", "output.layer", "Layer name (overrides output.layer)"},
     {"--bits", "output.bits", "8 or 16 bits a channel (overrides output.bits)"},
     {"--green", "output.green", "up (OpenGL) or down (DirectX) (overrides output.green)"},
+    {"--high-res-mesh", "output.high_res_mesh", "true: also write {y}.hires.glb (overrides output.high_res_mesh)"},
     {"--scheme", "tiling.scheme", "webmercator, geodetic or native (overrides tiling.scheme)"},
     {"--zoom", "tiling.zoom", "Zoom N or range MIN-MAX (overrides tiling.zoom)"},
     {"--tile-size", "tiling.tile_size", "Texels a tile side (overrides tiling.tile_size)"},

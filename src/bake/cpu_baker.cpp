@@ -19,7 +19,7 @@ glm::dvec3 highResNormalAt(const mesh::HighResMesh& mesh, glm::dvec2 uv) {
 
 }  // namespace
 
-NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::LowPolyMesh& low, int size) {
+NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) {
   NormalMap map;
   map.size = size;
   map.texels.resize(std::size_t(size) * size);

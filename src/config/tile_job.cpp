@@ -46,9 +46,12 @@ struct PathField {
 struct PathListField {
   std::vector<std::string> TileJob::*member;
 };
+struct BoolField {
+  bool TileJob::*member;
+};
 struct ZoomField {};  // min_zoom, max_zoom and zoom_set move together
 
-using Field = std::variant<IntField, WordField, NameField, PathField, PathListField, ZoomField>;
+using Field = std::variant<IntField, BoolField, WordField, NameField, PathField, PathListField, ZoomField>;
 
 struct Key {
   std::string_view name;  // dotted path in the YAML file
@@ -72,6 +75,9 @@ const std::vector<Key>& keys() {
       {"output.green", "string",
        "where +Y of tangent space points: up (OpenGL, glTF) or down (DirectX)",
        WordField{&TileJob::green, {"up", "down"}}},
+      {"output.high_res_mesh", "boolean",
+       "also write {y}.hires.glb, the full-resolution surface, for viewers that compare",
+       BoolField{&TileJob::high_res_mesh}},
       {"tiling.scheme", "string",
        "tile grid: webmercator (EPSG:3857, XYZ), geodetic (EPSG:4326, TMS) or native "
        "(the DEM's own grid)",
@@ -119,6 +125,7 @@ std::string withArticle(std::string_view noun) {
 }
 
 std::string toText(int value) { return std::to_string(value); }
+std::string toText(bool value) { return value ? "true" : "false"; }
 const std::string& toText(const std::string& value) { return value; }
 
 // joinWith({8, 16}, "or") is "8 or 16"; three or more get commas.
@@ -172,6 +179,13 @@ const Text& single(const Key& key, const Value& value) {
 void parse(const Key& key, const IntField& field, const Value& value, TileJob& job) {
   job.*field.member = parseInt(key, single(key, value));
 }
+void parse(const Key& key, const BoolField& field, const Value& value, TileJob& job) {
+  const Text& item = single(key, value);
+  if (item.text != "true" && item.text != "false") {
+    fail(item.where, key.name, "expected true or false, got " + quoted(item.text));
+  }
+  job.*field.member = item.text == "true";
+}
 void parse(const Key& key, const WordField& field, const Value& value, TileJob& job) {
   job.*field.member = single(key, value).text;
 }
@@ -224,6 +238,7 @@ std::string problem(const IntField& field, const TileJob& job) {
   return "must be between " + std::to_string(field.min) + " and " + std::to_string(field.max) +
          ", got " + std::to_string(value);
 }
+std::string problem(const BoolField&, const TileJob&) { return {}; }
 std::string problem(const WordField& field, const TileJob& job) {
   const std::string& value = job.*field.member;
   if (std::find(field.words.begin(), field.words.end(), value) != field.words.end()) return {};

@@ -12,6 +12,7 @@ struct TileJob {
   std::string layer = "default";       // output.layer
   int bits = 8;                        // output.bits: 8 or 16
   std::string green = "up";            // output.green: "up" (OpenGL) or "down" (DirectX)
+  bool high_res_mesh = false;          // output.high_res_mesh: also write {y}.hires.glb
   std::string scheme = "webmercator";  // tiling.scheme: webmercator | geodetic | native
   int min_zoom = 0;                    // tiling.zoom: N or [min, max] or "min-max"
   int max_zoom = 0;

@@ -142,7 +142,7 @@ struct GlBaker::Impl {
     }
   }
 
-  void uploadLowPolyFrames(const mesh::LowPolyMesh& low) {
+  void uploadLowPolyFrames(const mesh::GridMesh& low) {
     const int g = low.grid;
     std::vector<float> texels(std::size_t(g) * 2 * g * 4);
     for (int k = 0; k < g * g; ++k) {
@@ -167,7 +167,7 @@ GlBaker::~GlBaker() = default;
 
 std::string GlBaker::description() const { return m_impl->description; }
 
-bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::LowPolyMesh& low, int size) {
+bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) {
   Impl& s = *m_impl;
   const Functions& gl = s.gl;
   s.prepareTarget(size);

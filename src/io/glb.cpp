@@ -35,7 +35,7 @@ static_assert(sizeof(glm::vec2) == 8 && sizeof(glm::vec3) == 12 && sizeof(glm::v
 static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559);
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
 
-void checkMesh(const mesh::LowPolyMesh& mesh, const GlbInfo& info) {
+void checkMesh(const mesh::GridMesh& mesh, const GlbInfo& info) {
   const std::size_t n = mesh.position.size();
   if (n == 0 || mesh.normal.size() != n || mesh.tangent.size() != n || mesh.uv.size() != n) {
     throw std::invalid_argument("encodeGlb: vertex arrays are empty or differ in length");
@@ -88,7 +88,7 @@ void appendU32(std::vector<std::uint8_t>& out, std::uint32_t v) {
 
 }  // namespace
 
-std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo& info) {
+std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info) {
   checkMesh(mesh, info);
   const std::size_t n = mesh.position.size();
 
@@ -122,7 +122,7 @@ std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo
   Json enu_to_ecef = Json::array();
   for (double v : info.enu_to_ecef) enu_to_ecef.push_back(v);
 
-  const Json gltf = {
+  Json gltf = {
       {"asset",
        {{"version", "2.0"},
         {"generator", "terrabake"},
@@ -139,19 +139,6 @@ std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo
             {"indices", 4},
             {"material", 0},
             {"mode", kTriangles}}}}}}},
-      {"materials",
-       {{{"normalTexture", {{"index", 0}}},
-         {"pbrMetallicRoughness",
-          {{"baseColorFactor", {1.0, 1.0, 1.0, 1.0}},
-           {"metallicFactor", 0.0},
-           {"roughnessFactor", 1.0}}}}}},
-      {"textures", {{{"sampler", 0}, {"source", 0}}}},
-      {"images", {{{"uri", info.normal_texture_uri}}}},
-      {"samplers",
-       {{{"magFilter", kLinear},
-         {"minFilter", kLinear},
-         {"wrapS", kClampToEdge},
-         {"wrapT", kClampToEdge}}}},
       {"accessors",
        {position, accessor(normal_view, kFloat, n, "VEC3"),
         accessor(tangent_view, kFloat, n, "VEC4"), accessor(uv_view, kFloat, n, "VEC2"),
@@ -160,6 +147,18 @@ std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo
       {"bufferViews", bin.views()},
       {"buffers", {{{"byteLength", bin.bytes().size()}}}},
   };
+
+  // The material: matte, wearing the normal map when there is one (a
+  // high-res display mesh carries its detail in its geometry instead).
+  Json material = {{"pbrMetallicRoughness",
+                    {{"baseColorFactor", {1.0, 1.0, 1.0, 1.0}}, {"metallicFactor", 0.0}, {"roughnessFactor", 1.0}}}};
+  if (!info.normal_texture_uri.empty()) {
+    material["normalTexture"] = {{"index", 0}};
+    gltf["textures"] = {{{"sampler", 0}, {"source", 0}}};
+    gltf["images"] = {{{"uri", info.normal_texture_uri}}};
+    gltf["samplers"] = {{{"magFilter", kLinear}, {"minFilter", kLinear}, {"wrapS", kClampToEdge}, {"wrapT", kClampToEdge}}};
+  }
+  gltf["materials"] = {material};
 
   std::string json = gltf.dump();
   json.resize((json.size() + 3) & ~std::size_t(3), ' ');

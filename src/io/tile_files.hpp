@@ -21,14 +21,14 @@ std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& rgb, int bits);
 
 // Where a tile's mesh sits on the globe and which image it wears.
 struct GlbInfo {
-  std::string normal_texture_uri;         // e.g. "5.png", relative to the .glb
+  std::string normal_texture_uri;         // e.g. "5.png", relative to the .glb; empty: none
   double origin_lon_deg = 0;
   double origin_lat_deg = 0;
   std::array<double, 16> enu_to_ecef{};  // column-major, glTF axes -> ECEF
 };
 
 // glTF 2.0 binary of the low-poly mesh (CONTRACT section 5).
-std::vector<std::uint8_t> encodeGlb(const mesh::LowPolyMesh& mesh, const GlbInfo& info);
+std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info);
 
 struct TileJsonInfo {
   std::string name;                    // the layer

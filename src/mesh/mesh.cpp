@@ -95,7 +95,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   return mesh;
 }
 
-LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
+GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
   const int s = samples.tile_size;
   const int a = samples.apron;
   // Low-poly vertex k sits at texel-corner coordinate k * s / (grid - 1); the
@@ -107,7 +107,7 @@ LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
     return interpolatePosition(samples.position, sampleCoord(kc), sampleCoord(kr));
   };
 
-  LowPolyMesh mesh;
+  GridMesh mesh;
   mesh.grid = grid;
   for (int r = 0; r < grid; ++r) {
     for (int c = 0; c < grid; ++c) {
@@ -126,7 +126,27 @@ LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
   return mesh;
 }
 
-TangentFrame lowPolyFrameAt(const LowPolyMesh& mesh, glm::dvec2 uv) {
+GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
+  const int s = samples.tile_size;
+  const int a = samples.apron;
+  const auto& p = samples.position;
+  GridMesh mesh;
+  mesh.grid = s + 1;
+  for (int j = 0; j <= s; ++j) {
+    for (int i = 0; i <= s; ++i) {
+      const int c = a + i, r = a + j;
+      const Frame frame = frameFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+      mesh.position.emplace_back(p.at(c, r));
+      mesh.normal.emplace_back(frame.normal);
+      mesh.tangent.emplace_back(frame.tangent);
+      mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
+    }
+  }
+  mesh.indices = gridIndices(mesh.grid, mesh.grid);
+  return mesh;
+}
+
+TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv) {
   const GridTriangle tri = gridTriangleAt(uv * double(mesh.grid - 1), mesh.grid, mesh.grid);
   glm::dvec3 n(0), t(0);
   double w = 0;

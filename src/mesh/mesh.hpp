@@ -35,9 +35,10 @@ struct HighResMesh {
   std::vector<glm::vec3> normal;  // unit, smooth (central differences)
 };
 
-// A regular grid of `grid` x `grid` vertices spanning UV [0, 1] exactly, split
-// into triangles like HighResMesh. Vertex (c, r) has index r * grid + c.
-struct LowPolyMesh {
+// A regular grid of `grid` x `grid` vertices, split into triangles like
+// HighResMesh; what a .glb holds. Vertex (c, r) has index r * grid + c. The
+// low-poly mesh spans UV [0, 1] exactly.
+struct GridMesh {
   int grid = 0;
   std::vector<glm::vec3> position;
   std::vector<glm::vec3> normal;   // unit
@@ -73,8 +74,13 @@ GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows);
 int requiredApron(int tile_size, int grid);
 
 HighResMesh buildHighResMesh(const SampleGrid& samples);
-LowPolyMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
+GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
 
-TangentFrame lowPolyFrameAt(const LowPolyMesh& mesh, glm::dvec2 uv);
+// The high-res surface as a .glb-ready grid, for viewers that compare it with
+// the normal-mapped low-poly mesh: one vertex per texel centre from the tile's
+// first texel to the next tile's first, so neighbouring tiles meet.
+GridMesh buildHighResDisplayMesh(const SampleGrid& samples);
+
+TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv);
 
 }  // namespace terrabake::mesh

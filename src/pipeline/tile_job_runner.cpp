@@ -91,6 +91,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   settings.low_poly_grid = job.low_poly_grid;
   settings.bits = job.bits;
   settings.green = job.green == "up" ? bake::Green::kUp : bake::Green::kDown;
+  settings.high_res_mesh = job.high_res_mesh;
 
   // Everything that can fail for the whole run fails here, before any tile.
   const dem::DemSource dem(dem_path);
@@ -138,6 +139,9 @@ RunSummary runTileJob(const config::TileJob& job) {
         // The image first: a reader that finds the mesh also finds its texture.
         io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "png"), files->png);
         io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "glb"), files->glb);
+        if (!files->high_res_glb.empty()) {
+          io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "hires.glb"), files->high_res_glb);
+        }
         ++written;
       } catch (const std::exception& e) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));

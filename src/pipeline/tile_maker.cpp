@@ -84,7 +84,7 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
-  const mesh::LowPolyMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
+  const mesh::GridMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
   const bake::NormalMap map = s.baker->bake(high, low, size);
 
   io::GlbInfo glb_info;
@@ -95,6 +95,10 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan
   TileFiles files;
   files.png = io::encodePng(bake::encodeNormalMap(map, s.settings.bits, s.settings.green), s.settings.bits);
   files.glb = io::encodeGlb(low, glb_info);
+  if (s.settings.high_res_mesh) {
+    glb_info.normal_texture_uri.clear();
+    files.high_res_glb = io::encodeGlb(mesh::buildHighResDisplayMesh(samples), glb_info);
+  }
   return files;
 }
 

@@ -21,11 +21,13 @@ struct TileSettings {
   int low_poly_grid = 17;
   int bits = 8;
   bake::Green green = bake::Green::kUp;
+  bool high_res_mesh = false;  // also make the high-res display mesh
 };
 
 struct TileFiles {
   std::vector<std::uint8_t> png;
   std::vector<std::uint8_t> glb;
+  std::vector<std::uint8_t> high_res_glb;  // empty unless asked for
 };
 
 class TileMaker {
