@@ -101,7 +101,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 11u);
+  ASSERT_EQ(keys.size(), 12u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {
@@ -118,6 +118,20 @@ TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   EXPECT_EQ(defaultOf("output.bits"), "8");
   EXPECT_EQ(defaultOf("output.layer"), "default");
   EXPECT_EQ(defaultOf("tiling.zoom"), "");
+  EXPECT_EQ(defaultOf("output.high_res_mesh"), "false");
+}
+
+TEST(ConfigOverrides, BooleanKeysTakeTrueOrFalse) {
+  TileJob job;
+  applyOverride(job, "output.high_res_mesh", "true", "--high-res-mesh");
+  EXPECT_TRUE(job.high_res_mesh);
+  try {
+    applyOverride(job, "output.high_res_mesh", "yes please", "--high-res-mesh");
+    FAIL() << "accepted a non-boolean";
+  } catch (const UsageError& e) {
+    EXPECT_STREQ(e.what(), "--high-res-mesh: output.high_res_mesh: expected true or false, got 'yes please'");
+  }
+  EXPECT_TRUE(job.high_res_mesh);  // a rejected value leaves the job unchanged
 }
 
 TEST(ConfigDefaults, EmptySectionsAreAllowed) {
