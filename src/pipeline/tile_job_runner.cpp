@@ -9,9 +9,12 @@
 #include <mutex>
 #include <thread>
 
+#include <unistd.h>
+
 #include "core/error.hpp"
 #include "core/log.hpp"
 #include "io/tile_files.hpp"
+#include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
 
 namespace terrabake::pipeline {
@@ -113,6 +116,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
   std::once_flag renderer_logged;
+  Progress progress(work.tiles.size(), ::isatty(STDERR_FILENO));
 
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
@@ -131,28 +135,24 @@ RunSummary runTileJob(const config::TileJob& job) {
     for (std::size_t i = next++; i < work.tiles.size(); i = next++) {
       const TileId& tile = work.tiles[i];
       try {
-        const auto files = maker->make(tile, work.plans.at(tile.z));
-        if (!files) {
+        if (const auto files = maker->make(tile, work.plans.at(tile.z))) {
+          writeTileFiles(summary.layer_dir, tile, *files);
+          ++written;
+        } else {
           ++empty;
-          continue;
         }
-        // The image first: a reader that finds the mesh also finds its texture.
-        io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "png"), files->png);
-        io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "glb"), files->glb);
-        if (!files->high_res_glb.empty()) {
-          io::writeFileAtomically(tiling::tilePath(summary.layer_dir, tile, "hires.glb"), files->high_res_glb);
-        }
-        ++written;
       } catch (const std::exception& e) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));
         ++failed;
       }
+      progress.tileDone();
     }
   };
 
   std::vector<std::thread> threads;
   for (int i = 0; i < workers; ++i) threads.emplace_back(worker);
   for (auto& t : threads) t.join();
+  progress.finish();
   if (fatal) std::rethrow_exception(fatal);
 
   const std::string tilejson = io::tileJson(tileJsonInfo(job, *scheme, dem));

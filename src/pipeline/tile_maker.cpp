@@ -65,6 +65,14 @@ struct TileMaker::Impl {
   }
 };
 
+void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files) {
+  io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "png"), files.png);
+  io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "glb"), files.glb);
+  if (!files.high_res_glb.empty()) {
+    io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "hires.glb"), files.high_res_glb);
+  }
+}
+
 TileMaker::TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, const TileSettings& settings,
                      gl::Backend backend)
     : m_impl(std::make_unique<Impl>(dem_path, scheme, settings, backend)) {}

@@ -30,6 +30,10 @@ struct TileFiles {
   std::vector<std::uint8_t> high_res_glb;  // empty unless asked for
 };
 
+// Writes a tile's files into the layer folder, each atomically; the image
+// first, so a reader that finds the mesh also finds its texture.
+void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files);
+
 class TileMaker {
  public:
   // Opens the DEM and makes the baker on the calling thread.
