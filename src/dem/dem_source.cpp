@@ -6,6 +6,7 @@
 #include <ogr_spatialref.h>
 
 #include <cmath>
+#include <cstring>
 #include <filesystem>
 #include <map>
 
@@ -43,6 +44,37 @@ struct GdalDatasetCloser {
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
 
+// Heights at or below this are void markers, declared or not: SRTM writes
+// -32768 and some products -32767; nothing on Earth lies below -11 km.
+constexpr double kVoidMarkerMax = -32767.0;
+
+bool isVoid(float value, const std::optional<double>& declared_nodata) {
+  return !std::isfinite(value) || value <= kVoidMarkerMax || (declared_nodata && value == *declared_nodata);
+}
+
+// Runs on each chunk the warper has loaded, before it resamples: clears the
+// validity bit of every void source pixel, so no kernel mixes a void marker
+// into a height. (A pre-warp hook, because this GDAL never calls the
+// unified validity-mask callback.)
+CPLErr maskVoids(void* kernel, void* declared_nodata) {
+  auto& wk = *static_cast<GDALWarpKernel*>(kernel);
+  const auto& nodata = *static_cast<const std::optional<double>*>(declared_nodata);
+  if (wk.eWorkingDataType != GDT_Float32) return CE_Failure;
+  const std::size_t count = std::size_t(wk.nSrcXSize) * wk.nSrcYSize;
+  if (count == 0) return CE_None;
+  if (!wk.panUnifiedSrcValid) {
+    // Freed by GDAL with the kernel; sized as its own masks are.
+    const std::size_t bytes = (count + WARP_EXTRA_ELTS + 31) / 32 * 4;
+    wk.panUnifiedSrcValid = static_cast<GUInt32*>(CPLMalloc(bytes));
+    std::memset(wk.panUnifiedSrcValid, 0xff, bytes);
+  }
+  const float* values = reinterpret_cast<const float*>(wk.papabySrcImage[0]);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (isVoid(values[i], nodata)) wk.panUnifiedSrcValid[i >> 5] &= ~(GUInt32(1) << (i & 31));
+  }
+  return CE_None;
+}
+
 struct WarpOptionsDeleter {
   void operator()(GDALWarpOptions* o) const { GDALDestroyWarpOptions(o); }
 };
@@ -60,7 +92,6 @@ struct LevelReader {
 struct DemSource::Impl {
   DatasetPtr dataset;
   OGRSpatialReference srs;
-  bool float_samples = false;
   // Built on first use, per (overview level, target CRS).
   std::map<std::pair<int, std::string>, LevelReader> readers;
 
@@ -126,7 +157,6 @@ DemSource::DemSource(const std::string& path) : m_impl(std::make_unique<Impl>())
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) m_info.nodata = nodata;
   m_info.overview_count = band->GetOverviewCount();
-  m_impl->float_samples = GDALDataTypeIsFloating(band->GetRasterDataType());
 }
 
 DemSource::~DemSource() = default;
@@ -192,12 +222,8 @@ Raster<float> DemSource::read(const GridSpec& grid, const ReadPlan& plan) const 
   options->eWorkingDataType = GDT_Float32;
   options->pfnTransformer = LatticeTransformer::transform;
   options->pTransformerArg = reader.transformer.get();
-  // Holes become NaN; a float DEM without a declared nodata value marks its
-  // holes with NaN too.
-  if (m_info.nodata || m_impl->float_samples) {
-    options->padfSrcNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
-    options->padfSrcNoDataReal[0] = m_info.nodata ? *m_info.nodata : double(NAN);
-  }
+  options->pfnPreWarpChunkProcessor = maskVoids;
+  options->pPreWarpProcessorArg = const_cast<std::optional<double>*>(&m_info.nodata);
   options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
   options->padfDstNoDataReal[0] = NAN;
   options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");

@@ -41,7 +41,9 @@ class DemSource {
   // The read plan for grids of the cell size `representative` has.
   ReadPlan planFor(const GridSpec& representative) const;
 
-  // Heights on `grid`, NaN where no valid DEM sample reaches.
+  // Heights on `grid`, NaN where no valid DEM sample reaches. Void samples
+  // are the declared nodata value, NaN, infinities and the void markers
+  // -32768 and -32767 (SRTM), declared or not.
   Raster<float> read(const GridSpec& grid, const ReadPlan& plan) const;
 
  private:
