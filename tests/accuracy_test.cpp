@@ -3,9 +3,6 @@
 // renderer does, and compared with the terrain's exact normal.
 #include <gtest/gtest.h>
 
-#include <gdal_priv.h>
-#include <ogr_spatialref.h>
-
 #include <algorithm>
 #include <memory>
 #include <vector>
@@ -35,46 +32,6 @@ constexpr double kEdgeMarginPx = 25;
 constexpr double kCentreLon = 15.3, kCentreLat = 60.0;  // UTM zone 33, 60 degrees north
 constexpr int kDemPixels = 512;
 constexpr double kPixelM = 30.0;
-
-// The DEM's pixel grid, for locating texels with GDAL, not with terrabake.
-class DemGeometry {
- public:
-  explicit DemGeometry(const std::filesystem::path& path) {
-    GDALAllRegister();
-    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));
-    ds->GetGeoTransform(m_gt);
-    m_width = ds->GetRasterXSize();
-    m_height = ds->GetRasterYSize();
-    OGRSpatialReference wgs84;
-    wgs84.importFromEPSG(4326);
-    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    OGRSpatialReference dem_srs(*ds->GetSpatialRef());
-    dem_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-    m_to_dem.reset(OGRCreateCoordinateTransformation(&wgs84, &dem_srs));
-    m_to_lon_lat.reset(OGRCreateCoordinateTransformation(&dem_srs, &wgs84));
-  }
-
-  // Pixel (fractional, centre of pixel 0 at 0.5) of a lon/lat point.
-  glm::dvec2 pixelOf(glm::dvec2 lon_lat) const {
-    double x = lon_lat.x, y = lon_lat.y;
-    m_to_dem->Transform(1, &x, &y);
-    return {(x - m_gt[0]) / m_gt[1], (y - m_gt[3]) / m_gt[5]};
-  }
-  glm::dvec2 lonLatOfPixel(double col, double row) const {
-    double x = m_gt[0] + col * m_gt[1], y = m_gt[3] + row * m_gt[5];
-    m_to_lon_lat->Transform(1, &x, &y);
-    return {x, y};
-  }
-  bool wellInside(glm::dvec2 px) const {
-    return px.x > kEdgeMarginPx && px.y > kEdgeMarginPx && px.x < m_width - kEdgeMarginPx &&
-           px.y < m_height - kEdgeMarginPx;
-  }
-
- private:
-  double m_gt[6] = {};
-  int m_width = 0, m_height = 0;
-  std::unique_ptr<OGRCoordinateTransformation> m_to_dem, m_to_lon_lat;
-};
 
 struct AngleStats {
   std::size_t count = 0;
@@ -126,7 +83,7 @@ class Accuracy : public ::testing::TestWithParam<Case> {};
 TEST_P(Accuracy, DecodedNormalsMatchTheAnalyticTerrain) {
   const Case c = GetParam();
   const auto dem = demFor(c.crs);
-  const DemGeometry geometry(dem);
+  const test::DemGeometry geometry(dem);
   // Web Mercator zoom 12 has 19 m texels at 60 degrees north, the finest
   // zoom that does not undersample a 30 m DEM by more than 2x; native's
   // deepest level is the DEM's own grid.
@@ -154,7 +111,7 @@ TEST_P(Accuracy, DecodedNormalsMatchTheAnalyticTerrain) {
           const glm::dvec2 lon_lat =
               native ? geometry.lonLatOfPixel(tile.x * size + i + 0.5, tile.y * size + j + 0.5)
                      : test::webMercatorTexelLonLat(tile, size, i, j);
-          if (!geometry.wellInside(geometry.pixelOf(lon_lat))) continue;
+          if (!geometry.wellInside(geometry.pixelOf(lon_lat), kEdgeMarginPx)) continue;
           const auto n = decoded.ecefNormal(i, j);
           if (!n) {
             ++undecodable;

@@ -45,7 +45,7 @@ TEST(DemSource, ReadsItsOwnGridExactly) {
   const auto path = test::sharedFixture("analytic_utm33_64.tif", [](const auto& p) {
     test_support::writeUtmDem(p, 15.3, 60.0, 30.0, 64, 64);
   });
-  const dem::DemSource dem(path.string());
+  const dem::DemSource dem({path.string()});
   const GridSpec& g = dem.info().grid;
   EXPECT_EQ(g.width, 64);
   EXPECT_DOUBLE_EQ(g.cell_w, 30.0);
@@ -100,7 +100,7 @@ std::filesystem::path demWithUndeclaredVoids(GDALDataType type) {
 class UndeclaredVoids : public ::testing::TestWithParam<GDALDataType> {};
 
 TEST_P(UndeclaredVoids, BecomeHolesWithoutTouchingTheirNeighbours) {
-  const dem::DemSource dem(demWithUndeclaredVoids(GetParam()).string());
+  const dem::DemSource dem({demWithUndeclaredVoids(GetParam()).string()});
   EXPECT_FALSE(dem.info().nodata.has_value());
   // Web Mercator at 60 degrees north: every texel is interpolated from
   // several DEM pixels, so a void marker mixed in would show as a spike.

@@ -7,7 +7,11 @@
 #include <optional>
 #include <string>
 
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
 #include <unistd.h>
+
+#include <memory>
 
 #include <glm/geometric.hpp>
 #include <glm/vec3.hpp>
@@ -93,5 +97,44 @@ inline glm::dvec2 webMercatorTexelLonLat(const TileId& tile, int tile_size, doub
   const double y = world / 2 - (tile.y + (j + 0.5) / tile_size) * tile_m;
   return {x / kRadius * 180 / M_PI, std::atan(std::sinh(y / kRadius)) * 180 / M_PI};
 }
+
+// The DEM's pixel grid, for locating texels with GDAL, not with terrabake.
+class DemGeometry {
+ public:
+  explicit DemGeometry(const std::filesystem::path& path) {
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER));
+    ds->GetGeoTransform(m_gt);
+    m_width = ds->GetRasterXSize();
+    m_height = ds->GetRasterYSize();
+    OGRSpatialReference wgs84;
+    wgs84.importFromEPSG(4326);
+    wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    OGRSpatialReference dem_srs(*ds->GetSpatialRef());
+    dem_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    m_to_dem.reset(OGRCreateCoordinateTransformation(&wgs84, &dem_srs));
+    m_to_lon_lat.reset(OGRCreateCoordinateTransformation(&dem_srs, &wgs84));
+  }
+
+  // Pixel (fractional, centre of pixel 0 at 0.5) of a lon/lat point.
+  glm::dvec2 pixelOf(glm::dvec2 lon_lat) const {
+    double x = lon_lat.x, y = lon_lat.y;
+    m_to_dem->Transform(1, &x, &y);
+    return {(x - m_gt[0]) / m_gt[1], (y - m_gt[3]) / m_gt[5]};
+  }
+  glm::dvec2 lonLatOfPixel(double col, double row) const {
+    double x = m_gt[0] + col * m_gt[1], y = m_gt[3] + row * m_gt[5];
+    m_to_lon_lat->Transform(1, &x, &y);
+    return {x, y};
+  }
+  bool wellInside(glm::dvec2 px, double margin_px) const {
+    return px.x > margin_px && px.y > margin_px && px.x < m_width - margin_px && px.y < m_height - margin_px;
+  }
+
+ private:
+  double m_gt[6] = {};
+  int m_width = 0, m_height = 0;
+  std::unique_ptr<OGRCoordinateTransformation> m_to_dem, m_to_lon_lat;
+};
 
 }  // namespace terrabake::test

@@ -11,6 +11,8 @@
 #include <map>
 
 #include "layer_check.hpp"
+#include "core/error.hpp"
+#include "dem/dem_source.hpp"
 #include "support/analytic_terrain.hpp"
 
 namespace terrabake {
@@ -90,6 +92,91 @@ TEST(Pipeline, WorkerCountDoesNotChangeAByte) {
   const auto a = filesOf(test::layerDir(one)), b = filesOf(test::layerDir(two));
   EXPECT_GT(a.size(), 10u);
   EXPECT_TRUE(a == b) << "layers made with 1 and 2 workers differ";
+}
+
+}  // namespace
+}  // namespace terrabake
+
+namespace terrabake {
+namespace {
+
+namespace ts = test_support;
+
+// A fallback DEM of the same terrain fills a void of the first one: the
+// decoded normals there match the terrain (within the 8-bit accuracy bound
+// of the issue plus resampling from another CRS), and the edges of the
+// former hole show no spike or wall.
+constexpr double kMaxMergedAngleDeg = 1.0;
+// Control: without the fallback, the void is interpolated and the normals
+// there are visibly wrong, so the bound above can tell the two apart.
+constexpr double kMinInterpolatedAngleDeg = 3.0;
+
+constexpr double kCentreLon = 15.3, kCentreLat = 60.0;
+
+// The analytic terrain in UTM with a 40 x 40 pixel void in the middle.
+std::filesystem::path demWithVoid() {
+  return test::sharedFixture("void_utm33_128.tif", [](const std::filesystem::path& path) {
+    ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 128, 128);
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    const std::vector<float> voids(40 * 40, NAN);
+    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 44, 44, 40, 40, const_cast<float*>(voids.data()), 40, 40,
+                                             GDT_Float32, 0, 0),
+              CE_None);
+  });
+}
+
+// The same terrain in EPSG:4326 over the middle of the first DEM, so the
+// layer keeps the first DEM's grid.
+std::filesystem::path geographicFallback() {
+  return test::sharedFixture("fallback_epsg4326.tif", [](const std::filesystem::path& path) {
+    const double lat_deg = 30.0 / 111320.0;
+    ts::writeGeographicDem(path, kCentreLon, kCentreLat, 2 * lat_deg, lat_deg, 70, 70);
+  });
+}
+
+// Worst angle between decoded and true normals over the texels of the void.
+double worstAngleInVoidDeg(const std::vector<std::string>& dems, const std::string& name) {
+  config::TileJob job = test::tileJob(dems.front(), "pipeline/" + name, "native", 1, 1);
+  job.dems = dems;
+  job.tile_size = 64;
+  EXPECT_EQ(pipeline::runTileJob(job).failed, 0);
+  const test::DemGeometry geometry(dems.front());
+  double worst = 0;
+  for (int ty = 0; ty < 2; ++ty) {
+    for (int tx = 0; tx < 2; ++tx) {
+      const test::DecodedTile tile = test::readTile(test::layerDir(job), {1, tx, ty});
+      for (int j = 0; j < 64; ++j) {
+        for (int i = 0; i < 64; ++i) {
+          const double col = tx * 64 + i + 0.5, row = ty * 64 + j + 0.5;
+          // The void and a ring of 6 pixels around it: where walls would show.
+          if (col < 38 || col > 90 || row < 38 || row > 90) continue;
+          const glm::dvec2 lon_lat = geometry.lonLatOfPixel(col, row);
+          worst = std::max(worst, test::angleBetweenDeg(*tile.ecefNormal(i, j), ts::normalEcef(lon_lat.x, lon_lat.y)));
+        }
+      }
+    }
+  }
+  return worst;
+}
+
+TEST(Pipeline, FallbackDemFillsTheVoidsOfTheFirst) {
+  const std::string first = demWithVoid().string(), fallback = geographicFallback().string();
+  const double merged = worstAngleInVoidDeg({first, fallback}, "merged");
+  const double alone = worstAngleInVoidDeg({first}, "alone");
+  std::printf("worst angle over the void: %.3f deg merged, %.3f deg interpolated alone\n", merged, alone);
+  EXPECT_LE(merged, kMaxMergedAngleDeg);
+  EXPECT_GE(alone, kMinInterpolatedAngleDeg);
+}
+
+TEST(Pipeline, GlobsExpandInSortedOrder) {
+  const auto dir = test::testOutput("pipeline/glob_inputs");
+  std::filesystem::create_directories(dir);
+  std::filesystem::copy_file(demWithVoid(), dir / "a.tif", std::filesystem::copy_options::overwrite_existing);
+  std::filesystem::copy_file(geographicFallback(), dir / "b.tif", std::filesystem::copy_options::overwrite_existing);
+  const dem::DemSource dem({(dir / "*.tif").string()});
+  EXPECT_EQ(dem.info().path, (dir / "a.tif").string() + ", " + (dir / "b.tif").string());
+  EXPECT_THROW(dem::DemSource({(dir / "*.hgt").string()}), InputError);
 }
 
 }  // namespace

@@ -87,7 +87,6 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const tiling::Scheme& 
 RunSummary runTileJob(const config::TileJob& job) {
   const auto start = std::chrono::steady_clock::now();
   config::validate(job, "job");
-  const std::string dem_path = job.dems.front();
   const gl::Backend backend = gl::parseBackend(job.backend);
   TileSettings settings;
   settings.tile_size = job.tile_size;
@@ -97,7 +96,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   settings.high_res_mesh = job.high_res_mesh;
 
   // Everything that can fail for the whole run fails here, before any tile.
-  const dem::DemSource dem(dem_path);
+  const dem::DemSource dem(job.dems);
   const auto scheme = makeScheme(job, dem);
   const WorkList work = planWork(job, *scheme, dem, mesh::requiredApron(job.tile_size, job.low_poly_grid));
   RunSummary summary;
@@ -121,7 +120,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
     try {
-      maker = std::make_unique<TileMaker>(dem_path, *scheme, settings, backend);
+      maker = std::make_unique<TileMaker>(job.dems, *scheme, settings, backend);
     } catch (...) {
       std::lock_guard<std::mutex> lock(fatal_mutex);
       if (!fatal) fatal = std::current_exception();

@@ -30,8 +30,9 @@ struct TileMaker::Impl {
   std::unique_ptr<bake::Baker> baker;
   int apron;
 
-  Impl(const std::string& dem_path, const tiling::Scheme& s, const TileSettings& ts, gl::Backend backend)
-      : dem(dem_path),
+  Impl(const std::vector<std::string>& dem_paths, const tiling::Scheme& s, const TileSettings& ts,
+       gl::Backend backend)
+      : dem(dem_paths),
         scheme(s),
         settings(ts),
         to_lon_lat(s.crs()),
@@ -73,9 +74,9 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
   }
 }
 
-TileMaker::TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, const TileSettings& settings,
+TileMaker::TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme, const TileSettings& settings,
                      gl::Backend backend)
-    : m_impl(std::make_unique<Impl>(dem_path, scheme, settings, backend)) {}
+    : m_impl(std::make_unique<Impl>(dem_paths, scheme, settings, backend)) {}
 
 TileMaker::~TileMaker() = default;
 

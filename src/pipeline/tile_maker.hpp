@@ -36,8 +36,9 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
 
 class TileMaker {
  public:
-  // Opens the DEM and makes the baker on the calling thread.
-  TileMaker(const std::string& dem_path, const tiling::Scheme& scheme, const TileSettings& settings,
+  // Opens the DEM (files in priority order) and makes the baker on the
+  // calling thread.
+  TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme, const TileSettings& settings,
             gl::Backend backend);
   ~TileMaker();
 

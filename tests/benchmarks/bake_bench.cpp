@@ -109,7 +109,7 @@ void prepareBenchData() {
   ts::writeUtmDem(data.dem_path, kCentreLon, kCentreLat, kDemPixelM, kDemPixels, kDemPixels);
 
   data.scheme = tiling::makeWebMercator();
-  const dem::DemSource dem(data.dem_path);
+  const dem::DemSource dem({data.dem_path});
   Extent inner = dem.boundsIn(data.scheme->crs());
   inner.min_x += kInteriorMarginM, inner.min_y += kInteriorMarginM;
   inner.max_x -= kInteriorMarginM, inner.max_y -= kInteriorMarginM;
@@ -202,7 +202,7 @@ void benchMesh(benchmark::State& state) {
 
 void benchReadWindow(benchmark::State& state) {
   const BenchData& data = benchData();
-  const dem::DemSource dem(data.dem_path);
+  const dem::DemSource dem({data.dem_path});
   const TileId& tile = data.tiles[data.tiles.size() / 2];
   const GridSpec grid = data.scheme->texelGrid(tile, kTileSize, mesh::requiredApron(kTileSize, kGrid));
   for (auto _ : state) {
@@ -240,7 +240,8 @@ void benchWholeTile(benchmark::State& state, BackendCase backend) {
   settings.low_poly_grid = kGrid;
   settings.bits = kBits;
   pipeline::TileMaker* maker = acquire<pipeline::TileMaker>(state, std::string("tile maker ") + backend.name, [&] {
-    return std::make_shared<pipeline::TileMaker>(data.dem_path, *data.scheme, settings, backend.backend);
+    return std::make_shared<pipeline::TileMaker>(std::vector<std::string>{data.dem_path}, *data.scheme, settings,
+                                                 backend.backend);
   });
   if (!maker) return;
   const std::string layer_dir = (data.work_dir / backend.name).string();

@@ -1,0 +1,249 @@
+#include "dem/dem_file.hpp"
+
+#include <cpl_conv.h>
+#include <gdal_priv.h>
+#include <gdalwarper.h>
+#include <ogr_spatialref.h>
+
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <map>
+
+#include "core/error.hpp"
+#include "dem/gdal_setup.hpp"
+#include "dem/lattice_transformer.hpp"
+
+namespace terrabake::dem {
+namespace {
+
+std::string lastGdalError() {
+  const char* message = CPLGetLastErrorMsg();
+  return message && *message ? oneLine(message) : "unknown GDAL error";
+}
+
+OGRSpatialReference spatialReference(const std::string& crs) {
+  OGRSpatialReference srs;
+  if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
+    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
+  }
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
+  return srs;
+}
+
+std::string toWkt(const OGRSpatialReference& srs) {
+  char* wkt = nullptr;
+  srs.exportToWkt(&wkt);
+  std::string result = wkt ? wkt : "";
+  CPLFree(wkt);
+  return result;
+}
+
+struct GdalDatasetCloser {
+  void operator()(GDALDataset* ds) const { GDALClose(ds); }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
+
+// Heights at or below this are void markers, declared or not: SRTM writes
+// -32768 and some products -32767; nothing on Earth lies below -11 km.
+constexpr double kVoidMarkerMax = -32767.0;
+
+bool isVoid(float value, const std::optional<double>& declared_nodata) {
+  return !std::isfinite(value) || value <= kVoidMarkerMax || (declared_nodata && value == *declared_nodata);
+}
+
+// Runs on each chunk the warper has loaded, before it resamples: clears the
+// validity bit of every void source pixel, so no kernel mixes a void marker
+// into a height. (A pre-warp hook, because this GDAL never calls the
+// unified validity-mask callback.)
+CPLErr maskVoids(void* kernel, void* declared_nodata) {
+  auto& wk = *static_cast<GDALWarpKernel*>(kernel);
+  const auto& nodata = *static_cast<const std::optional<double>*>(declared_nodata);
+  if (wk.eWorkingDataType != GDT_Float32) return CE_Failure;
+  const std::size_t count = std::size_t(wk.nSrcXSize) * wk.nSrcYSize;
+  if (count == 0) return CE_None;
+  if (!wk.panUnifiedSrcValid) {
+    // Freed by GDAL with the kernel; sized as its own masks are.
+    const std::size_t bytes = (count + WARP_EXTRA_ELTS + 31) / 32 * 4;
+    wk.panUnifiedSrcValid = static_cast<GUInt32*>(CPLMalloc(bytes));
+    std::memset(wk.panUnifiedSrcValid, 0xff, bytes);
+  }
+  const float* values = reinterpret_cast<const float*>(wk.papabySrcImage[0]);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (isVoid(values[i], nodata)) wk.panUnifiedSrcValid[i >> 5] &= ~(GUInt32(1) << (i & 31));
+  }
+  return CE_None;
+}
+
+struct WarpOptionsDeleter {
+  void operator()(GDALWarpOptions* o) const { GDALDestroyWarpOptions(o); }
+};
+
+}  // namespace
+
+// What reads a DEM level onto grids of one CRS: the level's own handle (an
+// overview opens as a dataset of its own) and the transformer to the grids.
+struct LevelReader {
+  DatasetPtr dataset;
+  std::string target_wkt;
+  std::unique_ptr<LatticeTransformer> transformer;
+};
+
+struct DemFile::Impl {
+  DatasetPtr dataset;
+  OGRSpatialReference srs;
+  // Built on first use, per (overview level, target CRS).
+  std::map<std::pair<int, std::string>, LevelReader> readers;
+
+  LevelReader& readerFor(const std::string& path, int overview, const std::string& crs) {
+    auto it = readers.find({overview, crs});
+    if (it != readers.end()) return it->second;
+    LevelReader reader;
+    if (overview < 0) {
+      reader.dataset.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
+                                                              nullptr, nullptr, nullptr)));
+    } else {
+      const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
+      const char* options[] = {level.c_str(), nullptr};
+      reader.dataset.reset(GDALDataset::FromHandle(
+          GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
+    }
+    if (!reader.dataset) throw InputError("dem: cannot reopen '" + path + "' (" + lastGdalError() + ")");
+    reader.target_wkt = toWkt(spatialReference(crs));
+    reader.transformer =
+        std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);
+    return readers.emplace(std::make_pair(overview, crs), std::move(reader)).first->second;
+  }
+};
+
+DemFile::DemFile(const std::string& path) : m_impl(std::make_unique<Impl>()) {
+  ensureGdalReady();
+  std::error_code ec;
+  if (!std::filesystem::exists(path, ec)) throw InputError("dem: cannot open '" + path + "': no such file");
+  CPLErrorReset();
+  m_impl->dataset.reset(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!m_impl->dataset) {
+    throw InputError("dem: '" + path + "' is not a raster GDAL can read (" + lastGdalError() + ")");
+  }
+  GDALDataset& ds = *m_impl->dataset;
+  if (ds.GetRasterCount() < 1) throw InputError("dem: '" + path + "' has no raster band");
+
+  const OGRSpatialReference* srs = ds.GetSpatialRef();
+  if (!srs || srs->IsEmpty()) {
+    throw InputError("dem: '" + path + "' has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
+  }
+  m_impl->srs = *srs;
+  m_impl->srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+
+  double gt[6];
+  if (ds.GetGeoTransform(gt) != CE_None) {
+    throw InputError("dem: '" + path + "' has no georeferencing (geotransform)");
+  }
+  if (gt[2] != 0.0 || gt[4] != 0.0 || gt[5] >= 0.0) {
+    throw InputError("dem: '" + path + "' is not north-up (rotated or flipped); warp it first with gdalwarp");
+  }
+
+  m_info.path = path;
+  m_info.grid.crs = toWkt(m_impl->srs);
+  m_info.grid.origin_x = gt[0];
+  m_info.grid.origin_y = gt[3];
+  m_info.grid.cell_w = gt[1];
+  m_info.grid.cell_h = -gt[5];
+  m_info.grid.width = ds.GetRasterXSize();
+  m_info.grid.height = ds.GetRasterYSize();
+  GDALRasterBand* band = ds.GetRasterBand(1);
+  int has_nodata = 0;
+  const double nodata = band->GetNoDataValue(&has_nodata);
+  if (has_nodata) m_info.nodata = nodata;
+  m_info.overview_count = band->GetOverviewCount();
+}
+
+DemFile::~DemFile() = default;
+
+Extent DemFile::boundsIn(const std::string& crs) const {
+  const GridSpec& g = m_info.grid;
+  const double west = g.origin_x, north = g.origin_y;
+  const double east = west + g.width * g.cell_w, south = north - g.height * g.cell_h;
+  const OGRSpatialReference target = spatialReference(crs);
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_impl->srs, &target));
+  Extent out;
+  constexpr int kDensifyPoints = 21;
+  if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
+                                  kDensifyPoints)) {
+    throw InputError("dem: cannot transform the extent of '" + m_info.path + "' to the tiling CRS (" +
+                     lastGdalError() + ")");
+  }
+  return out;
+}
+
+FilePlan DemFile::planFor(const GridSpec& grid) const {
+  // Size of one grid cell in DEM pixels, measured at the grid's centre.
+  const OGRSpatialReference source = spatialReference(grid.crs);
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&source, &m_impl->srs));
+  if (!ct) throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" + m_info.path + "'");
+  const double cx = grid.centreX(grid.width / 2.0), cy = grid.centreY(grid.height / 2.0);
+  double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
+  if (!ct->Transform(3, x, y)) throw InputError("dem: cannot transform a tile centre into '" + m_info.path + "'");
+  const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
+  const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
+  const double pixels_per_cell = std::sqrt(du * dv);
+
+  FilePlan plan;
+  plan.average = pixels_per_cell > 1.0;
+  // The coarsest overview still at least as fine as a cell.
+  GDALRasterBand* band = m_impl->dataset->GetRasterBand(1);
+  for (int i = 0; i < m_info.overview_count; ++i) {
+    const double factor = double(m_info.grid.width) / band->GetOverview(i)->GetXSize();
+    if (factor <= pixels_per_cell) plan.overview = i;
+  }
+  return plan;
+}
+
+void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) const {
+  LevelReader& reader = m_impl->readerFor(m_info.path, plan.overview, grid.crs);
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
+  double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
+  target->SetGeoTransform(gt);
+  target->SetProjection(reader.target_wkt.c_str());
+  reader.transformer->prepare(grid);
+
+  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
+  options->hSrcDS = GDALDataset::ToHandle(reader.dataset.get());
+  options->hDstDS = GDALDataset::ToHandle(target.get());
+  options->nBandCount = 1;
+  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panSrcBands[0] = options->panDstBands[0] = 1;
+  options->eResampleAlg = plan.average ? GRA_Average : GRA_Cubic;
+  options->eWorkingDataType = GDT_Float32;
+  options->pfnTransformer = LatticeTransformer::transform;
+  options->pTransformerArg = reader.transformer.get();
+  options->pfnPreWarpChunkProcessor = maskVoids;
+  options->pPreWarpProcessorArg = const_cast<std::optional<double>*>(&m_info.nodata);
+  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
+  options->padfDstNoDataReal[0] = NAN;
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
+  // A window this file does not reach is no error: it just fills nothing.
+  options->papszWarpOptions =
+      CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
+
+  GDALWarpOperation warp;
+  CPLErrorReset();
+  if (warp.Initialize(options.get()) != CE_None ||
+      warp.ChunkAndWarpImage(0, 0, grid.width, grid.height) != CE_None) {
+    throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
+  }
+
+  Raster<float> warped(grid.width, grid.height);
+  if (target->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, grid.width, grid.height, warped.data.data(),
+                                         grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
+    throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
+  }
+  for (std::size_t k = 0; k < heights.data.size(); ++k) {
+    if (std::isnan(heights.data[k])) heights.data[k] = warped.data[k];
+  }
+}
+
+}  // namespace terrabake::dem
