@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <map>
 #include <cmath>
 #include <vector>
 
@@ -175,6 +176,36 @@ INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, Mosaic,
                          ::testing::Values(MosaicCase{12, kSameCellsGrid}, MosaicCase{12, kBigGrid},
                                            MosaicCase{11, kSameCellsGrid}, MosaicCase{11, kBigGrid}),
                          [](const auto& info) { return mosaicName(info.param); });
+
+// Tiles that lie partly outside the DEM fill the rest from the DEM around
+// them and from the job's backdrop; their shared edges must still meet
+// (CONTRACT section 5 makes no exception at the DEM's edge).
+TEST(MosaicAtTheDemEdge, TilesBeyondTheDemStillShareTheirEdges) {
+  const auto dem = test::sharedFixture("analytic_utm33_128.tif", [](const auto& path) {
+    ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 128, 128);
+  });
+  constexpr int kZoom = 13;  // 2.4 km tiles around a 3.8 km DEM
+  config::TileJob job = test::tileJob(dem, "mosaic/dem_edge", "webmercator", kZoom, kZoom);
+  job.tile_size = 128;
+  const auto summary = pipeline::runTileJob(job);
+  ASSERT_EQ(summary.failed, 0);
+  std::map<std::pair<int, int>, ts::GlbMesh> meshes;
+  for (const auto& column : std::filesystem::directory_iterator(test::layerDir(job) / std::to_string(kZoom))) {
+    for (const auto& file : std::filesystem::directory_iterator(column.path())) {
+      if (file.path().extension() != ".glb") continue;
+      meshes[{std::stoi(column.path().filename().string()), std::stoi(file.path().stem().string())}] =
+          ts::readGlb(file.path());
+    }
+  }
+  int shared_edges = 0;
+  for (const auto& [xy, mesh] : meshes) {
+    const auto east = meshes.find({xy.first + 1, xy.second});
+    const auto south = meshes.find({xy.first, xy.second + 1});
+    if (east != meshes.end()) expectSharedEdge(mesh, east->second, true), ++shared_edges;
+    if (south != meshes.end()) expectSharedEdge(mesh, south->second, false), ++shared_edges;
+  }
+  EXPECT_GE(shared_edges, 4);
+}
 
 }  // namespace
 }  // namespace terrabake

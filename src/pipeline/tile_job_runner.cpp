@@ -102,6 +102,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   RunSummary summary;
   summary.layer_dir = (std::filesystem::path(job.output_dir) / job.layer).lexically_normal().string();
   prepareOutputFolder(summary.layer_dir);
+  const auto backdrop = std::make_shared<const dem::Backdrop>(dem, scheme->crs());
   // Logged only now, so a run that cannot start prints its one error line alone.
   for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
     const auto count = std::count_if(work.tiles.begin(), work.tiles.end(), [z](const TileId& t) { return t.z == z; });
@@ -120,7 +121,7 @@ RunSummary runTileJob(const config::TileJob& job) {
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
     try {
-      maker = std::make_unique<TileMaker>(job.dems, *scheme, settings, backend);
+      maker = std::make_unique<TileMaker>(job.dems, *scheme, settings, backend, backdrop);
     } catch (...) {
       std::lock_guard<std::mutex> lock(fatal_mutex);
       if (!fatal) fatal = std::current_exception();

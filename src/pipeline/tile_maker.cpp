@@ -1,5 +1,6 @@
 #include "pipeline/tile_maker.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "dem/crs_transform.hpp"
@@ -10,6 +11,17 @@
 
 namespace terrabake::pipeline {
 namespace {
+
+// Holes are filled this far (texels) from the nearest valid sample; texels
+// further away take the job's backdrop.
+constexpr int kMaxFillTexels = 64;
+// A filled texel depends on samples within 2 * kMaxFillTexels of it, so the
+// fill reads that much beyond the texels it hands back.
+constexpr int kFillMargin = 2 * kMaxFillTexels;
+
+bool hasHoles(const Raster<float>& heights) {
+  return std::any_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); });
+}
 
 bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
   for (int r = apron; r < apron + tile_size; ++r) {
@@ -28,16 +40,39 @@ struct TileMaker::Impl {
   TileSettings settings;
   dem::ToLonLat to_lon_lat;
   std::unique_ptr<bake::Baker> baker;
+  std::shared_ptr<const dem::Backdrop> backdrop;
   int apron;
 
   Impl(const std::vector<std::string>& dem_paths, const tiling::Scheme& s, const TileSettings& ts,
-       gl::Backend backend)
+       gl::Backend backend, std::shared_ptr<const dem::Backdrop> b)
       : dem(dem_paths),
         scheme(s),
         settings(ts),
         to_lon_lat(s.crs()),
         baker(gl::createBaker(backend)),
+        backdrop(std::move(b)),
         apron(mesh::requiredApron(ts.tile_size, ts.low_poly_grid)) {}
+
+  // Heights of `grid` with every hole filled so that the result depends only
+  // on where a texel is, not on which tile asks: the fill reads a margin
+  // around the window, and what it cannot reach comes from the backdrop.
+  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& plan) const {
+    GridSpec wide = grid;
+    wide.origin_x -= kFillMargin * grid.cell_w;
+    wide.origin_y += kFillMargin * grid.cell_h;
+    wide.width += 2 * kFillMargin;
+    wide.height += 2 * kFillMargin;
+    Raster<float> heights = dem.read(wide, plan);
+    dem::extendIntoHoles(heights, kMaxFillTexels);
+    Raster<float> cropped(grid.width, grid.height);
+    for (int r = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c) {
+        const float h = heights.at(c + kFillMargin, r + kFillMargin);
+        cropped.at(c, r) = std::isnan(h) ? backdrop->heightAt(grid.centreX(c), grid.centreY(r)) : h;
+      }
+    }
+    return cropped;
+  }
 
   // Positions of every sample in the frame of the tile's centre.
   mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
@@ -74,9 +109,10 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
   }
 }
 
-TileMaker::TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme, const TileSettings& settings,
-                     gl::Backend backend)
-    : m_impl(std::make_unique<Impl>(dem_paths, scheme, settings, backend)) {}
+TileMaker::TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme,
+                     const TileSettings& settings, gl::Backend backend,
+                     std::shared_ptr<const dem::Backdrop> backdrop)
+    : m_impl(std::make_unique<Impl>(dem_paths, scheme, settings, backend, std::move(backdrop))) {}
 
 TileMaker::~TileMaker() = default;
 
@@ -88,7 +124,7 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan
   const GridSpec grid = s.scheme.texelGrid(tile, size, s.apron);
   Raster<float> heights = s.dem.read(grid, plan);
   if (!hasValidSample(heights, s.apron, size)) return std::nullopt;
-  dem::fillHoles(heights);
+  if (hasHoles(heights)) heights = s.filledHeights(grid, plan);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);

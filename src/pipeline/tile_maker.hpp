@@ -10,6 +10,7 @@
 
 #include "bake/encode.hpp"
 #include "core/types.hpp"
+#include "dem/backdrop.hpp"
 #include "dem/dem_source.hpp"
 #include "gl/baker_factory.hpp"
 #include "tiling/scheme.hpp"
@@ -37,9 +38,9 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
 class TileMaker {
  public:
   // Opens the DEM (files in priority order) and makes the baker on the
-  // calling thread.
+  // calling thread. `backdrop` is the job's, shared by every worker.
   TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme, const TileSettings& settings,
-            gl::Backend backend);
+            gl::Backend backend, std::shared_ptr<const dem::Backdrop> backdrop);
   ~TileMaker();
 
   // nullopt when the tile holds no valid DEM sample (it is not written).

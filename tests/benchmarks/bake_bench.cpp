@@ -240,8 +240,9 @@ void benchWholeTile(benchmark::State& state, BackendCase backend) {
   settings.low_poly_grid = kGrid;
   settings.bits = kBits;
   pipeline::TileMaker* maker = acquire<pipeline::TileMaker>(state, std::string("tile maker ") + backend.name, [&] {
-    return std::make_shared<pipeline::TileMaker>(std::vector<std::string>{data.dem_path}, *data.scheme, settings,
-                                                 backend.backend);
+    const std::vector<std::string> dems{data.dem_path};
+    const auto backdrop = std::make_shared<const dem::Backdrop>(dem::DemSource(dems), data.scheme->crs());
+    return std::make_shared<pipeline::TileMaker>(dems, *data.scheme, settings, backend.backend, backdrop);
   });
   if (!maker) return;
   const std::string layer_dir = (data.work_dir / backend.name).string();

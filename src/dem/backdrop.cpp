@@ -1,0 +1,47 @@
+#include "dem/backdrop.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "dem/fill_holes.hpp"
+
+namespace terrabake::dem {
+namespace {
+
+// Cells along the backdrop's longer side: coarse enough to read quickly from
+// any DEM, fine enough that the step to the fill near the data stays small.
+constexpr int kCells = 256;
+// Margin around the DEM, as a share of its size, before the edge value holds.
+constexpr double kMargin = 0.5;
+
+}  // namespace
+
+Backdrop::Backdrop(const DemSource& dem, const std::string& crs) {
+  const Extent e = dem.boundsIn(crs);
+  const double margin = kMargin * std::max(e.width(), e.height());
+  const double span = std::max(e.width(), e.height()) + 2 * margin;
+  const double cell = span / kCells;
+  m_grid.crs = crs;
+  m_grid.cell_w = m_grid.cell_h = cell;
+  m_grid.origin_x = e.min_x - margin;
+  m_grid.origin_y = e.max_y + margin;
+  m_grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
+  m_grid.height = int(std::ceil((e.height() + 2 * margin) / cell));
+  m_heights = dem.read(m_grid, dem.planFor(m_grid));
+  // A DEM too small to reach a backdrop cell at all still gets a level floor.
+  if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
+}
+
+float Backdrop::heightAt(double x, double y) const {
+  const double col = std::clamp((x - m_grid.origin_x) / m_grid.cell_w - 0.5, 0.0, double(m_grid.width - 1));
+  const double row = std::clamp((m_grid.origin_y - y) / m_grid.cell_h - 0.5, 0.0, double(m_grid.height - 1));
+  // The margin makes the grid hundreds of cells wide, so cells c0 + 1 and r0 + 1 exist.
+  const int c0 = std::min(int(col), m_grid.width - 2), r0 = std::min(int(row), m_grid.height - 2);
+  const int c1 = c0 + 1, r1 = r0 + 1;
+  const double fc = col - c0, fr = row - r0;
+  const double top = m_heights.at(c0, r0) * (1 - fc) + m_heights.at(c1, r0) * fc;
+  const double bottom = m_heights.at(c0, r1) * (1 - fc) + m_heights.at(c1, r1) * fc;
+  return float(top * (1 - fr) + bottom * fr);
+}
+
+}  // namespace terrabake::dem
