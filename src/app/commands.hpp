@@ -16,5 +16,6 @@ inline constexpr const char* kExitCodes =
     "output or no GL context; 4 the run finished but some tiles failed.";
 
 Action addTileCommand(CLI::App& app);
+Action addServeCommand(CLI::App& app);
 
 }  // namespace terrabake::app

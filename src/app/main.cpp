@@ -14,6 +14,7 @@ int main(int argc, char** argv) {
   bool verbose = false;
   cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");
   const app::Action tile = app::addTileCommand(cli);
+  const app::Action serve = app::addServeCommand(cli);
 
   try {
     cli.parse(argc, argv);
@@ -28,7 +29,7 @@ int main(int argc, char** argv) {
   if (verbose) log::setLevel(log::Level::kDebug);
 
   try {
-    return tile();
+    return cli.got_subcommand("serve") ? serve() : tile();
   } catch (const Error& e) {
     log::error(oneLine(e.what()));
     return int(e.code());

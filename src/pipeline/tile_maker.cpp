@@ -36,39 +36,38 @@ bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
 
 struct TileMaker::Impl {
   dem::DemSource dem;
+  std::shared_ptr<const LayerPlan> plan;
   const tiling::Scheme& scheme;
-  TileSettings settings;
+  const TileSettings& settings;
   dem::ToLonLat to_lon_lat;
   std::unique_ptr<bake::Baker> baker;
-  std::shared_ptr<const dem::Backdrop> backdrop;
   int apron;
 
-  Impl(const std::vector<std::string>& dem_paths, const tiling::Scheme& s, const TileSettings& ts,
-       gl::Backend backend, std::shared_ptr<const dem::Backdrop> b)
+  Impl(const std::vector<std::string>& dem_paths, std::shared_ptr<const LayerPlan> p)
       : dem(dem_paths),
-        scheme(s),
-        settings(ts),
-        to_lon_lat(s.crs()),
-        baker(gl::createBaker(backend)),
-        backdrop(std::move(b)),
-        apron(mesh::requiredApron(ts.tile_size, ts.low_poly_grid)) {}
+        plan(std::move(p)),
+        scheme(*plan->scheme),
+        settings(plan->settings),
+        to_lon_lat(scheme.crs()),
+        baker(gl::createBaker(plan->backend)),
+        apron(mesh::requiredApron(settings.tile_size, settings.low_poly_grid)) {}
 
   // Heights of `grid` with every hole filled so that the result depends only
   // on where a texel is, not on which tile asks: the fill reads a margin
   // around the window, and what it cannot reach comes from the backdrop.
-  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& plan) const {
+  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan) const {
     GridSpec wide = grid;
     wide.origin_x -= kFillMargin * grid.cell_w;
     wide.origin_y += kFillMargin * grid.cell_h;
     wide.width += 2 * kFillMargin;
     wide.height += 2 * kFillMargin;
-    Raster<float> heights = dem.read(wide, plan);
+    Raster<float> heights = dem.read(wide, read_plan);
     dem::extendIntoHoles(heights, kMaxFillTexels);
     Raster<float> cropped(grid.width, grid.height);
     for (int r = 0; r < grid.height; ++r) {
       for (int c = 0; c < grid.width; ++c) {
         const float h = heights.at(c + kFillMargin, r + kFillMargin);
-        cropped.at(c, r) = std::isnan(h) ? backdrop->heightAt(grid.centreX(c), grid.centreY(r)) : h;
+        cropped.at(c, r) = std::isnan(h) ? plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r)) : h;
       }
     }
     return cropped;
@@ -109,22 +108,21 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
   }
 }
 
-TileMaker::TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme,
-                     const TileSettings& settings, gl::Backend backend,
-                     std::shared_ptr<const dem::Backdrop> backdrop)
-    : m_impl(std::make_unique<Impl>(dem_paths, scheme, settings, backend, std::move(backdrop))) {}
+TileMaker::TileMaker(const std::vector<std::string>& dem_paths, std::shared_ptr<const LayerPlan> plan)
+    : m_impl(std::make_unique<Impl>(dem_paths, std::move(plan))) {}
 
 TileMaker::~TileMaker() = default;
 
 std::string TileMaker::bakerDescription() const { return m_impl->baker->description(); }
 
-std::optional<TileFiles> TileMaker::make(const TileId& tile, const dem::ReadPlan& plan) {
+std::optional<TileFiles> TileMaker::make(const TileId& tile) {
   Impl& s = *m_impl;
+  const dem::ReadPlan& read_plan = s.plan->read_plans.at(tile.z);
   const int size = s.settings.tile_size;
   const GridSpec grid = s.scheme.texelGrid(tile, size, s.apron);
-  Raster<float> heights = s.dem.read(grid, plan);
+  Raster<float> heights = s.dem.read(grid, read_plan);
   if (!hasValidSample(heights, s.apron, size)) return std::nullopt;
-  if (hasHoles(heights)) heights = s.filledHeights(grid, plan);
+  if (hasHoles(heights)) heights = s.filledHeights(grid, read_plan);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);

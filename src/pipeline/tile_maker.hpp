@@ -10,20 +10,9 @@
 
 #include "bake/encode.hpp"
 #include "core/types.hpp"
-#include "dem/backdrop.hpp"
-#include "dem/dem_source.hpp"
-#include "gl/baker_factory.hpp"
-#include "tiling/scheme.hpp"
+#include "pipeline/layer_plan.hpp"
 
 namespace terrabake::pipeline {
-
-struct TileSettings {
-  int tile_size = 256;
-  int low_poly_grid = 17;
-  int bits = 8;
-  bake::Green green = bake::Green::kUp;
-  bool high_res_mesh = false;  // also make the high-res display mesh
-};
 
 struct TileFiles {
   std::vector<std::uint8_t> png;
@@ -37,14 +26,14 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
 
 class TileMaker {
  public:
-  // Opens the DEM (files in priority order) and makes the baker on the
-  // calling thread. `backdrop` is the job's, shared by every worker.
-  TileMaker(const std::vector<std::string>& dem_paths, const tiling::Scheme& scheme, const TileSettings& settings,
-            gl::Backend backend, std::shared_ptr<const dem::Backdrop> backdrop);
+  // Opens the DEM (files in priority order) and makes the plan's baker on the
+  // calling thread. The plan is the job's, shared by every worker.
+  TileMaker(const std::vector<std::string>& dem_paths, std::shared_ptr<const LayerPlan> plan);
   ~TileMaker();
 
   // nullopt when the tile holds no valid DEM sample (it is not written).
-  std::optional<TileFiles> make(const TileId& tile, const dem::ReadPlan& plan);
+  // The tile's zoom must be one of the plan's.
+  std::optional<TileFiles> make(const TileId& tile);
 
   std::string bakerDescription() const;
 

@@ -235,24 +235,26 @@ void benchEncodeGlb(benchmark::State& state) {
 // same DEM window.
 void benchWholeTile(benchmark::State& state, BackendCase backend) {
   const BenchData& data = benchData();
-  pipeline::TileSettings settings;
-  settings.tile_size = kTileSize;
-  settings.low_poly_grid = kGrid;
-  settings.bits = kBits;
   pipeline::TileMaker* maker = acquire<pipeline::TileMaker>(state, std::string("tile maker ") + backend.name, [&] {
-    const std::vector<std::string> dems{data.dem_path};
-    const auto backdrop = std::make_shared<const dem::Backdrop>(dem::DemSource(dems), data.scheme->crs());
-    return std::make_shared<pipeline::TileMaker>(dems, *data.scheme, settings, backend.backend, backdrop);
+    config::TileJob job;
+    job.dems = {data.dem_path};
+    job.min_zoom = job.max_zoom = kZoom;
+    job.zoom_set = true;
+    job.tile_size = kTileSize;
+    job.low_poly_grid = kGrid;
+    job.bits = kBits;
+    job.backend = backend.name;
+    const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job, dem::DemSource(job.dems)));
+    return std::make_shared<pipeline::TileMaker>(job.dems, plan);
   });
   if (!maker) return;
   const std::string layer_dir = (data.work_dir / backend.name).string();
   std::size_t next = 0;
   auto makeAndWrite = [&] {
     const TileId& tile = data.tiles[next++ % data.tiles.size()];
-    const std::optional<pipeline::TileFiles> files = maker->make(tile, data.plan);
+    const std::optional<pipeline::TileFiles> files = maker->make(tile);
     if (!files) return false;
-    io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "png"), files->png);
-    io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "glb"), files->glb);
+    pipeline::writeTileFiles(layer_dir, tile, *files);
     return true;
   };
   // Untimed: shader compilation and the GDAL handle's first read.

@@ -1,0 +1,340 @@
+#include "config/key_table.hpp"
+
+#include <yaml-cpp/yaml.h>
+
+#include <algorithm>
+#include <cctype>
+#include <cerrno>
+#include <charconv>
+#include <cstring>
+#include <fstream>
+#include <map>
+#include <optional>
+#include <sstream>
+
+#include "core/error.hpp"
+
+namespace terrabake::config::key_table {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr int kMaxZoom = 24;
+constexpr size_t kMaxSuggestionDistance = 2;
+
+std::string quoted(const std::string& text) { return "'" + text + "'"; }
+
+std::string withArticle(std::string_view noun) {
+  const bool vowel = std::string_view("aeiou").find(noun.front()) != std::string_view::npos;
+  return (vowel ? "an " : "a ") + std::string(noun);
+}
+
+// joinWith({"8", "16"}, "or") is "8 or 16"; three or more get commas.
+std::string joinWith(const std::vector<std::string>& values, std::string_view last_joint) {
+  std::string text;
+  for (size_t i = 0; i < values.size(); ++i) {
+    if (i > 0) text += i + 1 == values.size() ? " " + std::string(last_joint) + " " : ", ";
+    text += values[i];
+  }
+  return text;
+}
+
+std::string_view trim(std::string_view text) {
+  const size_t first = text.find_first_not_of(" \t");
+  if (first == std::string_view::npos) return {};
+  return text.substr(first, text.find_last_not_of(" \t") - first + 1);
+}
+
+std::optional<int> toInt(std::string_view text) {
+  text = trim(text);
+  int value = 0;
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, value);
+  if (text.empty() || error != std::errc() || stop != end) return std::nullopt;
+  return value;
+}
+
+const KeySpec* findKey(std::string_view name, const std::vector<KeySpec>& specs) {
+  const auto found = std::find_if(specs.begin(), specs.end(), [&](const KeySpec& key) { return key.name == name; });
+  return found == specs.end() ? nullptr : &*found;
+}
+
+bool isSection(std::string_view name, const std::vector<KeySpec>& specs) {
+  return std::any_of(specs.begin(), specs.end(), [&](const KeySpec& key) {
+    return key.name.size() > name.size() && key.name.substr(0, name.size()) == name && key.name[name.size()] == '.';
+  });
+}
+
+size_t editDistance(std::string_view a, std::string_view b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+std::string_view lastPart(std::string_view name) {
+  const size_t dot = name.rfind('.');
+  return dot == std::string_view::npos ? name : name.substr(dot + 1);
+}
+
+std::string readFile(const std::string& path) {
+  std::error_code ignored;
+  // An ifstream opens a folder without complaint and then reads nothing.
+  if (fs::is_directory(path, ignored)) {
+    throw InputError("cannot read config '" + path + "': " + std::strerror(EISDIR));
+  }
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw InputError("cannot read config '" + path + "': " + std::strerror(errno));
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+struct FileContext {
+  std::string file;
+  fs::path base_dir;
+  const std::vector<KeySpec>& specs;
+  const std::function<void(std::size_t, const Value&)>& apply;
+  std::map<std::string, int> first_lines;  // yaml-cpp keeps repeated keys silently
+};
+
+std::string at(const FileContext& context, const YAML::Mark& mark, const std::string& fallback) {
+  return mark.is_null() ? fallback : context.file + ":" + std::to_string(mark.line + 1);
+}
+
+std::string describe(const YAML::Node& node) {
+  switch (node.Type()) {
+    case YAML::NodeType::Scalar:
+      return quoted(node.Scalar());
+    case YAML::NodeType::Sequence:
+      return "a list";
+    case YAML::NodeType::Map:
+      return "a map";
+    default:
+      return "nothing";
+  }
+}
+
+Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::Node& node,
+                    const std::string& key_where) {
+  Value value;
+  // yaml-cpp marks an absent value where the next token starts, often a later line.
+  value.where = node.IsNull() ? key_where : at(context, node.Mark(), key_where);
+  value.base_dir = context.base_dir;
+  if (node.IsScalar()) {
+    value.items.push_back({node.Scalar(), value.where});
+  } else if (node.IsSequence()) {
+    value.is_list = true;
+    for (const YAML::Node& item : node) {
+      const std::string item_where = at(context, item.Mark(), value.where);
+      if (!item.IsScalar()) {
+        fail(item_where, key.name, "list items must be plain values, got " + describe(item));
+      }
+      value.items.push_back({item.Scalar(), item_where});
+    }
+  } else {
+    fail(value.where, key.name, "expected " + withArticle(key.type) + ", got " + describe(node));
+  }
+  return value;
+}
+
+void readMap(FileContext& context, const YAML::Node& map, const std::string& prefix) {
+  for (const auto& entry : map) {
+    const YAML::Node& key_node = entry.first;
+    const YAML::Node& value_node = entry.second;
+    const std::string& part = key_node.Scalar();
+    const std::string name = prefix.empty() ? part : prefix + "." + part;
+    const std::string where = at(context, key_node.Mark(), context.file);
+
+    const auto [first, fresh] = context.first_lines.emplace(name, key_node.Mark().line + 1);
+    if (!fresh) fail(where, name, "given twice (first on line " + std::to_string(first->second) + ")");
+
+    if (part.find('.') != std::string::npos) {
+      fail(where, name, "unknown key (write one map per dot, as in config/sample.yaml)");
+    }
+    if (const KeySpec* key = findKey(name, context.specs)) {
+      context.apply(std::size_t(key - context.specs.data()), valueFromNode(context, *key, value_node, where));
+    } else if (isSection(name, context.specs)) {
+      if (value_node.IsMap()) {
+        readMap(context, value_node, name);
+      } else if (!value_node.IsNull()) {  // an empty section is harmless
+        fail(where, name, "expected a map of keys, got " + describe(value_node));
+      }
+    } else {
+      fail(where, name, unknownKeyProblem(name, context.specs));
+    }
+  }
+}
+
+}  // namespace
+
+[[noreturn]] void fail(const std::string& where, std::string_view key, const std::string& problem) {
+  std::string message = where + ": ";
+  if (!key.empty()) message += std::string(key) + ": ";
+  throw UsageError(oneLine(message + problem));
+}
+
+void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& specs,
+                  const std::function<void(std::size_t, const Value&)>& apply) {
+  const std::string text = readFile(yaml_path);
+  FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
+  YAML::Node root;
+  try {
+    root = YAML::Load(text);
+  } catch (const YAML::Exception& error) {
+    fail(at(context, error.mark, yaml_path), "", "YAML syntax error: " + error.msg);
+  }
+  if (root.IsNull()) {
+    std::vector<std::string> required;
+    for (const KeySpec& key : specs) {
+      if (key.required) required.emplace_back(key.name);
+    }
+    if (required.empty()) return;  // every key has its default
+    fail(yaml_path, "", "the file is empty; it needs at least " + joinWith(required, "and"));
+  }
+  if (!root.IsMap()) {
+    fail(at(context, root.Mark(), yaml_path), "", "expected a map of keys, got " + describe(root));
+  }
+  readMap(context, root, "");
+}
+
+// Nearest key or section within a small edit distance, else a key with the
+// same last part (a leaf written in the wrong section).
+std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>& specs) {
+  std::string_view best;
+  size_t best_distance = kMaxSuggestionDistance + 1;
+  for (const KeySpec& key : specs) {
+    std::vector<std::string_view> candidates = {key.name};
+    for (size_t dot = key.name.find('.'); dot != std::string_view::npos; dot = key.name.find('.', dot + 1)) {
+      candidates.push_back(key.name.substr(0, dot));
+    }
+    for (const std::string_view candidate : candidates) {
+      const size_t distance = editDistance(name, candidate);
+      if (distance > 0 && distance < best_distance) {
+        best = candidate;
+        best_distance = distance;
+      }
+    }
+  }
+  if (best.empty()) {
+    for (const KeySpec& key : specs) {
+      if (lastPart(key.name) == lastPart(name) && key.name != name) best = key.name;
+    }
+  }
+  if (best.empty()) return "unknown key";
+  return "unknown key (did you mean '" + std::string(best) + "'?)";
+}
+
+const Text& single(const KeySpec& key, const Value& value) {
+  if (value.is_list) fail(value.where, key.name, "expected " + withArticle(key.type) + ", got a list");
+  return value.items.front();
+}
+
+int parseInt(const KeySpec& key, const Text& item) {
+  const std::optional<int> value = toInt(item.text);
+  if (!value) fail(item.where, key.name, "expected an integer, got " + quoted(item.text));
+  return *value;
+}
+
+bool parseBool(const KeySpec& key, const Text& item) {
+  if (item.text != "true" && item.text != "false") {
+    fail(item.where, key.name, "expected true or false, got " + quoted(item.text));
+  }
+  return item.text == "true";
+}
+
+std::vector<std::string> parsePaths(const KeySpec& key, const Value& value, bool allow_empty) {
+  if (value.items.empty() && !allow_empty) {
+    fail(value.where, key.name, "expected at least one path, got an empty list");
+  }
+  std::vector<std::string> paths;
+  for (const Text& item : value.items) paths.push_back(resolvePath(value.base_dir, item.text));
+  return paths;
+}
+
+std::pair<int, int> parseZoom(const KeySpec& key, const Value& value) {
+  if (value.is_list) {
+    if (value.items.size() != 2) {
+      fail(value.where, key.name, "expected [min, max], got a list of " + std::to_string(value.items.size()));
+    }
+    return {parseInt(key, value.items[0]), parseInt(key, value.items[1])};
+  }
+  const Text& item = value.items.front();
+  // Search from the second character so that "-3" reads as one (bad) level.
+  const size_t dash = item.text.find('-', 1);
+  const std::string_view text(item.text);
+  const std::optional<int> low = toInt(text.substr(0, dash));
+  const std::optional<int> high = dash == std::string::npos ? low : toInt(text.substr(dash + 1));
+  if (!low || !high) {
+    fail(item.where, key.name, "expected " + withArticle(key.type) + ", got " + quoted(item.text));
+  }
+  return {*low, *high};
+}
+
+std::string resolvePath(const fs::path& base_dir, const std::string& text) {
+  if (text.empty()) return text;  // left for problem() to reject
+  const fs::path path(text);
+  fs::path normal = (path.is_absolute() ? path : base_dir / path).lexically_normal();
+  if (!normal.has_filename() && normal.has_parent_path()) normal = normal.parent_path();
+  return normal.string();
+}
+
+std::string intProblem(int value, int min, int max, const std::vector<int>& only) {
+  if (!only.empty()) {
+    if (std::find(only.begin(), only.end(), value) != only.end()) return {};
+    std::vector<std::string> allowed;
+    for (const int v : only) allowed.push_back(std::to_string(v));
+    return "must be " + joinWith(allowed, "or") + ", got " + std::to_string(value);
+  }
+  if (value >= min && value <= max) return {};
+  return "must be between " + std::to_string(min) + " and " + std::to_string(max) + ", got " + std::to_string(value);
+}
+
+std::string wordProblem(const std::string& value, const std::vector<std::string>& words) {
+  if (std::find(words.begin(), words.end(), value) != words.end()) return {};
+  return "must be " + joinWith(words, "or") + ", got " + quoted(value);
+}
+
+std::string folderNameProblem(const std::string& value) {
+  // The name becomes one folder: no separators, nothing that climbs out.
+  const bool safe_chars = std::all_of(value.begin(), value.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+  });
+  if (!value.empty() && safe_chars && value != "." && value != "..") return {};
+  return "must be a folder name of letters, digits, '.', '_' and '-' (not '.' or '..'), got " + quoted(value);
+}
+
+std::string hostProblem(const std::string& value) {
+  // What getaddrinfo takes: IPv4, IPv6 without brackets, or a host name.
+  const bool host_chars = std::all_of(value.begin(), value.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == ':';
+  });
+  if (!value.empty() && host_chars) return {};
+  return "must be an IP address or a host name, got " + quoted(value);
+}
+
+std::string zoomProblem(int min_zoom, int max_zoom) {
+  for (const int level : {min_zoom, max_zoom}) {
+    if (level < 0 || level > kMaxZoom) {
+      return "must be between 0 and " + std::to_string(kMaxZoom) + ", got " + std::to_string(level);
+    }
+  }
+  if (min_zoom <= max_zoom) return {};
+  return "min " + std::to_string(min_zoom) + " is above max " + std::to_string(max_zoom);
+}
+
+std::string joinPaths(const std::vector<std::string>& paths) {
+  std::string text = "[";
+  for (size_t i = 0; i < paths.size(); ++i) text += (i > 0 ? ", " : "") + paths[i];
+  return text + "]";
+}
+
+}  // namespace terrabake::config::key_table

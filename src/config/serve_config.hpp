@@ -1,0 +1,42 @@
+#pragma once
+// Settings of `terrabake serve`: every key of its YAML file, with its default.
+// config/README.md documents each one ("serve" section); keep the two in step.
+#include <string>
+#include <vector>
+
+#include "config/tile_job.hpp"  // KeyInfo
+
+namespace terrabake::config {
+
+// The viewer folder of the source tree, compiled in (TERRABAKE_VIEWER_DIR).
+std::string defaultViewerDir();
+
+struct ServeConfig {
+  std::string tiles_dir = "tiles";           // tiles: every subfolder with a tilejson.json is a layer
+  std::vector<std::string> layer_jobs;       // layers: tile-job files baked on demand
+  std::string bind = "127.0.0.1";            // http.bind
+  int port = 8080;                           // http.port: 0 = any free port
+  int threads = 8;                           // http.threads: requests handled at once
+  int tile_max_age_s = 3600;                 // http.tile_max_age_s: Cache-Control max-age of tiles
+  std::string viewer_dir = defaultViewerDir();  // viewer.dir
+  int queue_size = 64;                       // bake.queue_size: bakes waiting, per layer
+  int retry_after_s = 1;                     // bake.retry_after_s: Retry-After of a 503
+};
+
+// Reads a YAML file; relative paths in it resolve against the file's folder.
+// Errors as loadTileJob(): UsageError "<file>:<line>: <key>: <problem>",
+// InputError if the file cannot be read.
+ServeConfig loadServeConfig(const std::string& yaml_path);
+
+// Sets one key ("http.port", "tiles", ...) from command-line text, validated
+// exactly like the file; `origin` names the flag in messages.
+void applyOverride(ServeConfig& config, const std::string& key, const std::string& value,
+                   const std::string& origin);
+
+// Throws UsageError "<origin>: <key>: <problem>".
+void validate(const ServeConfig& config, const std::string& origin);
+
+// Every key, in the order of config/serve.yaml.
+std::vector<KeyInfo> listServeKeys();
+
+}  // namespace terrabake::config

@@ -1,0 +1,31 @@
+#pragma once
+// A layer a batch run (`terrabake tile`) wrote: tiles are files in its
+// folder, and its tilejson.json says which zooms and area it covers.
+#include <filesystem>
+#include <string>
+
+#include "server/layer_source.hpp"
+#include "server/served_folder.hpp"
+#include "server/tile_coverage.hpp"
+
+namespace terrabake::server {
+
+class DirectoryLayer : public LayerSource {
+ public:
+  // Reads <folder>/tilejson.json; throws std::runtime_error when it is
+  // missing or says no zooms and bounds.
+  DirectoryLayer(std::string name, const std::filesystem::path& folder);
+
+  const std::string& name() const override { return m_name; }
+  bool bakesOnDemand() const override { return false; }
+  std::string tileJson(const std::string& layer_url) const override;
+  TileAnswer tile(const TileId& tile, TileFormat format) override;
+
+ private:
+  std::string m_name;
+  ServedFolder m_folder;
+  std::string m_tilejson;
+  TileCoverage m_coverage;
+};
+
+}  // namespace terrabake::server

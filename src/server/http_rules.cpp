@@ -1,0 +1,88 @@
+#include "server/http_rules.hpp"
+
+#include <algorithm>
+#include <cctype>
+#include <cstdint>
+#include <cstdio>
+#include <regex>
+#include <string_view>
+
+namespace terrabake::server {
+namespace {
+
+constexpr std::uint64_t kFnvOffset = 14695981039346656037ULL;
+constexpr std::uint64_t kFnvPrime = 1099511628211ULL;
+
+struct MediaType {
+  const char* extension;
+  const char* type;
+};
+
+// What a tile viewer loads: tiles, JSON, the page and its scripts and styles.
+constexpr MediaType kMediaTypes[] = {
+    {".png", "image/png"},
+    {".glb", "model/gltf-binary"},
+    {".json", "application/json"},
+    {".html", "text/html; charset=utf-8"},
+    {".js", "text/javascript; charset=utf-8"},
+    {".mjs", "text/javascript; charset=utf-8"},
+    {".css", "text/css; charset=utf-8"},
+    {".map", "application/json"},
+    {".svg", "image/svg+xml"},
+    {".jpg", "image/jpeg"},
+    {".ktx2", "image/ktx2"},
+    {".wasm", "application/wasm"},
+    {".txt", "text/plain; charset=utf-8"},
+};
+
+bool endsWith(std::string_view text, std::string_view end) {
+  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+}
+
+std::string_view trim(std::string_view text) {
+  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
+  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
+  return text;
+}
+
+}  // namespace
+
+std::string contentTypeFor(const std::string& file_name) {
+  for (const MediaType& media : kMediaTypes) {
+    if (endsWith(file_name, media.extension)) return media.type;
+  }
+  return "application/octet-stream";
+}
+
+std::string contentEtag(const std::string& bytes) {
+  std::uint64_t hash = kFnvOffset;
+  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * kFnvPrime;
+  char text[48];
+  std::snprintf(text, sizeof text, "\"%016llx-%zx\"", (unsigned long long)hash, bytes.size());
+  return text;
+}
+
+bool noneMatchHits(const std::string& if_none_match, const std::string& etag) {
+  const auto opaque = [](std::string_view tag) { return tag.substr(0, 2) == "W/" ? tag.substr(2) : tag; };
+  std::string_view rest(if_none_match);
+  while (!rest.empty()) {
+    const std::size_t comma = rest.find(',');
+    const std::string_view tag = trim(rest.substr(0, comma));
+    if (tag == "*" || (!tag.empty() && opaque(tag) == opaque(etag))) return true;
+    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+  }
+  return false;
+}
+
+bool isPlausibleHost(const std::string& host) {
+  static const std::regex kHost(R"((?:[A-Za-z0-9.-]+|\[[0-9A-Fa-f:.]+\])(?::[0-9]{1,5})?)");
+  return host.size() <= 255 && std::regex_match(host, kHost);
+}
+
+bool isHeaderNameList(const std::string& text) {
+  return text.size() <= 1024 && std::all_of(text.begin(), text.end(), [](char c) {
+           return std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == ',' || c == ' ';
+         });
+}
+
+}  // namespace terrabake::server

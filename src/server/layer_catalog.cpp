@@ -1,0 +1,70 @@
+#include "server/layer_catalog.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+#include <string>
+
+#include "config/tile_job.hpp"
+#include "core/error.hpp"
+#include "core/log.hpp"
+#include "server/directory_layer.hpp"
+#include "server/on_demand_layer.hpp"
+#include "server/route.hpp"
+
+namespace terrabake::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::vector<std::string> folderNames(const std::string& tiles_dir) {
+  std::error_code ec;
+  std::vector<std::string> names;
+  for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code ignored;
+    if (it->is_directory(ignored)) names.push_back(it->path().filename().string());
+  }
+  if (ec) throw InputError("tiles: cannot read folder '" + tiles_dir + "': " + ec.message());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+}  // namespace
+
+std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& config) {
+  std::vector<std::unique_ptr<LayerSource>> layers;
+  std::set<std::string> names;
+  for (const std::string& job_path : config.layer_jobs) {
+    config::TileJob job = config::loadTileJob(job_path);
+    config::validate(job, job_path);
+    if (isReservedName(job.layer)) {
+      throw UsageError(job_path + ": output.layer: '" + job.layer + "' is taken by a route of the server");
+    }
+    if (!names.insert(job.layer).second) {
+      throw UsageError(job_path + ": output.layer: '" + job.layer + "' is the layer of another job in layers");
+    }
+    layers.push_back(openOnDemandLayer(job, config.tiles_dir, std::size_t(config.queue_size)));
+    log::info("layer " + job.layer + ": tiles missing from " + config.tiles_dir + "/" + job.layer +
+              " are baked on demand (" + job_path + ")");
+  }
+
+  for (const std::string& name : folderNames(config.tiles_dir)) {
+    if (names.count(name) || name.front() == '.') continue;
+    const fs::path folder = fs::path(config.tiles_dir) / name;
+    if (!fs::exists(folder / "tilejson.json")) continue;  // not a layer
+    if (parseRoute("/" + name + "/tilejson.json").kind != Route::Kind::kTileJson) {
+      log::warning("layer folder '" + folder.string() + "' skipped: its name cannot be a layer in a URL");
+      continue;
+    }
+    try {
+      layers.push_back(std::make_unique<DirectoryLayer>(name, folder));
+      names.insert(name);
+      log::info("layer " + name + ": tiles from " + folder.string());
+    } catch (const std::exception& e) {
+      log::warning("layer folder '" + folder.string() + "' skipped: tilejson.json: " + oneLine(e.what()));
+    }
+  }
+  return layers;
+}
+
+}  // namespace terrabake::server

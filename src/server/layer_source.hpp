@@ -1,0 +1,74 @@
+#pragma once
+// A layer the server answers for, whatever holds its tiles: a folder a batch
+// run wrote, a folder filled on demand from the DEM, and later an MBTiles
+// file. The HTTP side sees only this interface.
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "core/types.hpp"
+#include "server/served_folder.hpp"
+
+namespace terrabake::server {
+
+enum class TileFormat { kPng, kGlb, kHighResGlb };
+
+// "png", "glb", "hires.glb": the file name extension of a tile in a layer folder.
+inline const char* extensionOf(TileFormat format) {
+  switch (format) {
+    case TileFormat::kPng: return "png";
+    case TileFormat::kGlb: return "glb";
+    case TileFormat::kHighResGlb: return "hires.glb";
+  }
+  return "";
+}
+
+// "z/x/y.png": where a tile's file lies in its layer folder.
+inline std::string relativeTilePath(const TileId& tile, TileFormat format) {
+  return tile.str() + "." + extensionOf(format);
+}
+
+struct TileAnswer {
+  enum class Status {
+    kFound,
+    kNotFound,  // outside the layer, or no DEM sample in it
+    kBusy,      // the bake queue is full or shutting down: try again later
+    kFailed,    // the bake failed; nothing was kept
+  };
+  Status status = Status::kNotFound;
+  std::shared_ptr<const FileContent> content;  // kFound only
+  std::string reason;                          // otherwise: for the response and the log
+};
+
+// On-demand bakes since start; all zero for layers that never bake.
+struct BakeCounters {
+  std::uint64_t started = 0;
+  std::uint64_t written = 0;   // baked and written to the layer
+  std::uint64_t empty = 0;     // no valid DEM sample: nothing to write
+  std::uint64_t failed = 0;
+  std::uint64_t rejected = 0;  // refused: queue full or shutting down
+  std::uint64_t waiting = 0;   // in the queue now, not started
+};
+
+class LayerSource {
+ public:
+  virtual ~LayerSource() = default;
+
+  virtual const std::string& name() const = 0;
+  virtual bool bakesOnDemand() const = 0;
+
+  // tilejson.json with its relative URLs ("./{z}/{x}/{y}.png") made absolute
+  // against `layer_url` ("http://host:port/<layer>/").
+  virtual std::string tileJson(const std::string& layer_url) const = 0;
+
+  // Called from many HTTP threads at once.
+  virtual TileAnswer tile(const TileId& tile, TileFormat format) = 0;
+
+  virtual BakeCounters bakeCounters() const { return {}; }
+
+  // Finish or abandon background work before the server goes away; tile()
+  // answers kBusy for anything that would need it afterwards.
+  virtual void stop() {}
+};
+
+}  // namespace terrabake::server

@@ -1,0 +1,151 @@
+#include "server/on_demand_layer.hpp"
+
+#include <algorithm>
+#include <map>
+#include <mutex>
+#include <thread>
+#include <vector>
+
+#include "core/error.hpp"
+#include "core/log.hpp"
+#include "dem/dem_source.hpp"
+#include "io/tile_files.hpp"
+#include "pipeline/layer_plan.hpp"
+
+namespace terrabake::server {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Creates the layer folder and its tilejson.json when missing; returns the folder.
+fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
+  std::error_code ec;
+  fs::create_directories(settings.folder, ec);
+  if (ec || !fs::is_directory(settings.folder)) {
+    throw InputError("layer " + settings.name + ": cannot create folder '" + settings.folder.string() +
+                     "': " + (ec ? ec.message() : std::string("a file is in the way")));
+  }
+  const fs::path tilejson = settings.folder / "tilejson.json";
+  if (!fs::exists(tilejson)) {
+    const std::vector<std::uint8_t> bytes(settings.tilejson.begin(), settings.tilejson.end());
+    io::writeFileAtomically(tilejson.string(), bytes);
+  }
+  return settings.folder;
+}
+
+void removeTileFiles(const std::string& folder, const TileId& tile) {
+  std::error_code ignored;
+  for (const TileFormat format : {TileFormat::kPng, TileFormat::kGlb, TileFormat::kHighResGlb}) {
+    fs::remove(fs::path(folder) / relativeTilePath(tile, format), ignored);
+  }
+}
+
+}  // namespace
+
+OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile)
+    : m_name(settings.name),
+      m_folder_path(prepareFolder(settings).string()),
+      m_folder(settings.folder),
+      m_tilejson(settings.tilejson),
+      m_coverage(settings.coverage),
+      m_high_res_mesh(settings.high_res_mesh),
+      m_queue(settings.workers, settings.queue_size, [this, &make_tile]() -> BakeQueue::Bake {
+        MakeTile make = make_tile();
+        return [this, make = std::move(make)](const TileId& tile) { return bake(make, tile); };
+      }) {}
+
+std::string OnDemandLayer::tileJson(const std::string& layer_url) const {
+  return withAbsoluteUrls(m_tilejson, layer_url);
+}
+
+TileAnswer OnDemandLayer::tile(const TileId& tile, TileFormat format) {
+  if (!m_coverage.contains(tile)) {
+    return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or area"};
+  }
+  const std::string relative = relativeTilePath(tile, format);
+  BakeQueue::Ticket ticket;
+  do {
+    const std::uint64_t finished = m_queue.finishedCount();
+    if (std::optional<FileContent> file = m_folder.read(relative)) {
+      return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
+    }
+    if (format == TileFormat::kHighResGlb && !m_high_res_mesh) {
+      return {TileAnswer::Status::kNotFound, nullptr, "this layer makes no high-res meshes"};
+    }
+    ticket = m_queue.request(tile, finished);
+  } while (ticket.kind == BakeQueue::Ticket::Kind::kLookAgain);
+  if (ticket.kind == BakeQueue::Ticket::Kind::kFull) {
+    return {TileAnswer::Status::kBusy, nullptr, "the bake queue is full"};
+  }
+
+  const BakeOutcome& outcome = ticket.outcome.get();
+  switch (outcome.status) {
+    case BakeOutcome::Status::kBaked: {
+      const auto found = outcome.tile->find(format);
+      if (found == outcome.tile->end()) {
+        return {TileAnswer::Status::kNotFound, nullptr, "the bake made no such file"};
+      }
+      // Shares ownership of the whole baked tile: no copy of the bytes.
+      return {TileAnswer::Status::kFound, std::shared_ptr<const FileContent>(outcome.tile, &found->second), {}};
+    }
+    case BakeOutcome::Status::kEmpty:
+      return {TileAnswer::Status::kNotFound, nullptr, "no valid DEM sample in this tile"};
+    case BakeOutcome::Status::kFailed:
+      return {TileAnswer::Status::kFailed, nullptr, "the bake failed: " + oneLine(outcome.error)};
+    case BakeOutcome::Status::kAbandoned:
+      break;
+  }
+  return {TileAnswer::Status::kBusy, nullptr, "the server is shutting down"};
+}
+
+std::shared_ptr<const BakedTile> OnDemandLayer::bake(const MakeTile& make_tile, const TileId& tile) const {
+  try {
+    const std::optional<pipeline::TileFiles> files = make_tile(tile);
+    if (!files) return nullptr;
+    pipeline::writeTileFiles(m_folder_path, tile, *files);
+    auto baked = std::make_shared<BakedTile>();
+    const auto keep = [&](TileFormat format, const std::vector<std::uint8_t>& bytes) {
+      // The ETag of the file just written, so that later answers from disk match this one.
+      std::optional<std::string> etag = m_folder.etag(relativeTilePath(tile, format));
+      if (!etag) throw InputError("cannot read back '" + relativeTilePath(tile, format) + "' after writing it");
+      baked->emplace(format, FileContent{std::string(bytes.begin(), bytes.end()), std::move(*etag)});
+    };
+    keep(TileFormat::kPng, files->png);
+    keep(TileFormat::kGlb, files->glb);
+    if (!files->high_res_glb.empty()) keep(TileFormat::kHighResGlb, files->high_res_glb);
+    log::debug("layer " + m_name + ": baked " + tile.str());
+    return baked;
+  } catch (const std::exception& e) {
+    // No half tile stays behind: an image without its mesh would be served as if complete.
+    removeTileFiles(m_folder_path, tile);
+    log::error("layer " + m_name + ": tile " + tile.str() + ": " + oneLine(e.what()));
+    throw;
+  }
+}
+
+std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, const std::string& tiles_dir,
+                                                 std::size_t queue_size) {
+  // The batch runner's plan: a tile baked here has the bytes a batch run writes.
+  const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job, dem::DemSource(job.dems)));
+  const int workers = job.workers > 0 ? job.workers : int(std::max(1u, std::thread::hardware_concurrency()));
+  OnDemandLayer::Settings settings{job.layer,
+                                   fs::path(tiles_dir) / job.layer,
+                                   plan->tilejson,
+                                   TileCoverage(job.min_zoom, job.max_zoom, plan->scheme, plan->area),
+                                   job.high_res_mesh,
+                                   workers,
+                                   queue_size};
+
+  const auto logged = std::make_shared<std::once_flag>();
+  const auto make_tile = [job, plan, logged]() -> OnDemandLayer::MakeTile {
+    // Made on the worker thread that keeps it: its GDAL handle and GL context belong there.
+    auto maker = std::make_shared<pipeline::TileMaker>(job.dems, plan);
+    std::call_once(*logged, [&] {
+      log::info("layer " + job.layer + ": baking on demand with " + maker->bakerDescription());
+    });
+    return [maker](const TileId& tile) { return maker->make(tile); };
+  };
+  return std::make_unique<OnDemandLayer>(std::move(settings), make_tile);
+}
+
+}  // namespace terrabake::server

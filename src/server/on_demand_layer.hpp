@@ -1,0 +1,70 @@
+#pragma once
+// A layer baked from its DEM as tiles are asked for. A tile already in the
+// layer folder is served from there; a missing one is baked by the layer's
+// BakeQueue, written through to the folder (atomically, the image first, as
+// `terrabake tile` writes) and served from memory to everyone who waited.
+#include <cstddef>
+#include <filesystem>
+#include <functional>
+#include <memory>
+#include <optional>
+#include <string>
+
+#include "config/tile_job.hpp"
+#include "pipeline/tile_maker.hpp"
+#include "server/bake_queue.hpp"
+#include "server/layer_source.hpp"
+#include "server/served_folder.hpp"
+#include "server/tile_coverage.hpp"
+
+namespace terrabake::server {
+
+class OnDemandLayer : public LayerSource {
+ public:
+  // Makes one tile's files in memory; nullopt when the tile holds no valid
+  // DEM sample. Throws when it fails.
+  using MakeTile = std::function<std::optional<pipeline::TileFiles>(const TileId&)>;
+  // Called once on each bake worker thread (see BakeQueue::BakeFactory).
+  using MakeTileFactory = std::function<MakeTile()>;
+
+  struct Settings {
+    std::string name;
+    std::filesystem::path folder;  // created when missing
+    std::string tilejson;          // written to <folder>/tilejson.json when that is missing
+    TileCoverage coverage;
+    bool high_res_mesh = false;  // whether bakes make .hires.glb too
+    int workers = 1;
+    std::size_t queue_size = 64;
+  };
+
+  // Throws InputError when the folder cannot be made, and whatever a
+  // worker's make_tile() threw (no GL context, unreadable DEM).
+  OnDemandLayer(Settings settings, const MakeTileFactory& make_tile);
+
+  const std::string& name() const override { return m_name; }
+  bool bakesOnDemand() const override { return true; }
+  std::string tileJson(const std::string& layer_url) const override;
+  TileAnswer tile(const TileId& tile, TileFormat format) override;
+  BakeCounters bakeCounters() const override { return m_queue.counters(); }
+  void stop() override { m_queue.stop(); }
+
+ private:
+  // Runs on a bake worker: make, write through, keep the bytes with their ETags.
+  std::shared_ptr<const BakedTile> bake(const MakeTile& make_tile, const TileId& tile) const;
+
+  std::string m_name;
+  std::string m_folder_path;
+  ServedFolder m_folder;
+  std::string m_tilejson;
+  TileCoverage m_coverage;
+  bool m_high_res_mesh;
+  BakeQueue m_queue;  // last: its workers use everything above, and stop first
+};
+
+// The on-demand layer of a validated tile job: its DEM, scheme, zooms and
+// tile settings, baked into <tiles_dir>/<output.layer>/ (output.dir is not
+// used). Throws UsageError / InputError as `terrabake tile` would.
+std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, const std::string& tiles_dir,
+                                                 std::size_t queue_size);
+
+}  // namespace terrabake::server

@@ -1,0 +1,141 @@
+#include "server/route.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <vector>
+
+namespace terrabake::server {
+namespace {
+
+// The deepest zoom of any scheme; a deeper one is no tile of any layer.
+constexpr int kMaxZoom = 24;
+// Nine digits fit an int; a tile number longer than that is no tile of any layer.
+constexpr std::size_t kMaxDigits = 9;
+constexpr std::array<const char*, 4> kReservedNames = {"health", "layers.json", "vendor", "viewer"};
+
+Route bad(std::string problem) {
+  Route route;
+  route.kind = Route::Kind::kBadRequest;
+  route.problem = std::move(problem);
+  return route;
+}
+
+Route notFound(std::string problem) {
+  Route route;
+  route.kind = Route::Kind::kNotFound;
+  route.problem = std::move(problem);
+  return route;
+}
+
+Route simple(Route::Kind kind) {
+  Route route;
+  route.kind = kind;
+  return route;
+}
+
+// Empty (from "//" or a trailing "/"), "." and ".." segments never name a
+// file; control characters and backslashes never appear in our file names.
+bool isSafeSegment(const std::string& segment) {
+  if (segment.empty() || segment == "." || segment == "..") return false;
+  return std::none_of(segment.begin(), segment.end(), [](char c) {
+    const auto u = static_cast<unsigned char>(c);
+    return u < 0x20 || u == 0x7f || c == '\\';
+  });
+}
+
+bool isLayerName(const std::string& name) {
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+  });
+}
+
+// Decimal digits only, no sign, no leading zero: one spelling per tile.
+bool parseNumber(const std::string& text, int& value) {
+  if (text.empty() || text.size() > kMaxDigits) return false;
+  if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; })) return false;
+  if (text.size() > 1 && text.front() == '0') return false;
+  value = std::stoi(text);
+  return true;
+}
+
+std::string join(std::vector<std::string>::const_iterator first, std::vector<std::string>::const_iterator last) {
+  std::string text;
+  for (auto it = first; it != last; ++it) text += (it == first ? "" : "/") + *it;
+  return text;
+}
+
+Route parseTile(const std::vector<std::string>& parts) {
+  static const char* kShape = "a tile is /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>";
+  if (parts.size() != 4) return bad(kShape);
+  Route route;
+  route.kind = Route::Kind::kTile;
+  route.layer = parts[0];
+  const std::string& last = parts[3];
+  const std::size_t dot = last.find('.');
+  const std::string y_text = last.substr(0, dot);
+  const std::string extension = dot == std::string::npos ? "" : last.substr(dot + 1);
+  if (extension == "png") {
+    route.format = TileFormat::kPng;
+  } else if (extension == "glb") {
+    route.format = TileFormat::kGlb;
+  } else if (extension == "hires.glb") {
+    route.format = TileFormat::kHighResGlb;
+  } else {
+    return bad("unknown tile extension '" + extension + "'; " + kShape);
+  }
+  if (!parseNumber(parts[1], route.tile.z) || !parseNumber(parts[2], route.tile.x) ||
+      !parseNumber(y_text, route.tile.y)) {
+    return bad("z, x and y must be whole numbers without sign or leading zeros; " + std::string(kShape));
+  }
+  if (route.tile.z > kMaxZoom) return bad("zoom " + parts[1] + " is above " + std::to_string(kMaxZoom));
+  return route;
+}
+
+}  // namespace
+
+Route parseRoute(const std::string& path) {
+  if (path.empty() || path.front() != '/') return bad("the path must start with '/'");
+  if (path == "/") return simple(Route::Kind::kViewerPage);
+
+  std::vector<std::string> parts;
+  for (std::size_t start = 1;;) {
+    const std::size_t slash = path.find('/', start);
+    parts.push_back(path.substr(start, slash == std::string::npos ? std::string::npos : slash - start));
+    if (slash == std::string::npos) break;
+    start = slash + 1;
+  }
+  if (!std::all_of(parts.begin(), parts.end(), isSafeSegment)) {
+    return bad("empty, '.' or '..' path segments, control characters and backslashes are not allowed");
+  }
+
+  const std::string& first = parts[0];
+  if (parts.size() == 1 && first == "health") return simple(Route::Kind::kHealth);
+  if (parts.size() == 1 && first == "layers.json") return simple(Route::Kind::kLayerList);
+  if (first == "viewer" && parts.size() >= 2) {
+    Route route = simple(Route::Kind::kViewerFile);
+    route.file = join(parts.begin() + 1, parts.end());
+    return route;
+  }
+  if (first == "vendor" && parts.size() >= 3 && parts[1] == "three") {
+    Route route = simple(Route::Kind::kVendorFile);
+    route.file = join(parts.begin() + 2, parts.end());
+    return route;
+  }
+  if (isReservedName(first)) return notFound("no such file");
+  if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
+  if (parts.size() == 1) return notFound("no such file; try /" + first + "/tilejson.json");
+  if (parts.size() == 2) {
+    if (parts[1] != "tilejson.json") return notFound("no such file");
+    Route route = simple(Route::Kind::kTileJson);
+    route.layer = first;
+    return route;
+  }
+  return parseTile(parts);
+}
+
+bool isReservedName(const std::string& name) {
+  return std::find(kReservedNames.begin(), kReservedNames.end(), name) != kReservedNames.end();
+}
+
+}  // namespace terrabake::server

@@ -1,0 +1,38 @@
+#pragma once
+// What a request path asks for. Pure text work, done before anything touches
+// the disk: a path that climbs (`..`), has empty or odd segments, or does not
+// fit a route is refused here.
+#include <string>
+
+#include "core/types.hpp"
+#include "server/layer_source.hpp"
+
+namespace terrabake::server {
+
+struct Route {
+  enum class Kind {
+    kViewerPage,  // /
+    kLayerList,   // /layers.json
+    kHealth,      // /health
+    kViewerFile,  // /viewer/<file>
+    kVendorFile,  // /vendor/three/<file>
+    kTileJson,    // /<layer>/tilejson.json
+    kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>
+    kBadRequest,  // 400
+    kNotFound,    // 404
+  };
+  Kind kind = Kind::kNotFound;
+  std::string layer;  // kTileJson, kTile
+  TileId tile;        // kTile
+  TileFormat format = TileFormat::kPng;
+  std::string file;     // kViewerFile, kVendorFile: relative to the folder, segments checked
+  std::string problem;  // kBadRequest, kNotFound: what is wrong, for the response body
+};
+
+// `path` is the request path, percent-decoded, without the query.
+Route parseRoute(const std::string& path);
+
+// Names the server's own routes take, so no layer can be called that.
+bool isReservedName(const std::string& name);
+
+}  // namespace terrabake::server

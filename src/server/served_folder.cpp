@@ -1,0 +1,83 @@
+#include "server/served_folder.hpp"
+
+#include <fcntl.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdio>
+#include <cstdlib>
+#include <memory>
+
+namespace terrabake::server {
+namespace {
+
+// Strong ETag from inode, size and modification time in nanoseconds. terrabake
+// replaces files only by renaming a new file into place, which gives a new
+// inode, so equal tags mean equal bytes; and it costs a stat, not a hash of
+// the file on every request.
+std::string etagOf(const struct stat& info) {
+  const long long mtime_ns = (long long)info.st_mtim.tv_sec * 1000000000LL + info.st_mtim.tv_nsec;
+  char text[80];
+  std::snprintf(text, sizeof text, "\"%llx-%llx-%llx\"", (unsigned long long)info.st_ino,
+                (unsigned long long)info.st_size, (unsigned long long)mtime_ns);
+  return text;
+}
+
+struct FdCloser {
+  int fd;
+  ~FdCloser() { ::close(fd); }
+};
+
+}  // namespace
+
+ServedFolder::ServedFolder(const std::filesystem::path& folder) {
+  std::error_code ec;
+  const std::filesystem::path real = std::filesystem::canonical(folder, ec);
+  if (ec || !std::filesystem::is_directory(real, ec)) return;
+  m_root = real.string();
+  if (m_root.back() != '/') m_root += '/';
+}
+
+std::optional<std::string> ServedFolder::resolve(const std::string& relative) const {
+  if (m_root.empty() || relative.empty() || relative.front() == '/') return std::nullopt;
+  const std::unique_ptr<char, decltype(&std::free)> real(::realpath((m_root + relative).c_str(), nullptr),
+                                                         &std::free);
+  if (!real) return std::nullopt;
+  const std::string path(real.get());
+  if (path.size() <= m_root.size() || path.compare(0, m_root.size(), m_root) != 0) return std::nullopt;
+  return path;
+}
+
+std::optional<FileContent> ServedFolder::read(const std::string& relative) const {
+  const std::optional<std::string> path = resolve(relative);
+  if (!path) return std::nullopt;
+  // O_NOFOLLOW: a symlink swapped in after resolve() fails instead of being
+  // followed. O_NONBLOCK: a FIFO cannot hold the thread in open(); fstat
+  // then turns down anything but a regular file.
+  const int fd = ::open(path->c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
+  if (fd < 0) return std::nullopt;
+  const FdCloser closer{fd};
+  struct stat info;
+  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) return std::nullopt;
+  FileContent content;
+  content.etag = etagOf(info);  // of the open file, so tag and bytes always belong together
+  content.bytes.resize(std::size_t(info.st_size));
+  std::size_t done = 0;
+  while (done < content.bytes.size()) {
+    const ssize_t n = ::read(fd, content.bytes.data() + done, content.bytes.size() - done);
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return std::nullopt;
+    done += std::size_t(n);
+  }
+  return content;
+}
+
+std::optional<std::string> ServedFolder::etag(const std::string& relative) const {
+  const std::optional<std::string> path = resolve(relative);
+  struct stat info;
+  if (!path || ::stat(path->c_str(), &info) != 0 || !S_ISREG(info.st_mode)) return std::nullopt;
+  return etagOf(info);
+}
+
+}  // namespace terrabake::server

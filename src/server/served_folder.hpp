@@ -1,0 +1,37 @@
+#pragma once
+// Reading the files the server sends, only ever from inside one folder, with
+// the ETag that validates them.
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace terrabake::server {
+
+// A response body and its strong ETag, quoted as sent.
+struct FileContent {
+  std::string bytes;
+  std::string etag;
+};
+
+// A folder requests may read from. Every read resolves symlinks and refuses
+// a file whose real path is not inside the folder's real path, so neither
+// `..` nor a symlink pointing out can reach anything else.
+class ServedFolder {
+ public:
+  // The folder need not exist; then nothing can be read from it.
+  explicit ServedFolder(const std::filesystem::path& folder);
+
+  // The regular file at `relative` ("12/2177/1301.png", "build/three.module.js").
+  std::optional<FileContent> read(const std::string& relative) const;
+
+  // The ETag read() would give the file, without reading it.
+  std::optional<std::string> etag(const std::string& relative) const;
+
+ private:
+  // The real path of `relative` when it lies inside the folder.
+  std::optional<std::string> resolve(const std::string& relative) const;
+
+  std::string m_root;  // real path, ending in '/'; empty when the folder does not exist
+};
+
+}  // namespace terrabake::server
