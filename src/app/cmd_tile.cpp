@@ -16,7 +16,9 @@ constexpr const char* kTileExamples = R"(Examples:
   terrabake tile --config config/sample.yaml
   terrabake tile --config config/sample.yaml --zoom 12 --bits 16 --layer sample16
   terrabake tile --dem dem.tif --zoom 8-12 --out tiles --layer alps
-  terrabake tile --dem dem.tif --scheme native --zoom 0-3 --backend cpu)";
+  terrabake tile --dem dem.tif --scheme native --zoom 0-3 --backend cpu
+  terrabake tile --config config/sample.yaml --resume          # after a crash: only what is missing
+  terrabake tile --config config/sample.yaml --shard 2/8       # one of 8 machines of a job array)";
 
 // A flag and the config key it overrides; the text is validated by the
 // config module exactly like the file's value.
@@ -30,6 +32,7 @@ constexpr Override kOverrides[] = {
     {"--dem", "dem", "DEM file (overrides dem)"},
     {"--out", "output.dir", "Output folder (overrides output.dir)"},
     {"--layer", "output.layer", "Layer name (overrides output.layer)"},
+    {"--format", "output.format", "files or mbtiles (overrides output.format)"},
     {"--bits", "output.bits", "8 or 16 bits a channel (overrides output.bits)"},
     {"--green", "output.green", "up (OpenGL) or down (DirectX) (overrides output.green)"},
     {"--high-res-mesh", "output.high_res_mesh", "true: also write {y}.hires.glb (overrides output.high_res_mesh)"},
@@ -44,7 +47,21 @@ constexpr Override kOverrides[] = {
 struct TileOptions {
   std::string config_path;
   std::vector<std::string> override_text = std::vector<std::string>(std::size(kOverrides));
+  pipeline::RunOptions run;
+  std::string shard;
 };
+
+// "K/N" with 1 <= K <= N.
+void parseShard(const std::string& text, pipeline::RunOptions& run) {
+  int shard = 0, count = 0;
+  char slash = 0, rest = 0;
+  if (std::sscanf(text.c_str(), "%d%c%d%c", &shard, &slash, &count, &rest) != 3 || slash != '/' || shard < 1 ||
+      count < 1 || shard > count) {
+    throw UsageError("--shard: expected K/N with 1 <= K <= N, got '" + text + "'");
+  }
+  run.shard = shard;
+  run.shard_count = count;
+}
 
 }  // namespace
 
@@ -56,6 +73,9 @@ Action addTileCommand(CLI::App& app) {
   for (std::size_t i = 0; i < std::size(kOverrides); ++i) {
     cmd->add_option(kOverrides[i].flag, options->override_text[i], kOverrides[i].help);
   }
+  cmd->add_flag("--resume", options->run.resume, "Skip tiles the layer already holds whole");
+  cmd->add_flag("--force", options->run.force, "Write into a layer that a different job made");
+  cmd->add_option("--shard", options->shard, "Make shard K of N (K/N): every N-th tile, for job arrays");
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     config::TileJob job = options->config_path.empty() ? config::TileJob{}
@@ -66,9 +86,10 @@ Action addTileCommand(CLI::App& app) {
       }
     }
     config::validate(job, options->config_path.empty() ? "command line" : options->config_path);
-    const pipeline::RunSummary summary = pipeline::runTileJob(job);
-    std::printf("terrabake: wrote %d tiles to %s/ (%d empty, %d failed) in %.1f s\n", summary.written,
-                summary.layer_dir.c_str(), summary.empty, summary.failed, summary.seconds);
+    if (!options->shard.empty()) parseShard(options->shard, options->run);
+    const pipeline::RunSummary summary = pipeline::runTileJob(job, options->run);
+    std::printf("terrabake: wrote %d tiles to %s (%d skipped, %d empty, %d failed) in %.1f s\n", summary.written,
+                summary.layer_dir.c_str(), summary.skipped, summary.empty, summary.failed, summary.seconds);
     return int(summary.failed > 0 ? ExitCode::kTilesFailed : ExitCode::kOk);
   };
 }

@@ -5,6 +5,7 @@
 // and the key list for the docs all read that table, so each file kind only
 // writes its table. Internal to the config module; yaml-cpp stays in
 // key_table.cpp.
+#include <algorithm>
 #include <cstddef>
 #include <filesystem>
 #include <functional>
@@ -211,38 +212,32 @@ bool isSet(const ZoomField<S>& field, const S& settings) {
   return settings.*field.set;
 }
 
+// A value as YAML would write it.
+template <class S>
+std::string valueText(const IntField<S>& field, const S& settings) {
+  return std::to_string(settings.*field.member);
+}
+template <class S>
+std::string valueText(const BoolField<S>& field, const S& settings) {
+  return settings.*field.member ? "true" : "false";
+}
+template <class S, class F>
+auto valueText(const F& field, const S& settings) -> decltype(std::string(settings.*field.member)) {
+  return settings.*field.member;  // words, names, hosts, paths
+}
+template <class S>
+std::string valueText(const PathListField<S>& field, const S& settings) {
+  return joinPaths(settings.*field.member);
+}
+template <class S>
+std::string valueText(const ZoomField<S>& field, const S& settings) {
+  return std::to_string(settings.*field.min_zoom) + "-" + std::to_string(settings.*field.max_zoom);
+}
+
 // The default as YAML would write it; "" for a required key.
-template <class S>
-std::string defaultText(const IntField<S>& field) {
-  return std::to_string(S{}.*field.member);
-}
-template <class S>
-std::string defaultText(const BoolField<S>& field) {
-  return S{}.*field.member ? "true" : "false";
-}
-template <class S>
-std::string defaultText(const WordField<S>& field) {
-  return S{}.*field.member;
-}
-template <class S>
-std::string defaultText(const NameField<S>& field) {
-  return S{}.*field.member;
-}
-template <class S>
-std::string defaultText(const HostField<S>& field) {
-  return S{}.*field.member;
-}
-template <class S>
-std::string defaultText(const PathField<S>& field) {
-  return S{}.*field.member;
-}
-template <class S>
-std::string defaultText(const PathListField<S>& field) {
-  return field.required ? "" : joinPaths(S{}.*field.member);
-}
-template <class S>
-std::string defaultText(const ZoomField<S>&) {
-  return {};
+template <class S, class F>
+std::string defaultText(const F& field) {
+  return isSet(field, S{}) ? valueText(field, S{}) : "";
 }
 
 template <class S>
@@ -287,11 +282,22 @@ class KeyTable {
     }
   }
 
+  // Every key but `skipped` as "key: value" lines, in table order.
+  std::string describe(const S& settings, const std::vector<std::string>& skipped) const {
+    std::string text;
+    for (const Key<S>& key : m_keys) {
+      if (std::find(skipped.begin(), skipped.end(), key.name) != skipped.end()) continue;
+      text += std::string(key.name) + ": " +
+              std::visit([&](const auto& field) { return valueText(field, settings); }, key.field) + "\n";
+    }
+    return text;
+  }
+
   std::vector<KeyInfo> list() const {
     std::vector<KeyInfo> infos;
     for (const Key<S>& key : m_keys) {
       infos.push_back({std::string(key.name), std::string(key.type),
-                       std::visit([](const auto& field) { return defaultText(field); }, key.field),
+                       std::visit([](const auto& field) { return defaultText<S>(field); }, key.field),
                        std::string(key.description)});
     }
     return infos;

@@ -23,6 +23,9 @@ const key_table::KeyTable<TileJob>& table() {
       {"output.layer", "folder name",
        "layer folder under output.dir: letters, digits, '.', '_' and '-'",
        NameField{&TileJob::layer}},
+      {"output.format", "string",
+       "how the layer is stored: files (a folder of {z}/{x}/{y} files) or mbtiles (one SQLite file)",
+       WordField{&TileJob::format, {"files", "mbtiles"}}},
       {"output.bits", "integer", "bits per channel of the normal-map PNGs: 8 or 16",
        IntField{&TileJob::bits, 8, 16, {8, 16}}},
       {"output.green", "string",
@@ -53,6 +56,8 @@ const key_table::KeyTable<TileJob>& table() {
 }  // namespace
 
 TileJob loadTileJob(const std::string& yaml_path) { return table().load(yaml_path); }
+
+std::string layerFingerprint(const TileJob& job) { return table().describe(job, {"output.dir", "bake.workers"}); }
 
 void applyOverride(TileJob& job, const std::string& key, const std::string& value,
                    const std::string& origin) {

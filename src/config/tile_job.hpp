@@ -10,6 +10,7 @@ struct TileJob {
   std::vector<std::string> dems;       // dem: one path or a list (required)
   std::string output_dir = "tiles";    // output.dir
   std::string layer = "default";       // output.layer
+  std::string format = "files";        // output.format: files | mbtiles
   int bits = 8;                        // output.bits: 8 or 16
   std::string green = "up";            // output.green: "up" (OpenGL) or "down" (DirectX)
   bool high_res_mesh = false;          // output.high_res_mesh: also write {y}.hires.glb
@@ -35,6 +36,12 @@ TileJob loadTileJob(const std::string& yaml_path);
 // Relative paths resolve against the working directory.
 void applyOverride(TileJob& job, const std::string& key, const std::string& value,
                    const std::string& origin);
+
+// The keys that decide what a layer's tiles hold, as "key: value" lines: a
+// layer records it, and resuming with a job that describes differently is
+// refused. output.dir and bake.workers are left out: they do not change a
+// tile's bytes.
+std::string layerFingerprint(const TileJob& job);
 
 // Checks the settings as a whole (required keys present, zoom order, ...).
 // Throws UsageError "<origin>: <key>: <problem>".

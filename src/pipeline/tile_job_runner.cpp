@@ -16,43 +16,65 @@
 #include "io/tile_files.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
+#include "pipeline/tile_sink.hpp"
 
 namespace terrabake::pipeline {
 namespace {
 
-void prepareOutputFolder(const std::string& layer_dir) {
-  std::error_code ec;
-  std::filesystem::create_directories(layer_dir, ec);
-  if (ec || !std::filesystem::is_directory(layer_dir)) {
-    throw InputError("output: cannot create folder '" + layer_dir + "': " +
-                     (ec ? ec.message() : std::string("a file is in the way")));
+std::unique_ptr<TileSink> openSink(const config::TileJob& job) {
+  const std::filesystem::path layer = std::filesystem::path(job.output_dir) / job.layer;
+  return openFolderSink(layer.lexically_normal().string(), job.high_res_mesh);
+}
+
+// A layer holds one job's tiles: a run into a layer another job made would
+// mix them, so it needs --force.
+void claimLayer(TileSink& sink, const std::string& fingerprint, bool force) {
+  const std::string recorded = sink.recordedJob();
+  if (!recorded.empty() && recorded != fingerprint && !force) {
+    throw UsageError("output: layer '" + sink.location() +
+                     "' was made by a different job; use another output.layer, or --force to overwrite it");
   }
+  if (recorded != fingerprint) sink.recordJob(fingerprint);
 }
 
 }  // namespace
 
-RunSummary runTileJob(const config::TileJob& job) {
+std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count) {
+  std::vector<TileId> mine;
+  for (std::size_t i = std::size_t(shard - 1); i < tiles.size(); i += std::size_t(shard_count)) {
+    mine.push_back(tiles[i]);
+  }
+  return mine;
+}
+
+RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   config::validate(job, "job");
 
   // Everything that can fail for the whole run fails here, before any tile.
   const dem::DemSource dem(job.dems);
   const auto plan = std::make_shared<const LayerPlan>(planLayer(job, dem));
+  const std::unique_ptr<TileSink> sink = openSink(job);
+  claimLayer(*sink, config::layerFingerprint(job), options.force);
   RunSummary summary;
-  summary.layer_dir = (std::filesystem::path(job.output_dir) / job.layer).lexically_normal().string();
-  prepareOutputFolder(summary.layer_dir);
+  summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.
-  std::vector<TileId> tiles;
+  std::vector<TileId> all;
   for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
     const auto level = plan->scheme->tilesCovering(plan->area, z);
     log::info("zoom " + std::to_string(z) + ": " + std::to_string(level.size()) + " tiles");
-    tiles.insert(tiles.end(), level.begin(), level.end());
+    all.insert(all.end(), level.begin(), level.end());
+  }
+  const std::vector<TileId> tiles = shardTiles(all, options.shard, options.shard_count);
+  if (options.shard_count > 1) {
+    log::info("shard " + std::to_string(options.shard) + "/" + std::to_string(options.shard_count) + ": " +
+              std::to_string(tiles.size()) + " of " + std::to_string(all.size()) + " tiles");
   }
 
   const int workers = std::max(1, std::min<int>(job.workers > 0 ? job.workers : int(std::thread::hardware_concurrency()),
                                                 int(tiles.size())));
   std::atomic<std::size_t> next{0};
-  std::atomic<int> written{0}, empty{0}, failed{0};
+  std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
   std::once_flag renderer_logged;
@@ -75,8 +97,10 @@ RunSummary runTileJob(const config::TileJob& job) {
     for (std::size_t i = next++; i < tiles.size(); i = next++) {
       const TileId& tile = tiles[i];
       try {
-        if (const auto files = maker->make(tile)) {
-          writeTileFiles(summary.layer_dir, tile, *files);
+        if (options.resume && sink->hasTile(tile)) {
+          ++skipped;
+        } else if (const auto files = maker->make(tile)) {
+          sink->write(tile, *files);
           ++written;
         } else {
           ++empty;
@@ -95,9 +119,9 @@ RunSummary runTileJob(const config::TileJob& job) {
   progress.finish();
   if (fatal) std::rethrow_exception(fatal);
 
-  io::writeFileAtomically(summary.layer_dir + "/tilejson.json",
-                          std::vector<std::uint8_t>(plan->tilejson.begin(), plan->tilejson.end()));
+  sink->finish(plan->tilejson);
   summary.written = written;
+  summary.skipped = skipped;
   summary.empty = empty;
   summary.failed = failed;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -2,23 +2,39 @@
 // Runs a `terrabake tile` job: every tile of every requested zoom, on N
 // worker threads, written atomically into <output.dir>/<output.layer>/.
 #include <string>
+#include <vector>
+
+#include "core/types.hpp"
 
 #include "config/tile_job.hpp"
 
 namespace terrabake::pipeline {
 
+// How to run a job, beyond what it makes.
+struct RunOptions {
+  bool resume = false;  // skip tiles the layer already holds whole
+  bool force = false;   // write into a layer another job made
+  int shard = 1;        // this run makes shard `shard` of `shard_count`:
+  int shard_count = 1;  // every shard_count-th tile of the job, from the shard-th
+};
+
 struct RunSummary {
-  std::string layer_dir;
-  std::string renderer;  // what baked, as the baker describes itself
+  std::string layer_dir;  // the folder or the .mbtiles file
+  std::string renderer;   // what baked, as the baker describes itself
   int written = 0;
-  int empty = 0;   // no valid DEM sample: not written
-  int failed = 0;  // each one logged with its tile id
+  int skipped = 0;  // already whole, with --resume
+  int empty = 0;    // no valid DEM sample: not written
+  int failed = 0;   // each one logged with its tile id
   double seconds = 0;
 };
 
+// The tiles of a job at every zoom, in the order runs make them; a shard
+// makes every shard_count-th of them, so shards never share a tile.
+std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count);
+
 // Throws UsageError / InputError for problems that stop the whole run
-// (unreadable DEM, unwritable output, no GL context); a failing tile is
-// counted and logged, and the run goes on.
-RunSummary runTileJob(const config::TileJob& job);
+// (unreadable DEM, unwritable output, no GL context, a layer another job
+// made); a failing tile is counted and logged, and the run goes on.
+RunSummary runTileJob(const config::TileJob& job, const RunOptions& options = {});
 
 }  // namespace terrabake::pipeline

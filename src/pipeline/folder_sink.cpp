@@ -1,0 +1,85 @@
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "core/error.hpp"
+#include "io/tile_files.hpp"
+#include "pipeline/tile_sink.hpp"
+#include "tiling/scheme.hpp"
+
+namespace terrabake::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr const char* kJobFile = ".terrabake-job";
+// Temporary files older than this belong to no live writer: an atomic write
+// holds one for milliseconds.
+constexpr std::chrono::minutes kStaleTempAge{1};
+
+bool isTempFile(const fs::path& path) {
+  const std::string name = path.filename().string();
+  return name.size() > 1 && name[0] == '.' && name.find(".tmp-") != std::string::npos;
+}
+
+void removeStaleTempFiles(const fs::path& layer) {
+  const auto cutoff = fs::file_time_type::clock::now() - kStaleTempAge;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(layer, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    std::error_code ignored;
+    if (it->is_regular_file(ignored) && isTempFile(it->path()) && it->last_write_time(ignored) < cutoff) {
+      fs::remove(it->path(), ignored);
+    }
+  }
+}
+
+class FolderSink : public TileSink {
+ public:
+  FolderSink(const std::string& layer_dir, bool high_res_mesh) : m_dir(layer_dir), m_high_res_mesh(high_res_mesh) {
+    std::error_code ec;
+    fs::create_directories(m_dir, ec);
+    if (ec || !fs::is_directory(m_dir)) {
+      throw InputError("output: cannot create folder '" + m_dir + "': " +
+                       (ec ? ec.message() : std::string("a file is in the way")));
+    }
+    removeStaleTempFiles(m_dir);
+  }
+
+  std::string location() const override { return m_dir; }
+
+  std::string recordedJob() const override {
+    std::ifstream in(fs::path(m_dir) / kJobFile);
+    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+
+  void recordJob(const std::string& fingerprint) override {
+    io::writeFileAtomically((fs::path(m_dir) / kJobFile).string(),
+                            std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+  }
+
+  bool hasTile(const TileId& tile) const override {
+    // writeTileFiles writes the image, then the mesh, then the high-res mesh.
+    std::error_code ec;
+    return fs::exists(tiling::tilePath(m_dir, tile, m_high_res_mesh ? "hires.glb" : "glb"), ec);
+  }
+
+  void write(const TileId& tile, const TileFiles& files) override { writeTileFiles(m_dir, tile, files); }
+
+  void finish(const std::string& tilejson) override {
+    io::writeFileAtomically(m_dir + "/tilejson.json", std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
+  }
+
+ private:
+  std::string m_dir;
+  bool m_high_res_mesh;
+};
+
+}  // namespace
+
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh) {
+  return std::make_unique<FolderSink>(layer_dir, high_res_mesh);
+}
+
+}  // namespace terrabake::pipeline
