@@ -222,11 +222,11 @@ void expectOneLineError(const RunResult& r, int exit_code) {
   EXPECT_EQ(r.out, "") << describe(r);
 }
 
-// A finished layer: tilejson.json plus z/x/y.png and .glb in pairs, nothing
+// A finished layer: tilejson.json, the job record, and z/x/y.png and .glb in pairs, nothing
 // hidden (a leftover temp file) and nothing else. Returns the tiles "z/x/y".
 std::set<std::string> checkLayer(const fs::path& layer_dir) {
   std::set<std::string> pngs, glbs;
-  bool has_tilejson = false;
+  bool has_tilejson = false, has_job_record = false;
   for (const std::string& name : filesUnder(layer_dir)) {
     const fs::path rel(name);
     for (const auto& part : rel) {
@@ -236,6 +236,8 @@ std::set<std::string> checkLayer(const fs::path& layer_dir) {
     if (name == "tilejson.json") {
       has_tilejson = true;
       EXPECT_GT(fs::file_size(full), 0u);
+    } else if (name == "terrabake-job.txt") {
+      has_job_record = true;  // what resume and --force check
     } else if (rel.extension() == ".png") {
       pngs.insert(fs::path(rel).replace_extension().string());
       EXPECT_EQ(readBytes(full).substr(0, 4), "\x89PNG") << name;
@@ -247,6 +249,7 @@ std::set<std::string> checkLayer(const fs::path& layer_dir) {
     }
   }
   EXPECT_TRUE(has_tilejson) << layer_dir;
+  EXPECT_TRUE(has_job_record) << layer_dir;
   EXPECT_EQ(pngs, glbs) << "every .png needs its .glb and the other way round";
   return pngs;
 }

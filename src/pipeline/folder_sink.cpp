@@ -13,7 +13,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-constexpr const char* kJobFile = ".terrabake-job";
+constexpr const char* kJobFile = "terrabake-job.txt";
 // Temporary files older than this belong to no live writer: an atomic write
 // holds one for milliseconds.
 constexpr std::chrono::minutes kStaleTempAge{1};

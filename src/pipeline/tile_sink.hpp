@@ -28,7 +28,7 @@ class TileSink {
 };
 
 // <dir>/<layer>/{z}/{x}/{y}.png|.glb[|.hires.glb], tilejson.json, and the
-// job fingerprint in .terrabake-job. A crashed run may leave hidden temporary
+// job fingerprint in terrabake-job.txt. A crashed run may leave hidden temporary
 // files behind; opening the folder removes those older than a minute.
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 
