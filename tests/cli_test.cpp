@@ -3,21 +3,12 @@
 // naming the culprit, a documented exit code, and no partial file.
 #include <gtest/gtest.h>
 
-#include <fcntl.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
-#include <poll.h>
-#include <signal.h>
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 #include <algorithm>
-#include <array>
-#include <cerrno>
 #include <chrono>
 #include <cmath>
-#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -28,7 +19,7 @@
 #include <string>
 #include <vector>
 
-extern char** environ;
+#include "child_process.hpp"
 
 namespace terrabake {
 namespace {
@@ -66,89 +57,14 @@ std::string describe(const RunResult& r) {
   return s.str();
 }
 
-// Runs terrabake with `args`, no shell in between, and collects stdout and
-// stderr separately. Both pipes are drained together so that a chatty child
-// cannot block on a full pipe while we wait on the other one.
+// Runs terrabake with `args` to its end (or the time limit).
 RunResult runTerrabake(const std::vector<std::string>& args) {
+  test::ChildProcess child(args);
   RunResult result;
-  int out_pipe[2], err_pipe[2];
-  // CLOEXEC: only the dup2'ed copies reach the child, so EOF comes when it exits.
-  if (::pipe2(out_pipe, O_CLOEXEC) != 0) {
-    ADD_FAILURE() << "pipe2: " << std::strerror(errno);
-    return result;
-  }
-  if (::pipe2(err_pipe, O_CLOEXEC) != 0) {
-    ADD_FAILURE() << "pipe2: " << std::strerror(errno);
-    ::close(out_pipe[0]);
-    ::close(out_pipe[1]);
-    return result;
-  }
-
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-  posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
-  posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
-
-  std::vector<std::string> words = {TERRABAKE_EXE};
-  words.insert(words.end(), args.begin(), args.end());
-  std::vector<char*> argv;
-  for (auto& word : words) argv.push_back(word.data());
-  argv.push_back(nullptr);
-
-  pid_t pid = 0;
-  const int spawn_error = ::posix_spawn(&pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
-  ::close(out_pipe[1]);
-  ::close(err_pipe[1]);
-  if (spawn_error != 0) {
-    ADD_FAILURE() << "cannot start " << TERRABAKE_EXE << ": " << std::strerror(spawn_error);
-    ::close(out_pipe[0]);
-    ::close(err_pipe[0]);
-    return result;
-  }
-
-  const auto deadline = std::chrono::steady_clock::now() + kRunTimeLimit;
-  std::array<pollfd, 2> fds = {{{out_pipe[0], POLLIN, 0}, {err_pipe[0], POLLIN, 0}}};
-  std::array<std::string*, 2> sinks = {&result.out, &result.err};
-  int open_pipes = 2;
-  while (open_pipes > 0) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-                          deadline - std::chrono::steady_clock::now())
-                          .count();
-    if (left <= 0) {
-      result.timed_out = true;
-      ::kill(pid, SIGKILL);
-      break;
-    }
-    const int ready = ::poll(fds.data(), fds.size(), int(left));
-    if (ready < 0) {
-      if (errno == EINTR) continue;
-      ADD_FAILURE() << "poll: " << std::strerror(errno);
-      ::kill(pid, SIGKILL);
-      break;
-    }
-    for (std::size_t i = 0; i < fds.size(); ++i) {
-      if (fds[i].fd < 0 || fds[i].revents == 0) continue;
-      char buffer[4096];
-      const ssize_t got = ::read(fds[i].fd, buffer, sizeof buffer);
-      if (got > 0) {
-        sinks[i]->append(buffer, std::size_t(got));
-      } else if (got == 0 || errno != EINTR) {
-        ::close(fds[i].fd);
-        fds[i].fd = -1;  // poll skips negative descriptors
-        --open_pipes;
-      }
-    }
-  }
-  for (const pollfd& fd : fds) {
-    if (fd.fd >= 0) ::close(fd.fd);
-  }
-
-  int status = 0;
-  while (::waitpid(pid, &status, 0) < 0 && errno == EINTR) {
-  }
-  if (!result.timed_out && WIFEXITED(status)) result.exit_code = WEXITSTATUS(status);
+  result.exit_code = child.wait(kRunTimeLimit);
+  result.timed_out = child.timedOut();
+  result.out = child.out();
+  result.err = child.err();
   return result;
 }
 
@@ -433,6 +349,82 @@ TEST(Cli, RerunIntoSameFolderKeepsTheSameFiles) {
   EXPECT_EQ(names_after, names_before);
   EXPECT_TRUE(after == before) << "a rerun changed the content of some files";
   checkLayer(out / "ok");
+}
+
+// ------------------------------------------------------------ terrabake info
+
+// `terrabake info` on the bundled sample (1024 x 1024 Int16 pixels of 30 m in
+// UTM 32N around 10 E, 46.5 N): every field, and zooms worked out by hand.
+TEST(Cli, InfoDescribesTheSampleDem) {
+  const fs::path dem = fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif";
+  const RunResult r = runTerrabake({"info", dem.string()});
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_EQ(r.err, "") << describe(r);
+  for (const char* field : {
+           "DEM        ", "CRS        WGS 84 / UTM zone 32N (EPSG:32632)\n",
+           "size       1024 x 1024 pixels, Int16, 0 overviews\n", "nodata     none declared\n",
+           "pixel      30 x 30 metre; 30.0",  // metres on the ground: UTM's scale factor is within 0.1 %
+           "extent     west 561360, south 5134740, east 592080, north 5165460 (metre)\n",
+           "lon/lat    west 9.79", "for 256-texel tiles",
+           // A Web Mercator texel at 46.5 N is 52.6 m at zoom 11 and 26.3 m at
+           // zoom 12: zoom 11 is the deepest no finer than the 30 m pixels.
+           "  webmercator  7-11, ",
+           // Native: 1024 pixels are 4 tiles of 256 a side at full resolution, level 2.
+           "  native       0-2, 21 tiles: z0 1, z1 4, z2 16\n", "  geodetic     "}) {
+    EXPECT_TRUE(contains(r.out, field)) << "missing '" << field << "'\n" << describe(r);
+  }
+  EXPECT_LE(countLines(r.out), 24u) << "one screen\n" << describe(r);
+}
+
+TEST(Cli, InfoMergesSeveralDemsAndWritesNothing) {
+  const fs::path dir = caseDir();
+  writeDem(dir / "a.tif", true);
+  writeDem(dir / "b.tif", true);
+  const RunResult r = runTerrabake({"info", (dir / "a.tif").string(), (dir / "b.tif").string(), "--tile-size", "32"});
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, "DEM        " + (dir / "a.tif").string() + ", " + (dir / "b.tif").string() + "\n"))
+      << describe(r);
+  EXPECT_TRUE(contains(r.out, "CRS        WGS 84 / UTM zone 33N (EPSG:32633)\n")) << describe(r);
+  EXPECT_TRUE(contains(r.out, "64 x 64 pixels, Float32")) << describe(r);
+  // 64 pixels in tiles of 32: level 1 is full resolution.
+  EXPECT_TRUE(contains(r.out, "  native       0-1, 5 tiles: z0 1, z1 4\n")) << describe(r);
+  EXPECT_EQ(filesUnder(dir), (std::set<std::string>{"a.tif", "b.tif"}));
+}
+
+TEST(Cli, InfoOnAMissingDemNamesThePath) {
+  const fs::path dem = caseDir() / "no_such_dem.tif";
+  const RunResult r = runTerrabake({"info", dem.string()});
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
+}
+
+TEST(Cli, InfoWithoutADemIsAUsageError) {
+  expectOneLineError(runTerrabake({"info"}), kExitUsage);
+}
+
+TEST(Cli, ZoomAutoTilesDownToTheDemsResolution) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  *std::find(args.begin(), args.end(), "0-1") = "auto";
+  const RunResult r = runTerrabake(args);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_EQ(checkLayer(out / "ok"), (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
+}
+
+TEST(Cli, BadBboxNamesTheFlag) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  args.insert(args.end(), {"--bbox", "15,60,14,61"});
+  const RunResult r = runTerrabake(args);
+  expectOneLineError(r, kExitUsage);
+  EXPECT_TRUE(contains(r.err, "--bbox: tiling.bbox: west 15 must be less than east 14")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
 }
 
 }  // namespace

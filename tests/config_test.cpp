@@ -101,7 +101,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 13u);
+  ASSERT_EQ(keys.size(), 18u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {
@@ -205,9 +205,9 @@ TEST(ConfigErrors, NameFileLineAndKey) {
       {head + "tiling:\n  zoom: [1, 2, 3]\n",
        "3: tiling.zoom: expected [min, max], got a list of 3"},
       {head + "tiling:\n  zoom:\n    - 1\n    - x\n",
-       "5: tiling.zoom: expected an integer, got 'x'"},
+       "5: tiling.zoom: expected an integer or auto, got 'x'"},
       {head + "tiling:\n  zoom: low\n",
-       "3: tiling.zoom: expected an integer, [min, max] or \"min-max\", got 'low'"},
+       "3: tiling.zoom: expected an integer, [min, max], \"min-max\" or auto, got 'low'"},
       {head + "low_poly:\n  grid: 1\n", "3: low_poly.grid: must be between 2 and 257, got 1"},
       {head + "bake:\n  backend: vulkan\n",
        "3: bake.backend: must be auto, osmesa, egl or cpu, got 'vulkan'"},
@@ -361,7 +361,7 @@ TEST(ConfigOverrides, BadValuesNameTheFlagAndKey) {
   EXPECT_EQ(overrideMessage("tiling.zoom", "12-9", "--zoom"),
             "--zoom: tiling.zoom: min 12 is above max 9");
   EXPECT_EQ(overrideMessage("tiling.zoom", "9-", "--zoom"),
-            "--zoom: tiling.zoom: expected an integer, [min, max] or \"min-max\", got '9-'");
+            "--zoom: tiling.zoom: expected an integer, [min, max], \"min-max\" or auto, got '9-'");
   EXPECT_EQ(overrideMessage("tiling.zoom", "-3", "--zoom"),
             "--zoom: tiling.zoom: must be between 0 and 24, got -3");
   EXPECT_EQ(overrideMessage("output.layer", "a/b", "--layer"),

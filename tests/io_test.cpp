@@ -197,6 +197,32 @@ TEST_P(PngRoundTrip, GivesBackExactValuesAndCarriesNoColourTag) {
 
 INSTANTIATE_TEST_SUITE_P(Bits, PngRoundTrip, ::testing::Values(8, 16));
 
+// Alpha marks coverage: colour is stored as given whatever the alpha (none
+// of it premultiplied or divided out), and the PNG is RGBA (colour type 6).
+TEST(Png, RgbaKeepsColourWhateverTheAlpha) {
+  for (const int bits : {8, 16}) {
+    const int top = bits == 8 ? 255 : 65535;
+    const Image<std::uint16_t> img{
+        3, 1, 4, {200, 100, std::uint16_t(top), 0, 17, 90, 250, std::uint16_t(top), 200, 100, 250, 100}};
+    const std::vector<std::uint8_t> png = io::encodePng(img, bits);
+    ASSERT_GT(png.size(), 26u);
+    EXPECT_EQ(png[25], 6) << bits;
+    OIIO::Filesystem::IOMemReader reader(png.data(), png.size());
+    OIIO::ImageSpec config;
+    config.attribute("oiio:UnassociatedAlpha", 1);
+    // With a config, OIIO 2.4 finds the proxy only among its attributes.
+    OIIO::Filesystem::IOProxy* proxy = &reader;
+    config.attribute("oiio:ioproxy", OIIO::TypeDesc::PTR, &proxy);
+    auto in = OIIO::ImageInput::open("tile.png", &config);
+    ASSERT_TRUE(in) << OIIO::geterror();
+    std::vector<std::uint16_t> back(img.pixels.size());
+    ASSERT_TRUE(in->read_image(0, 0, 0, 4, OIIO::TypeDesc::UINT16, back.data())) << in->geterror();
+    // Read back as 16 bits: 8-bit samples come scaled by 257.
+    for (std::uint16_t& v : back) v = std::uint16_t(bits == 8 ? v / 257 : v);
+    EXPECT_EQ(back, img.pixels) << bits;
+  }
+}
+
 TEST(Png, RejectsBadInput) {
   Image<std::uint16_t> img = gradient(4, 4, 8);
   EXPECT_THROW(io::encodePng(img, 12), std::invalid_argument);
@@ -464,6 +490,9 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   info.tile_size = 512;
   info.bits = 16;
   info.green_up = false;
+  info.alpha = true;
+  info.z_scale = 0.3048;
+  info.exaggeration = 2;
   info.low_poly_grid = 33;
   info.sources = {"dem/a.tif", "dem/b.tif"};
 
@@ -482,6 +511,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(j["center"], json::array({-180.0, 5.0, 9}));
   EXPECT_EQ(j["terrabake"], json::parse(R"({
       "version": "1", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
+      "alpha": true, "z_scale": 0.3048, "exaggeration": 2.0,
       "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"grid": 33},
       "sources": ["dem/a.tif", "dem/b.tif"]})"));
 

@@ -8,10 +8,8 @@
 #include <netinet/in.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
-#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -36,6 +34,7 @@
 #include "config/serve_config.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
+#include "child_process.hpp"
 #include "gl_test_support.hpp"
 #include "layer_check.hpp"
 #include "pipeline/tile_job_runner.hpp"
@@ -1124,109 +1123,29 @@ TEST(ServeOnDemand, StopFinishesTheRunningBakeAndAbandonsQueuedOnes) {
 
 // --- The executable ------------------------------------------------------------
 
-// `terrabake serve` as a child process with its stdout and stderr on pipes.
-class ServeProcess {
- public:
-  explicit ServeProcess(const std::vector<std::string>& args) {
-    int out_pipe[2], err_pipe[2];
-    if (::pipe2(out_pipe, O_CLOEXEC) != 0 || ::pipe2(err_pipe, O_CLOEXEC) != 0) throw std::runtime_error("pipe2");
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, STDIN_FILENO, "/dev/null", O_RDONLY, 0);
-    posix_spawn_file_actions_adddup2(&actions, out_pipe[1], STDOUT_FILENO);
-    posix_spawn_file_actions_adddup2(&actions, err_pipe[1], STDERR_FILENO);
-    std::vector<std::string> words = {TERRABAKE_EXE, "serve"};
-    words.insert(words.end(), args.begin(), args.end());
-    std::vector<char*> argv;
-    for (auto& word : words) argv.push_back(word.data());
-    argv.push_back(nullptr);
-    const int error = ::posix_spawn(&m_pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
-    posix_spawn_file_actions_destroy(&actions);
-    ::close(out_pipe[1]);
-    ::close(err_pipe[1]);
-    m_out = out_pipe[0];
-    m_err = err_pipe[0];
-    if (error != 0) throw std::runtime_error(std::string("cannot start terrabake: ") + std::strerror(error));
-  }
+// `terrabake serve` as a child process.
+std::vector<std::string> serveArgs(std::vector<std::string> args) {
+  args.insert(args.begin(), "serve");
+  return args;
+}
 
-  ~ServeProcess() {
-    if (m_pid > 0) {
-      ::kill(m_pid, SIGKILL);
-      ::waitpid(m_pid, nullptr, 0);
-    }
-    ::close(m_out);
-    ::close(m_err);
-  }
-
-  // The first line on stdout, "" when none comes in time or the process ends.
-  std::string firstLine() {
-    const auto deadline = std::chrono::steady_clock::now() + kWaitLimit;
-    while (m_stdout.find('\n') == std::string::npos && readSome(m_out, m_stdout, deadline)) {
-    }
-    const std::size_t end = m_stdout.find('\n');
-    return end == std::string::npos ? "" : m_stdout.substr(0, end + 1);
-  }
-
-  // Sends `signal` and waits for the exit; the exit code, or -1 if it did
-  // not exit in time or died of a signal.
-  int stopWith(int signal, std::chrono::milliseconds* took) {
-    const auto start = std::chrono::steady_clock::now();
-    ::kill(m_pid, signal);
-    const auto deadline = start + kStopLimit;
-    while (readSome(m_out, m_stdout, deadline)) {
-    }
-    while (readSome(m_err, m_stderr, deadline)) {
-    }
-    int status = 0;
-    while (std::chrono::steady_clock::now() < deadline) {
-      if (::waitpid(m_pid, &status, WNOHANG) == m_pid) {
-        m_pid = 0;
-        *took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-      }
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
-    return -1;
-  }
-
-  // Waits for an exit without being asked to (a start that fails).
-  int exitCode() {
-    std::chrono::milliseconds ignored{};
-    return stopWith(0, &ignored);  // signal 0 only checks that the process exists
-  }
-
-  const std::string& out() const { return m_stdout; }
-  const std::string& err() const { return m_stderr; }
-
- private:
-  // Appends what `fd` has; false at end of file or past the deadline.
-  static bool readSome(int fd, std::string& sink, std::chrono::steady_clock::time_point deadline) {
-    const auto left =
-        std::chrono::duration_cast<std::chrono::milliseconds>(deadline - std::chrono::steady_clock::now()).count();
-    if (left <= 0) return false;
-    pollfd ready{fd, POLLIN, 0};
-    if (::poll(&ready, 1, int(left)) <= 0) return false;
-    char buffer[4096];
-    const ssize_t got = ::read(fd, buffer, sizeof buffer);
-    if (got <= 0) return false;
-    sink.append(buffer, std::size_t(got));
-    return true;
-  }
-
-  pid_t m_pid = 0;
-  int m_out = -1;
-  int m_err = -1;
-  std::string m_stdout;
-  std::string m_stderr;
-};
+// Sends `signal` and waits for the exit; the exit code (-1: no clean exit in
+// time) and how long it took.
+int stopWith(test::ChildProcess& process, int signal, std::chrono::milliseconds* took) {
+  const auto start = std::chrono::steady_clock::now();
+  process.signal(signal);
+  const int code = process.wait(kStopLimit);
+  *took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
+  return code;
+}
 
 TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
   const Case c = makeCase();
   const fs::path config = c.dir / "serve.yaml";
   writeText(config, "viewer:\n  dir: viewer\nlayers: [live.yaml]\nhttp:\n  port: 8080\n");
-  ServeProcess process({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"});
+  test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
 
-  const std::string line = process.firstLine();
+  const std::string line = process.firstLine(kWaitLimit);
   const std::string start = "terrabake: serving " + c.tiles.string() + " on http://127.0.0.1:";
   ASSERT_TRUE(startsWith(line, start)) << "stdout: " << line << "\nstderr: " << process.err();
   ASSERT_EQ(line.substr(line.size() - 2), "/\n") << line;
@@ -1241,7 +1160,7 @@ TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
   EXPECT_EQ(tile->status, 200);
 
   std::chrono::milliseconds took{};
-  EXPECT_EQ(process.stopWith(SIGTERM, &took), 0) << process.err();
+  EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
   EXPECT_LT(took, kStopLimit);
   EXPECT_EQ(process.out(), line) << "exactly one line on stdout";
   EXPECT_EQ(process.err().find("error"), std::string::npos) << process.err();
@@ -1249,10 +1168,10 @@ TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
 
 TEST(ServeCli, SigintStopsItToo) {
   const Case c = makeCase();
-  ServeProcess process({"--tiles", c.tiles.string(), "--port", "0"});
-  ASSERT_FALSE(process.firstLine().empty()) << process.err();
+  test::ChildProcess process(serveArgs({"--tiles", c.tiles.string(), "--port", "0"}));
+  ASSERT_FALSE(process.firstLine(kWaitLimit).empty()) << process.err();
   std::chrono::milliseconds took{};
-  EXPECT_EQ(process.stopWith(SIGINT, &took), 0) << process.err();
+  EXPECT_EQ(stopWith(process, SIGINT, &took), 0) << process.err();
 }
 
 TEST(ServeCli, BadFlagsAndMissingFoldersAreOneLineErrors) {
@@ -1268,8 +1187,8 @@ TEST(ServeCli, BadFlagsAndMissingFoldersAreOneLineErrors) {
       {{"--config", (dir / "missing.yaml").string()}, 3, "missing.yaml"},
   };
   for (const auto& bad : cases) {
-    ServeProcess process(bad.args);
-    EXPECT_EQ(process.exitCode(), bad.exit_code) << process.err();
+    test::ChildProcess process(serveArgs(bad.args));
+    EXPECT_EQ(process.wait(kStopLimit), bad.exit_code) << process.err();
     EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
     EXPECT_NE(process.err().find(bad.culprit), std::string::npos) << process.err();
     EXPECT_EQ(process.out(), "");

@@ -17,6 +17,7 @@ constexpr const char* kTileExamples = R"(Examples:
   terrabake tile --config config/sample.yaml --zoom 12 --bits 16 --layer sample16
   terrabake tile --dem dem.tif --zoom 8-12 --out tiles --layer alps
   terrabake tile --dem dem.tif --scheme native --zoom 0-3 --backend cpu
+  terrabake tile --dem dem_ft.tif --zoom 8-auto --z-scale 0.3048 --bbox 9.9,46.4,10.1,46.6 --alpha true
   terrabake tile --config config/sample.yaml --resume          # after a crash: only what is missing
   terrabake tile --config config/sample.yaml --shard 2/8       # one of 8 machines of a job array)";
 
@@ -36,9 +37,16 @@ constexpr Override kOverrides[] = {
     {"--bits", "output.bits", "8 or 16 bits a channel (overrides output.bits)"},
     {"--green", "output.green", "up (OpenGL) or down (DirectX) (overrides output.green)"},
     {"--high-res-mesh", "output.high_res_mesh", "true: also write {y}.hires.glb (overrides output.high_res_mesh)"},
+    {"--alpha", "output.alpha", "true: RGBA, alpha 0 where the DEM has no sample (overrides output.alpha)"},
     {"--scheme", "tiling.scheme", "webmercator, geodetic or native (overrides tiling.scheme)"},
-    {"--zoom", "tiling.zoom", "Zoom N or range MIN-MAX (overrides tiling.zoom)"},
+    {"--zoom", "tiling.zoom",
+     "Zoom N or range MIN-MAX; MAX may be auto, the deepest zoom the DEM's pixels fill; auto = 0-auto "
+     "(overrides tiling.zoom)"},
+    {"--bbox", "tiling.bbox", "WEST,SOUTH,EAST,NORTH in degrees, or none (overrides tiling.bbox)"},
     {"--tile-size", "tiling.tile_size", "Texels a tile side (overrides tiling.tile_size)"},
+    {"--z-scale", "heights.z_scale", "Metres per DEM height unit, 0.3048 for feet (overrides heights.z_scale)"},
+    {"--exaggeration", "heights.exaggeration", "Vertical exaggeration (overrides heights.exaggeration)"},
+    {"--max-fill", "nodata.max_fill_px", "Texels holes are filled in from their edge (overrides nodata.max_fill_px)"},
     {"--low-poly-grid", "low_poly.grid", "Low-poly vertices a side (overrides low_poly.grid)"},
     {"--backend", "bake.backend", "auto, osmesa, egl or cpu (overrides bake.backend)"},
     {"--workers", "bake.workers", "Worker threads, 0 = one per core (overrides bake.workers)"},

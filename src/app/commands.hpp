@@ -17,5 +17,6 @@ inline constexpr const char* kExitCodes =
 
 Action addTileCommand(CLI::App& app);
 Action addServeCommand(CLI::App& app);
+Action addInfoCommand(CLI::App& app);
 
 }  // namespace terrabake::app

@@ -15,6 +15,7 @@ int main(int argc, char** argv) {
   cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");
   const app::Action tile = app::addTileCommand(cli);
   const app::Action serve = app::addServeCommand(cli);
+  const app::Action info = app::addInfoCommand(cli);
 
   try {
     cli.parse(argc, argv);
@@ -29,7 +30,9 @@ int main(int argc, char** argv) {
   if (verbose) log::setLevel(log::Level::kDebug);
 
   try {
-    return cli.got_subcommand("serve") ? serve() : tile();
+    if (cli.got_subcommand("serve")) return serve();
+    if (cli.got_subcommand("info")) return info();
+    return tile();
   } catch (const Error& e) {
     log::error(oneLine(e.what()));
     return int(e.code());

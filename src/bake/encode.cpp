@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <stdexcept>
 
 namespace terrabake::bake {
 namespace {
@@ -34,6 +35,20 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
     image.pixels[3 * k + 2] = quantise(n.z);
   }
   return image;
+}
+
+Image<std::uint16_t> addAlpha(const Image<std::uint16_t>& rgb, const Raster<std::uint8_t>& covered, int bits) {
+  if (rgb.channels != 3 || covered.width != rgb.width || covered.height != rgb.height) {
+    throw std::invalid_argument("addAlpha: expected an RGB image and a mask of its size");
+  }
+  const std::uint16_t opaque = bits == 16 ? 65535 : 255;
+  Image<std::uint16_t> rgba{rgb.width, rgb.height, 4, {}};
+  rgba.pixels.reserve(covered.data.size() * 4);
+  for (std::size_t k = 0; k < covered.data.size(); ++k) {
+    rgba.pixels.insert(rgba.pixels.end(), rgb.pixels.begin() + 3 * k, rgb.pixels.begin() + 3 * k + 3);
+    rgba.pixels.push_back(covered.data[k] ? opaque : 0);
+  }
+  return rgba;
 }
 
 }  // namespace terrabake::bake

@@ -13,4 +13,8 @@ enum class Green { kUp, kDown };  // +Y of tangent space north (OpenGL) or south
 // stored in uint16_t whatever the depth.
 Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green);
 
+// RGB to RGBA: alpha 2^bits - 1 where `covered` is non-zero, 0 elsewhere.
+// `covered` has the image's size, row 0 at the top.
+Image<std::uint16_t> addAlpha(const Image<std::uint16_t>& rgb, const Raster<std::uint8_t>& covered, int bits);
+
 }  // namespace terrabake::bake

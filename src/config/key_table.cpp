@@ -6,6 +6,7 @@
 #include <cctype>
 #include <cerrno>
 #include <charconv>
+#include <cmath>
 #include <cstring>
 #include <fstream>
 #include <map>
@@ -20,6 +21,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr int kMaxZoom = 24;
+constexpr const char* kAuto = "auto";
+constexpr const char* kNoBox = "none";
 constexpr size_t kMaxSuggestionDistance = 2;
 
 std::string quoted(const std::string& text) { return "'" + text + "'"; }
@@ -51,6 +54,15 @@ std::optional<int> toInt(std::string_view text) {
   const char* end = text.data() + text.size();
   const auto [stop, error] = std::from_chars(text.data(), end, value);
   if (text.empty() || error != std::errc() || stop != end) return std::nullopt;
+  return value;
+}
+
+std::optional<double> toDouble(std::string_view text) {
+  text = trim(text);
+  double value = 0;
+  const char* end = text.data() + text.size();
+  const auto [stop, error] = std::from_chars(text.data(), end, value);
+  if (text.empty() || error != std::errc() || stop != end || !std::isfinite(value)) return std::nullopt;
   return value;
 }
 
@@ -244,6 +256,12 @@ int parseInt(const KeySpec& key, const Text& item) {
   return *value;
 }
 
+double parseDouble(const KeySpec& key, const Text& item) {
+  const std::optional<double> value = toDouble(item.text);
+  if (!value) fail(item.where, key.name, "expected a number, got " + quoted(item.text));
+  return *value;
+}
+
 bool parseBool(const KeySpec& key, const Text& item) {
   if (item.text != "true" && item.text != "false") {
     fail(item.where, key.name, "expected true or false, got " + quoted(item.text));
@@ -260,23 +278,61 @@ std::vector<std::string> parsePaths(const KeySpec& key, const Value& value, bool
   return paths;
 }
 
-std::pair<int, int> parseZoom(const KeySpec& key, const Value& value) {
+ZoomRange parseZoom(const KeySpec& key, const Value& value) {
+  ZoomRange range;
   if (value.is_list) {
     if (value.items.size() != 2) {
       fail(value.where, key.name, "expected [min, max], got a list of " + std::to_string(value.items.size()));
     }
-    return {parseInt(key, value.items[0]), parseInt(key, value.items[1])};
+    range.min_zoom = parseInt(key, value.items[0]);
+    const Text& max = value.items[1];
+    if (trim(max.text) == kAuto) {
+      range.max_auto = true;
+    } else if (const std::optional<int> high = toInt(max.text)) {
+      range.max_zoom = *high;
+    } else {
+      fail(max.where, key.name, "expected an integer or auto, got " + quoted(max.text));
+    }
+    return range;
   }
   const Text& item = value.items.front();
-  // Search from the second character so that "-3" reads as one (bad) level.
-  const size_t dash = item.text.find('-', 1);
   const std::string_view text(item.text);
+  if (trim(text) == kAuto) return {0, 0, true};
+  // Search from the second character so that "-3" reads as one (bad) level.
+  const size_t dash = text.find('-', 1);
   const std::optional<int> low = toInt(text.substr(0, dash));
-  const std::optional<int> high = dash == std::string::npos ? low : toInt(text.substr(dash + 1));
-  if (!low || !high) {
+  const std::string_view high_text = dash == std::string_view::npos ? text : text.substr(dash + 1);
+  const std::optional<int> high = toInt(high_text);
+  range.max_auto = dash != std::string_view::npos && trim(high_text) == kAuto;
+  if (!low || (!high && !range.max_auto)) {
     fail(item.where, key.name, "expected " + withArticle(key.type) + ", got " + quoted(item.text));
   }
-  return {*low, *high};
+  range.min_zoom = *low;
+  range.max_zoom = high.value_or(0);
+  return range;
+}
+
+std::vector<double> parseBox(const KeySpec& key, const Value& value) {
+  std::vector<Text> parts = value.items;
+  if (!value.is_list) {
+    const Text& item = value.items.front();
+    if (trim(item.text) == kNoBox) return {};
+    parts.clear();
+    for (size_t start = 0;;) {
+      const size_t comma = item.text.find(',', start);
+      parts.push_back({item.text.substr(start, comma - start), item.where});
+      if (comma == std::string::npos) break;
+      start = comma + 1;
+    }
+  }
+  if (parts.size() != 4) {
+    fail(value.where, key.name,
+         "expected [west, south, east, north] in degrees, got " + std::to_string(parts.size()) + " value" +
+             (parts.size() == 1 ? "" : "s"));
+  }
+  std::vector<double> box;
+  for (const Text& part : parts) box.push_back(parseDouble(key, part));
+  return box;
 }
 
 std::string resolvePath(const fs::path& base_dir, const std::string& text) {
@@ -296,6 +352,12 @@ std::string intProblem(int value, int min, int max, const std::vector<int>& only
   }
   if (value >= min && value <= max) return {};
   return "must be between " + std::to_string(min) + " and " + std::to_string(max) + ", got " + std::to_string(value);
+}
+
+std::string doubleProblem(double value, double min, double max, bool above_min) {
+  if ((above_min ? value > min : value >= min) && value <= max) return {};
+  return "must be " + std::string(above_min ? "above " : "at least ") + numberText(min) + " and at most " +
+         numberText(max) + ", got " + numberText(value);
 }
 
 std::string wordProblem(const std::string& value, const std::vector<std::string>& words) {
@@ -321,19 +383,45 @@ std::string hostProblem(const std::string& value) {
   return "must be an IP address or a host name, got " + quoted(value);
 }
 
-std::string zoomProblem(int min_zoom, int max_zoom) {
-  for (const int level : {min_zoom, max_zoom}) {
+std::string zoomProblem(int min_zoom, int max_zoom, bool max_auto) {
+  for (const int level : max_auto ? std::vector<int>{min_zoom} : std::vector<int>{min_zoom, max_zoom}) {
     if (level < 0 || level > kMaxZoom) {
       return "must be between 0 and " + std::to_string(kMaxZoom) + ", got " + std::to_string(level);
     }
   }
-  if (min_zoom <= max_zoom) return {};
+  if (max_auto || min_zoom <= max_zoom) return {};
   return "min " + std::to_string(min_zoom) + " is above max " + std::to_string(max_zoom);
+}
+
+std::string boxProblem(const std::vector<double>& box) {
+  if (box.empty()) return {};
+  const double west = box[0], south = box[1], east = box[2], north = box[3];
+  if (west < -180 || east > 180) return "longitudes must be between -180 and 180, got " + boxText(box);
+  if (south < -90 || north > 90) return "latitudes must be between -90 and 90, got " + boxText(box);
+  if (west >= east) {
+    return "west " + numberText(west) + " must be less than east " + numberText(east) +
+           " (a box may not cross the antimeridian)";
+  }
+  if (south >= north) return "south " + numberText(south) + " must be less than north " + numberText(north);
+  return {};
 }
 
 std::string joinPaths(const std::vector<std::string>& paths) {
   std::string text = "[";
   for (size_t i = 0; i < paths.size(); ++i) text += (i > 0 ? ", " : "") + paths[i];
+  return text + "]";
+}
+
+std::string numberText(double value) {
+  char text[32];
+  const auto result = std::to_chars(text, text + sizeof text, value);
+  return std::string(text, result.ptr);
+}
+
+std::string boxText(const std::vector<double>& box) {
+  if (box.empty()) return kNoBox;
+  std::string text = "[";
+  for (size_t i = 0; i < box.size(); ++i) text += (i > 0 ? ", " : "") + numberText(box[i]);
   return text + "]";
 }
 

@@ -11,7 +11,6 @@
 #include <functional>
 #include <string>
 #include <string_view>
-#include <tuple>
 #include <utility>
 #include <variant>
 #include <vector>
@@ -56,20 +55,35 @@ std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>&
 // Conversions from text, failing with messages that name where and which key.
 const Text& single(const KeySpec& key, const Value& value);
 int parseInt(const KeySpec& key, const Text& item);
+double parseDouble(const KeySpec& key, const Text& item);
 bool parseBool(const KeySpec& key, const Text& item);
 std::vector<std::string> parsePaths(const KeySpec& key, const Value& value, bool allow_empty);
-std::pair<int, int> parseZoom(const KeySpec& key, const Value& value);
+
+// tiling.zoom: "N", "min-max", [min, max], or "auto" in place of max ("auto"
+// alone is "0-auto").
+struct ZoomRange {
+  int min_zoom = 0;
+  int max_zoom = 0;
+  bool max_auto = false;
+};
+ZoomRange parseZoom(const KeySpec& key, const Value& value);
+// [west, south, east, north] or "west,south,east,north"; "none" is no box.
+std::vector<double> parseBox(const KeySpec& key, const Value& value);
 // Lexically normal and absolute, but not through symlinks: messages stay readable.
 std::string resolvePath(const std::filesystem::path& base_dir, const std::string& text);
 
 // What is wrong with a value, or "" when it is fine.
 std::string intProblem(int value, int min, int max, const std::vector<int>& only);
+std::string doubleProblem(double value, double min, double max, bool above_min);
 std::string wordProblem(const std::string& value, const std::vector<std::string>& words);
 std::string folderNameProblem(const std::string& value);
 std::string hostProblem(const std::string& value);
-std::string zoomProblem(int min_zoom, int max_zoom);
+std::string zoomProblem(int min_zoom, int max_zoom, bool max_auto);
+std::string boxProblem(const std::vector<double>& box);
 
 std::string joinPaths(const std::vector<std::string>& paths);  // a list as YAML writes it
+std::string numberText(double value);                          // shortest text that reads back exactly
+std::string boxText(const std::vector<double>& box);            // "[w, s, e, n]", or "none"
 
 // Kinds of key. Each kind reads text into its member(s) of the settings
 // struct S and knows which values are valid; defaults live in S itself.
@@ -79,6 +93,13 @@ struct IntField {
   int min;
   int max;
   std::vector<int> only = {};  // when not empty, the only values allowed
+};
+template <class S>
+struct DoubleField {
+  double S::*member;
+  double min;
+  double max;
+  bool above_min = false;  // min itself is not allowed
 };
 template <class S>
 struct BoolField {
@@ -107,15 +128,20 @@ struct PathListField {
   bool required = true;  // at least one path; else the empty list is the default
 };
 template <class S>
-struct ZoomField {  // both ends and the "given at all" flag move together
+struct ZoomField {  // both ends, "auto" and the "given at all" flag move together
   int S::*min_zoom;
   int S::*max_zoom;
+  bool S::*max_auto;
   bool S::*set;
+};
+template <class S>
+struct BoxField {  // lon/lat degrees; empty: no box
+  std::vector<double> S::*member;
 };
 
 template <class S>
-using Field = std::variant<IntField<S>, BoolField<S>, WordField<S>, NameField<S>, HostField<S>,
-                           PathField<S>, PathListField<S>, ZoomField<S>>;
+using Field = std::variant<IntField<S>, DoubleField<S>, BoolField<S>, WordField<S>, NameField<S>, HostField<S>,
+                           PathField<S>, PathListField<S>, ZoomField<S>, BoxField<S>>;
 
 template <class S>
 struct Key {
@@ -130,6 +156,10 @@ struct Key {
 template <class S>
 void parse(const KeySpec& key, const IntField<S>& field, const Value& value, S& settings) {
   settings.*field.member = parseInt(key, single(key, value));
+}
+template <class S>
+void parse(const KeySpec& key, const DoubleField<S>& field, const Value& value, S& settings) {
+  settings.*field.member = parseDouble(key, single(key, value));
 }
 template <class S>
 void parse(const KeySpec& key, const BoolField<S>& field, const Value& value, S& settings) {
@@ -157,14 +187,25 @@ void parse(const KeySpec& key, const PathListField<S>& field, const Value& value
 }
 template <class S>
 void parse(const KeySpec& key, const ZoomField<S>& field, const Value& value, S& settings) {
-  std::tie(settings.*field.min_zoom, settings.*field.max_zoom) = parseZoom(key, value);
+  const ZoomRange range = parseZoom(key, value);
+  settings.*field.min_zoom = range.min_zoom;
+  settings.*field.max_zoom = range.max_zoom;
+  settings.*field.max_auto = range.max_auto;
   settings.*field.set = true;
+}
+template <class S>
+void parse(const KeySpec& key, const BoxField<S>& field, const Value& value, S& settings) {
+  settings.*field.member = parseBox(key, value);
 }
 
 // problem(): what is wrong with a member's value, or "" when it is fine or unset.
 template <class S>
 std::string problem(const IntField<S>& field, const S& settings) {
   return intProblem(settings.*field.member, field.min, field.max, field.only);
+}
+template <class S>
+std::string problem(const DoubleField<S>& field, const S& settings) {
+  return doubleProblem(settings.*field.member, field.min, field.max, field.above_min);
 }
 template <class S>
 std::string problem(const BoolField<S>&, const S&) {
@@ -195,7 +236,13 @@ std::string problem(const PathListField<S>& field, const S& settings) {
 }
 template <class S>
 std::string problem(const ZoomField<S>& field, const S& settings) {
-  return settings.*field.set ? zoomProblem(settings.*field.min_zoom, settings.*field.max_zoom) : "";
+  return settings.*field.set
+             ? zoomProblem(settings.*field.min_zoom, settings.*field.max_zoom, settings.*field.max_auto)
+             : "";
+}
+template <class S>
+std::string problem(const BoxField<S>& field, const S& settings) {
+  return boxProblem(settings.*field.member);
 }
 
 // A key is required exactly when S{} leaves it unset: it has no default.
@@ -218,6 +265,10 @@ std::string valueText(const IntField<S>& field, const S& settings) {
   return std::to_string(settings.*field.member);
 }
 template <class S>
+std::string valueText(const DoubleField<S>& field, const S& settings) {
+  return numberText(settings.*field.member);
+}
+template <class S>
 std::string valueText(const BoolField<S>& field, const S& settings) {
   return settings.*field.member ? "true" : "false";
 }
@@ -231,7 +282,12 @@ std::string valueText(const PathListField<S>& field, const S& settings) {
 }
 template <class S>
 std::string valueText(const ZoomField<S>& field, const S& settings) {
-  return std::to_string(settings.*field.min_zoom) + "-" + std::to_string(settings.*field.max_zoom);
+  return std::to_string(settings.*field.min_zoom) + "-" +
+         (settings.*field.max_auto ? std::string("auto") : std::to_string(settings.*field.max_zoom));
+}
+template <class S>
+std::string valueText(const BoxField<S>& field, const S& settings) {
+  return boxText(settings.*field.member);
 }
 
 // The default as YAML would write it; "" for a required key.

@@ -6,12 +6,14 @@ namespace terrabake::config {
 namespace {
 
 using IntField = key_table::IntField<TileJob>;
+using DoubleField = key_table::DoubleField<TileJob>;
 using BoolField = key_table::BoolField<TileJob>;
 using WordField = key_table::WordField<TileJob>;
 using NameField = key_table::NameField<TileJob>;
 using PathField = key_table::PathField<TileJob>;
 using PathListField = key_table::PathListField<TileJob>;
 using ZoomField = key_table::ZoomField<TileJob>;
+using BoxField = key_table::BoxField<TileJob>;
 
 // The one table of keys: files, overrides, validate() and listKeys() all read it.
 // Keep config/README.md in step (config_test checks every key is there).
@@ -34,14 +36,32 @@ const key_table::KeyTable<TileJob>& table() {
       {"output.high_res_mesh", "boolean",
        "also write {y}.hires.glb, the full-resolution surface, for viewers that compare",
        BoolField{&TileJob::high_res_mesh}},
+      {"output.alpha", "boolean",
+       "RGBA normal maps: alpha 0 where the DEM has no valid sample (holes, outside it), else opaque",
+       BoolField{&TileJob::alpha}},
       {"tiling.scheme", "string",
        "tile grid: webmercator (EPSG:3857, XYZ), geodetic (EPSG:4326, TMS) or native "
        "(the DEM's own grid)",
        WordField{&TileJob::scheme, {"webmercator", "geodetic", "native"}}},
-      {"tiling.zoom", "integer, [min, max] or \"min-max\"", "zoom levels to make, 0..24",
-       ZoomField{&TileJob::min_zoom, &TileJob::max_zoom, &TileJob::zoom_set}},
+      {"tiling.zoom", "integer, [min, max], \"min-max\" or auto",
+       "zoom levels to make, 0..24; auto as max: the deepest zoom whose texels are no smaller than "
+       "the DEM's pixels (auto alone: 0-auto)",
+       ZoomField{&TileJob::min_zoom, &TileJob::max_zoom, &TileJob::max_zoom_auto, &TileJob::zoom_set}},
+      {"tiling.bbox", "[west, south, east, north]",
+       "only tiles that intersect this box, degrees of longitude and latitude (WGS84)",
+       BoxField{&TileJob::bbox}},
       {"tiling.tile_size", "integer", "texels a side of each normal map, 16..4096",
        IntField{&TileJob::tile_size, 16, 4096}},
+      {"heights.z_scale", "number",
+       "metres per DEM height unit (0.3048 for feet), above 0 and at most 1000",
+       DoubleField{&TileJob::z_scale, 0, 1000, true}},
+      {"heights.exaggeration", "number",
+       "vertical exaggeration of the normal maps and meshes, above 0 and at most 100",
+       DoubleField{&TileJob::exaggeration, 0, 100, true}},
+      {"nodata.max_fill_px", "integer",
+       "holes are filled this many texels in from their edge, the rest takes the coarse backdrop; "
+       "0..512",
+       IntField{&TileJob::max_fill_px, 0, 512}},
       {"low_poly.grid", "integer", "vertices a side of each tile's low-poly mesh, 2..257",
        IntField{&TileJob::low_poly_grid, 2, 257}},
       {"bake.backend", "string",

@@ -14,11 +14,17 @@ struct TileJob {
   int bits = 8;                        // output.bits: 8 or 16
   std::string green = "up";            // output.green: "up" (OpenGL) or "down" (DirectX)
   bool high_res_mesh = false;          // output.high_res_mesh: also write {y}.hires.glb
+  bool alpha = false;                  // output.alpha: RGBA, alpha 0 where the DEM had no sample
   std::string scheme = "webmercator";  // tiling.scheme: webmercator | geodetic | native
-  int min_zoom = 0;                    // tiling.zoom: N or [min, max] or "min-max"
-  int max_zoom = 0;
-  bool zoom_set = false;         // tiling.zoom given at all (it is required)
-  int tile_size = 256;           // tiling.tile_size: texels a side, 16..4096
+  int min_zoom = 0;                    // tiling.zoom: N, [min, max], "min-max", max may be "auto"
+  int max_zoom = 0;                    // unused when max_zoom_auto
+  bool max_zoom_auto = false;          // the deepest zoom the DEM's resolution supports
+  bool zoom_set = false;               // tiling.zoom given at all (it is required)
+  std::vector<double> bbox;            // tiling.bbox: west, south, east, north (degrees); empty: all
+  int tile_size = 256;                 // tiling.tile_size: texels a side, 16..4096
+  double z_scale = 1;                  // heights.z_scale: metres per DEM height unit
+  double exaggeration = 1;             // heights.exaggeration: vertical exaggeration
+  int max_fill_px = 64;                // nodata.max_fill_px: texels filled from a hole's edge
   int low_poly_grid = 17;        // low_poly.grid: vertices a side, 2..257
   std::string backend = "auto";  // bake.backend: auto | osmesa | egl | cpu
   int workers = 0;               // bake.workers: 0 = one per core

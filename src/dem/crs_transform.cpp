@@ -6,6 +6,18 @@
 #include "dem/gdal_setup.hpp"
 
 namespace terrabake::dem {
+namespace {
+
+OGRSpatialReference spatialReference(const std::string& crs) {
+  OGRSpatialReference srs;
+  if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
+    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
+  }
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
+  return srs;
+}
+
+}  // namespace
 
 struct ToLonLat::Impl {
   std::unique_ptr<OGRCoordinateTransformation> transform;
@@ -35,6 +47,19 @@ void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
     throw InputError("dem: cannot transform tile coordinates to longitude/latitude");
   }
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};
+}
+
+Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to) {
+  ensureGdalReady();
+  const OGRSpatialReference source = spatialReference(from), target = spatialReference(to);
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&source, &target));
+  Extent out;
+  constexpr int kDensifyPoints = 21;
+  if (!ct || !ct->TransformBounds(extent.min_x, extent.min_y, extent.max_x, extent.max_y, &out.min_x, &out.min_y,
+                                  &out.max_x, &out.max_y, kDensifyPoints)) {
+    throw InputError("dem: cannot transform an extent to '" + to.substr(0, 80) + "'");
+  }
+  return out;
 }
 
 }  // namespace terrabake::dem

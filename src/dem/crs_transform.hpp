@@ -6,6 +6,8 @@
 
 #include <glm/vec2.hpp>
 
+#include "core/types.hpp"
+
 namespace terrabake::dem {
 
 class ToLonLat {
@@ -21,5 +23,9 @@ class ToLonLat {
   struct Impl;
   std::unique_ptr<Impl> m_impl;
 };
+
+// The smallest extent of CRS `to` that holds `extent` of CRS `from`, edges
+// densified so curved edges stay inside. Throws InputError.
+Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to);
 
 }  // namespace terrabake::dem

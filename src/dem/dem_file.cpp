@@ -6,9 +6,11 @@
 #include <ogr_spatialref.h>
 
 #include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <map>
+#include <optional>
 
 #include "core/error.hpp"
 #include "dem/gdal_setup.hpp"
@@ -37,6 +39,19 @@ std::string toWkt(const OGRSpatialReference& srs) {
   std::string result = wkt ? wkt : "";
   CPLFree(wkt);
   return result;
+}
+
+// The EPSG code the CRS declares, else one GDAL finds it equivalent to.
+std::optional<int> epsgCode(const OGRSpatialReference& srs) {
+  OGRSpatialReference identified(srs);
+  const char* authority = identified.GetAuthorityName(nullptr);
+  if (!authority || !EQUAL(authority, "EPSG")) {
+    if (identified.AutoIdentifyEPSG() != OGRERR_NONE) return std::nullopt;
+    authority = identified.GetAuthorityName(nullptr);
+  }
+  const char* code = identified.GetAuthorityCode(nullptr);
+  if (!authority || !EQUAL(authority, "EPSG") || !code) return std::nullopt;
+  return std::atoi(code);
 }
 
 struct GdalDatasetCloser {
@@ -157,6 +172,16 @@ DemFile::DemFile(const std::string& path) : m_impl(std::make_unique<Impl>()) {
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) m_info.nodata = nodata;
   m_info.overview_count = band->GetOverviewCount();
+  m_info.data_type = GDALGetDataTypeName(band->GetRasterDataType());
+  m_info.crs_name = m_impl->srs.GetName() ? m_impl->srs.GetName() : "unnamed";
+  m_info.epsg = epsgCode(m_impl->srs);
+  const char* unit = nullptr;  // owned by the spatial reference
+  if (m_impl->srs.IsGeographic()) {
+    m_impl->srs.GetAngularUnits(&unit);
+  } else {
+    m_impl->srs.GetLinearUnits(&unit);
+  }
+  m_info.crs_unit = unit ? unit : "unknown";
 }
 
 DemFile::~DemFile() = default;

@@ -16,6 +16,10 @@ struct DemInfo {
   GridSpec grid;                 // pixel grid and CRS (WKT); merged: the first file's, over all
   std::optional<double> nodata;  // as the (first) file declares it
   int overview_count = 0;
+  std::string data_type;         // of band 1, as GDAL names it: "Int16", "Float32", ...
+  std::string crs_name;          // "WGS 84 / UTM zone 32N"
+  std::optional<int> epsg;       // when the CRS is, or matches, an EPSG code
+  std::string crs_unit;          // of the grid's axes: "metre", "degree", ...
 };
 
 // How a zoom level reads one file: interpolate where texels are as fine as

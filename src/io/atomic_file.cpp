@@ -2,7 +2,12 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
+#include <chrono>
+#include <csignal>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <string>
 #include <system_error>
@@ -28,6 +33,25 @@ mode_t currentUmask() {
 // it, so that a tile server running as another user can read the tiles.
 const mode_t kFileMode = 0666 & ~currentUmask();
 
+constexpr const char* kTempMarker = ".tmp-";
+// A writer that has held a temporary file this long is gone, wherever it ran:
+// an atomic write takes milliseconds.
+constexpr std::chrono::minutes kAbandonedAge{1};
+
+std::string hostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "host";
+  std::string host(name);
+  std::replace(host.begin(), host.end(), '-', '_');  // '-' separates the tag's fields
+  return host;
+}
+
+// "<host>-<pid>" of this process.
+const std::string& writerTag() {
+  static const std::string tag = hostName() + "-" + std::to_string(::getpid());
+  return tag;
+}
+
 [[noreturn]] void throwWriteError(const std::string& path, int error) {
   throw InputError("cannot write '" + path + "': " + std::generic_category().message(error));
 }
@@ -46,6 +70,22 @@ void writeAll(int fd, const std::vector<std::uint8_t>& bytes) {
 
 }  // namespace
 
+bool isAbandonedTempFile(const std::string& path) {
+  const std::string name = fs::path(path).filename().string();
+  const std::size_t marker = name.rfind(kTempMarker);
+  if (name.empty() || name[0] != '.' || marker == std::string::npos) return false;
+  std::error_code ec;
+  const auto age = fs::file_time_type::clock::now() - fs::last_write_time(path, ec);
+  if (ec) return false;
+  if (age > kAbandonedAge) return true;
+  // "<host>-<pid>-XXXXXX": a writer on this host that no longer runs.
+  const std::string tag = name.substr(marker + std::strlen(kTempMarker));
+  const std::size_t dash = tag.find('-'), last = tag.rfind('-');
+  if (dash == std::string::npos || last == dash || tag.substr(0, dash) != hostName()) return false;
+  const pid_t pid = pid_t(std::atol(tag.substr(dash + 1, last - dash - 1).c_str()));
+  return pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH;
+}
+
 // No fsync: the rename alone keeps readers from seeing a partial file while
 // the system runs. Only a power cut could leave an empty tile behind, and
 // re-running that batch is cheaper than syncing each of thousands of tiles.
@@ -57,8 +97,10 @@ void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t
   if (ec) throwWriteError(path, ec.value());
 
   // Hidden, and never equal to a final name, so a half-written file is never
-  // mistaken for a tile.
-  std::string temp = (folder / ("." + target.filename().string() + ".tmp-XXXXXX")).string();
+  // mistaken for a tile; the writer's host and process let a later run tell
+  // an abandoned one from a live one.
+  std::string temp =
+      (folder / ("." + target.filename().string() + kTempMarker + writerTag() + "-XXXXXX")).string();
   const int fd = ::mkstemp(temp.data());
   if (fd < 0) throwWriteError(path, errno);
 

@@ -19,38 +19,41 @@ namespace {
 // quarter of level 6's time for 6 % more bytes.
 constexpr int kCompressionLevel = 4;
 
-void checkImage(const Image<std::uint16_t>& rgb, int bits) {
+void checkImage(const Image<std::uint16_t>& image, int bits) {
   if (bits != 8 && bits != 16) throw std::invalid_argument("encodePng: bits must be 8 or 16");
-  if (rgb.channels != 3 || rgb.width <= 0 || rgb.height <= 0 ||
-      rgb.pixels.size() != std::size_t(rgb.width) * rgb.height * 3) {
-    throw std::invalid_argument("encodePng: expected a non-empty RGB image");
+  if ((image.channels != 3 && image.channels != 4) || image.width <= 0 || image.height <= 0 ||
+      image.pixels.size() != std::size_t(image.width) * image.height * image.channels) {
+    throw std::invalid_argument("encodePng: expected a non-empty RGB or RGBA image");
   }
   if (bits == 8 &&
-      std::any_of(rgb.pixels.begin(), rgb.pixels.end(), [](std::uint16_t v) { return v > 255; })) {
+      std::any_of(image.pixels.begin(), image.pixels.end(), [](std::uint16_t v) { return v > 255; })) {
     throw std::invalid_argument("encodePng: 8-bit image has a sample above 255");
   }
 }
 
 }  // namespace
 
-std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& rgb, int bits) {
-  checkImage(rgb, bits);
+std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits) {
+  checkImage(image, bits);
 
   // OIIO would rescale 16-bit samples to 8 bits (v * 255 / 65535); the
   // samples already are 8-bit values, so narrow them ourselves.
   std::vector<std::uint8_t> narrow;
-  const void* data = rgb.pixels.data();
+  const void* data = image.pixels.data();
   if (bits == 8) {
-    narrow.assign(rgb.pixels.begin(), rgb.pixels.end());
+    narrow.assign(image.pixels.begin(), image.pixels.end());
     data = narrow.data();
   }
   const OIIO::TypeDesc format = bits == 8 ? OIIO::TypeDesc::UINT8 : OIIO::TypeDesc::UINT16;
 
-  OIIO::ImageSpec spec(rgb.width, rgb.height, 3, format);
+  OIIO::ImageSpec spec(image.width, image.height, image.channels, format);
   // Normal maps are data, not colour, so the spec names no colour space:
   // OIIO's PNG writer would add sRGB + gAMA + cHRM for "sRGB" and gAMA for
   // "Linear", and a tEXt chunk for any other name.
   spec.attribute("png:compressionLevel", kCompressionLevel);
+  // Alpha marks coverage: store the samples as given. Without this OIIO
+  // takes them as premultiplied and divides colour by alpha on writing.
+  spec.attribute("oiio:UnassociatedAlpha", 1);
 
   std::vector<std::uint8_t> bytes;
   OIIO::Filesystem::IOVecOutput proxy(bytes);

@@ -15,9 +15,14 @@ namespace terrabake::io {
 // rename, creating missing parent folders. Throws InputError naming the path.
 void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t>& bytes);
 
-// PNG bytes of an RGB image whose samples are 8-bit (0..255) or 16-bit
-// (0..65535) values. Linear data: no sRGB or gamma chunk.
-std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& rgb, int bits);
+// True for a temporary file of writeFileAtomically whose writer is gone: a
+// process of this host that no longer runs, or any writer over a minute ago.
+bool isAbandonedTempFile(const std::string& path);
+
+// PNG bytes of an RGB or RGBA image whose samples are 8-bit (0..255) or
+// 16-bit (0..65535) values. Linear data: no sRGB or gamma chunk; alpha is
+// stored as given (unassociated), colour is never premultiplied by it.
+std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits);
 
 // Where a tile's mesh sits on the globe and which image it wears.
 struct GlbInfo {
@@ -40,6 +45,9 @@ struct TileJsonInfo {
   int tile_size = 256;
   int bits = 8;
   bool green_up = true;
+  bool alpha = false;                  // RGBA images, alpha 0 where the DEM had no sample
+  double z_scale = 1;                  // metres per DEM height unit
+  double exaggeration = 1;             // vertical exaggeration of normals and meshes
   int low_poly_grid = 17;
   std::vector<std::string> sources;    // DEM paths as the user gave them
 };

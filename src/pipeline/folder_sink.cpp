@@ -1,4 +1,3 @@
-#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -14,24 +13,14 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr const char* kJobFile = "terrabake-job.txt";
-// Temporary files older than this belong to no live writer: an atomic write
-// holds one for milliseconds.
-constexpr std::chrono::minutes kStaleTempAge{1};
 
-bool isTempFile(const fs::path& path) {
-  const std::string name = path.filename().string();
-  return name.size() > 1 && name[0] == '.' && name.find(".tmp-") != std::string::npos;
-}
-
-void removeStaleTempFiles(const fs::path& layer) {
-  const auto cutoff = fs::file_time_type::clock::now() - kStaleTempAge;
+// What a crashed run left: temporary files no live writer holds.
+void removeAbandonedTempFiles(const fs::path& layer) {
   std::error_code ec;
   for (auto it = fs::recursive_directory_iterator(layer, ec); !ec && it != fs::recursive_directory_iterator();
        it.increment(ec)) {
     std::error_code ignored;
-    if (it->is_regular_file(ignored) && isTempFile(it->path()) && it->last_write_time(ignored) < cutoff) {
-      fs::remove(it->path(), ignored);
-    }
+    if (it->is_regular_file(ignored) && io::isAbandonedTempFile(it->path().string())) fs::remove(it->path(), ignored);
   }
 }
 
@@ -44,7 +33,7 @@ class FolderSink : public TileSink {
       throw InputError("output: cannot create folder '" + m_dir + "': " +
                        (ec ? ec.message() : std::string("a file is in the way")));
     }
-    removeStaleTempFiles(m_dir);
+    removeAbandonedTempFiles(m_dir);
   }
 
   std::string location() const override { return m_dir; }

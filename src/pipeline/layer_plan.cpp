@@ -1,16 +1,22 @@
 #include "pipeline/layer_plan.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <tuple>
+#include <utility>
 
 #include "core/error.hpp"
+#include "dem/crs_transform.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/mesh.hpp"
+#include "pipeline/zoom_choice.hpp"
 
 namespace terrabake::pipeline {
 namespace {
 
 // Web Mercator stops short of the poles; tilejson bounds must too.
 constexpr double kWebMercatorMaxLatDeg = 85.0511287798066;
+constexpr const char* kLonLat = "EPSG:4326";
 
 std::shared_ptr<const tiling::Scheme> makeScheme(const config::TileJob& job, const dem::DemSource& dem) {
   if (job.scheme == "webmercator") return tiling::makeWebMercator();
@@ -19,23 +25,66 @@ std::shared_ptr<const tiling::Scheme> makeScheme(const config::TileJob& job, con
   throw UsageError("tiling.scheme: unsupported scheme '" + job.scheme + "'");
 }
 
-io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const tiling::Scheme& scheme, const dem::DemSource& dem) {
+Extent intersection(const Extent& a, const Extent& b) {
+  return {std::max(a.min_x, b.min_x), std::max(a.min_y, b.min_y), std::min(a.max_x, b.max_x),
+          std::min(a.max_y, b.max_y)};
+}
+
+std::string lonLatText(const Extent& e) {
+  char text[128];
+  std::snprintf(text, sizeof text, "lon %.8g to %.8g, lat %.8g to %.8g", e.min_x, e.max_x, e.min_y, e.max_y);
+  return text;
+}
+
+// What the layer covers in longitude / latitude: the DEM's bounds, within the
+// latitudes the scheme reaches and within the job's bbox.
+Extent lonLatCover(const config::TileJob& job, const tiling::Scheme& scheme, const dem::DemSource& dem) {
+  Extent cover = dem.boundsIn(kLonLat);
+  if (scheme.name() == "webmercator") {
+    cover.min_y = std::max(cover.min_y, -kWebMercatorMaxLatDeg);
+    cover.max_y = std::min(cover.max_y, kWebMercatorMaxLatDeg);
+  }
+  if (job.bbox.empty()) return cover;
+  const Extent box{job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]};
+  if (!box.intersects(cover)) {
+    throw UsageError("tiling.bbox: " + lonLatText(box) + " does not overlap '" + dem.info().path + "' (" +
+                     lonLatText(cover) + ")");
+  }
+  return intersection(cover, box);
+}
+
+// The job's zooms with "auto" resolved, checked against the scheme.
+std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& scheme, const Extent& dem_area,
+                              const dem::DemSource& dem) {
+  if (!job.max_zoom_auto) {
+    if (job.max_zoom > scheme.maxZoom()) {
+      throw UsageError("tiling.zoom: " + job.scheme + " tiling of '" + dem.info().path + "' has zooms 0-" +
+                       std::to_string(scheme.maxZoom()) + ", asked for " + std::to_string(job.max_zoom));
+    }
+    return {job.min_zoom, job.max_zoom};
+  }
+  const int max_zoom = autoMaxZoom(scheme, dem_area, dem, job.tile_size);
+  if (job.min_zoom > max_zoom) {
+    throw UsageError("tiling.zoom: min " + std::to_string(job.min_zoom) + " is above auto's choice, " +
+                     std::to_string(max_zoom) + ", for " + job.scheme + " tiling of '" + dem.info().path + "'");
+  }
+  return {job.min_zoom, max_zoom};
+}
+
+io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan, const Extent& lon_lat) {
   io::TileJsonInfo info;
   info.name = job.layer;
-  info.scheme = scheme.name();
-  info.tms_rows = scheme.tmsRows();
-  info.min_zoom = job.min_zoom;
-  info.max_zoom = job.max_zoom;
-  const Extent lon_lat = dem.boundsIn("EPSG:4326");
-  double south = lon_lat.min_y, north = lon_lat.max_y;
-  if (scheme.name() == "webmercator") {
-    south = std::max(south, -kWebMercatorMaxLatDeg);
-    north = std::min(north, kWebMercatorMaxLatDeg);
-  }
-  info.bounds_deg = {lon_lat.min_x, south, lon_lat.max_x, north};
+  info.scheme = plan.scheme->name();
+  info.tms_rows = plan.scheme->tmsRows();
+  info.min_zoom = plan.min_zoom;
+  info.max_zoom = plan.max_zoom;
+  info.bounds_deg = {lon_lat.min_x, lon_lat.min_y, lon_lat.max_x, lon_lat.max_y};
   info.tile_size = job.tile_size;
   info.bits = job.bits;
   info.green_up = job.green == "up";
+  info.alpha = job.alpha;
+  info.z_scale = job.z_scale;
+  info.exaggeration = job.exaggeration;
   info.low_poly_grid = job.low_poly_grid;
   info.sources = job.dems;
   return info;
@@ -46,15 +95,17 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const tiling::Scheme& 
 LayerPlan planLayer(const config::TileJob& job, const dem::DemSource& dem) {
   LayerPlan plan;
   plan.scheme = makeScheme(job, dem);
-  if (job.max_zoom > plan.scheme->maxZoom()) {
-    throw UsageError("tiling.zoom: " + job.scheme + " tiling of '" + dem.info().path + "' has zooms 0-" +
-                     std::to_string(plan.scheme->maxZoom()) + ", asked for " + std::to_string(job.max_zoom));
-  }
-  plan.area = dem.boundsIn(plan.scheme->crs());
+  const Extent dem_area = dem.boundsIn(plan.scheme->crs());
+  std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, dem);
+  const Extent lon_lat = lonLatCover(job, *plan.scheme, dem);
+  plan.area = job.bbox.empty()
+                  ? dem_area
+                  : intersection(dem_area, dem::transformExtent(lon_lat, kLonLat, plan.scheme->crs()));
   const int apron = mesh::requiredApron(job.tile_size, job.low_poly_grid);
-  for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
-    // Judged at a tile in the middle of the DEM, the same for the whole zoom.
-    const auto tiles = plan.scheme->tilesCovering(plan.area, z);
+  for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
+    // Judged at a tile in the middle of the DEM, the same for the whole zoom
+    // whatever the bbox, so a bbox run writes the bytes a whole run does.
+    const auto tiles = plan.scheme->tilesCovering(dem_area, z);
     plan.read_plans[z] = dem.planFor(plan.scheme->texelGrid(tiles[tiles.size() / 2], job.tile_size, apron));
   }
   plan.backdrop = std::make_shared<const dem::Backdrop>(dem, plan.scheme->crs());
@@ -63,8 +114,11 @@ LayerPlan planLayer(const config::TileJob& job, const dem::DemSource& dem) {
   plan.settings.bits = job.bits;
   plan.settings.green = job.green == "up" ? bake::Green::kUp : bake::Green::kDown;
   plan.settings.high_res_mesh = job.high_res_mesh;
+  plan.settings.alpha = job.alpha;
+  plan.settings.height_scale = job.z_scale * job.exaggeration;
+  plan.settings.max_fill_px = job.max_fill_px;
   plan.backend = gl::parseBackend(job.backend);
-  plan.tilejson = io::tileJson(tileJsonInfo(job, *plan.scheme, dem));
+  plan.tilejson = io::tileJson(tileJsonInfo(job, plan, lon_lat));
   return plan;
 }
 

@@ -24,11 +24,16 @@ struct TileSettings {
   int bits = 8;
   bake::Green green = bake::Green::kUp;
   bool high_res_mesh = false;  // also make the high-res display mesh
+  bool alpha = false;          // RGBA: alpha 0 on texels the DEM had no sample for
+  double height_scale = 1;     // metres of output height per DEM unit (z_scale * exaggeration)
+  int max_fill_px = 64;        // holes are filled this far in; beyond, the backdrop
 };
 
 struct LayerPlan {
   std::shared_ptr<const tiling::Scheme> scheme;
-  Extent area;  // the DEM's extent in the scheme's CRS
+  int min_zoom = 0;  // the job's zooms, "auto" resolved
+  int max_zoom = 0;
+  Extent area;  // what the run covers in the scheme's CRS: the DEM's extent, within tiling.bbox
   std::map<int, dem::ReadPlan> read_plans;  // per zoom of the job
   std::shared_ptr<const dem::Backdrop> backdrop;
   TileSettings settings;
@@ -36,8 +41,8 @@ struct LayerPlan {
   std::string tilejson;  // tile URLs relative to the layer folder
 };
 
-// Throws UsageError for zooms the scheme does not have, InputError for a DEM
-// that cannot be read.
+// Throws UsageError for zooms the scheme does not have or a bbox beside the
+// DEM, InputError for a DEM that cannot be read.
 LayerPlan planLayer(const config::TileJob& job, const dem::DemSource& dem);
 
 }  // namespace terrabake::pipeline

@@ -14,6 +14,7 @@
 #include "core/error.hpp"
 #include "core/log.hpp"
 #include "io/tile_files.hpp"
+#include "pipeline/mbtiles_sink.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
 #include "pipeline/tile_sink.hpp"
@@ -21,8 +22,12 @@
 namespace terrabake::pipeline {
 namespace {
 
-std::unique_ptr<TileSink> openSink(const config::TileJob& job) {
+// An MBTiles sink needs the scheme's row order: MBTiles counts rows from the south.
+std::unique_ptr<TileSink> openSink(const config::TileJob& job, const LayerPlan& plan) {
   const std::filesystem::path layer = std::filesystem::path(job.output_dir) / job.layer;
+  if (job.format == "mbtiles") {
+    return openMbtilesSink(layer.lexically_normal().string() + ".mbtiles", job.high_res_mesh, plan.scheme->tmsRows());
+  }
   return openFolderSink(layer.lexically_normal().string(), job.high_res_mesh);
 }
 
@@ -54,13 +59,13 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   // Everything that can fail for the whole run fails here, before any tile.
   const dem::DemSource dem(job.dems);
   const auto plan = std::make_shared<const LayerPlan>(planLayer(job, dem));
-  const std::unique_ptr<TileSink> sink = openSink(job);
+  const std::unique_ptr<TileSink> sink = openSink(job, *plan);
   claimLayer(*sink, config::layerFingerprint(job), options.force);
   RunSummary summary;
   summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.
   std::vector<TileId> all;
-  for (int z = job.min_zoom; z <= job.max_zoom; ++z) {
+  for (int z = plan->min_zoom; z <= plan->max_zoom; ++z) {
     const auto level = plan->scheme->tilesCovering(plan->area, z);
     log::info("zoom " + std::to_string(z) + ": " + std::to_string(level.size()) + " tiles");
     all.insert(all.end(), level.begin(), level.end());

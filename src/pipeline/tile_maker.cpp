@@ -12,13 +12,6 @@
 namespace terrabake::pipeline {
 namespace {
 
-// Holes are filled this far (texels) from the nearest valid sample; texels
-// further away take the job's backdrop.
-constexpr int kMaxFillTexels = 64;
-// A filled texel depends on samples within 2 * kMaxFillTexels of it, so the
-// fill reads that much beyond the texels it hands back.
-constexpr int kFillMargin = 2 * kMaxFillTexels;
-
 bool hasHoles(const Raster<float>& heights) {
   return std::any_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); });
 }
@@ -30,6 +23,19 @@ bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
     }
   }
   return false;
+}
+
+// Non-zero on the texels (apron excluded) that hold a valid DEM sample.
+Raster<std::uint8_t> coverage(const Raster<float>& heights, int apron, int tile_size) {
+  Raster<std::uint8_t> covered(tile_size, tile_size);
+  for (int j = 0; j < tile_size; ++j) {
+    for (int i = 0; i < tile_size; ++i) covered.at(i, j) = !std::isnan(heights.at(apron + i, apron + j));
+  }
+  return covered;
+}
+
+void scaleHeights(Raster<float>& heights, double scale) {
+  for (float& h : heights.data) h = float(h * scale);
 }
 
 }  // namespace
@@ -52,25 +58,33 @@ struct TileMaker::Impl {
         baker(gl::createBaker(plan->backend)),
         apron(mesh::requiredApron(settings.tile_size, settings.low_poly_grid)) {}
 
-  // Heights of `grid` with every hole filled so that the result depends only
-  // on where a texel is, not on which tile asks: the fill reads a margin
-  // around the window, and what it cannot reach comes from the backdrop.
-  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan) const {
-    GridSpec wide = grid;
-    wide.origin_x -= kFillMargin * grid.cell_w;
-    wide.origin_y += kFillMargin * grid.cell_h;
-    wide.width += 2 * kFillMargin;
-    wide.height += 2 * kFillMargin;
-    Raster<float> heights = dem.read(wide, read_plan);
-    dem::extendIntoHoles(heights, kMaxFillTexels);
-    Raster<float> cropped(grid.width, grid.height);
-    for (int r = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c) {
-        const float h = heights.at(c + kFillMargin, r + kFillMargin);
-        cropped.at(c, r) = std::isnan(h) ? plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r)) : h;
+  // `heights` of `grid` with every hole filled so that the result depends
+  // only on where a texel is, not on which tile asks: holes are filled up to
+  // max_fill_px in from their edge, reading a margin around the window, and
+  // what the fill does not reach comes from the backdrop.
+  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan, Raster<float> heights) const {
+    const int reach = settings.max_fill_px;
+    if (reach > 0) {
+      // A filled texel depends on the samples within 2 * reach of it.
+      const int margin = 2 * reach;
+      GridSpec wide = grid;
+      wide.origin_x -= margin * grid.cell_w;
+      wide.origin_y += margin * grid.cell_h;
+      wide.width += 2 * margin;
+      wide.height += 2 * margin;
+      Raster<float> around = dem.read(wide, read_plan);
+      dem::extendIntoHoles(around, reach);
+      for (int r = 0; r < grid.height; ++r) {
+        for (int c = 0; c < grid.width; ++c) heights.at(c, r) = around.at(c + margin, r + margin);
       }
     }
-    return cropped;
+    for (int r = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c) {
+        float& h = heights.at(c, r);
+        if (std::isnan(h)) h = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
+      }
+    }
+    return heights;
   }
 
   // Positions of every sample in the frame of the tile's centre.
@@ -122,7 +136,10 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile) {
   const GridSpec grid = s.scheme.texelGrid(tile, size, s.apron);
   Raster<float> heights = s.dem.read(grid, read_plan);
   if (!hasValidSample(heights, s.apron, size)) return std::nullopt;
-  if (hasHoles(heights)) heights = s.filledHeights(grid, read_plan);
+  // Coverage is what the DEM itself gives, before any fill.
+  const Raster<std::uint8_t> covered = s.settings.alpha ? coverage(heights, s.apron, size) : Raster<std::uint8_t>();
+  if (hasHoles(heights)) heights = s.filledHeights(grid, read_plan, std::move(heights));
+  scaleHeights(heights, s.settings.height_scale);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
@@ -136,7 +153,9 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.origin_lat_deg = frame.originLatDeg();
   glb_info.enu_to_ecef = frame.localToEcef();
   TileFiles files;
-  files.png = io::encodePng(bake::encodeNormalMap(map, s.settings.bits, s.settings.green), s.settings.bits);
+  Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
+  if (s.settings.alpha) image = bake::addAlpha(image, covered, s.settings.bits);
+  files.png = io::encodePng(image, s.settings.bits);
   files.glb = io::encodeGlb(low, glb_info);
   if (s.settings.high_res_mesh) {
     glb_info.normal_texture_uri.clear();

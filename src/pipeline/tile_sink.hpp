@@ -29,7 +29,7 @@ class TileSink {
 
 // <dir>/<layer>/{z}/{x}/{y}.png|.glb[|.hires.glb], tilejson.json, and the
 // job fingerprint in terrabake-job.txt. A crashed run may leave hidden temporary
-// files behind; opening the folder removes those older than a minute.
+// files behind; opening the folder removes those no live writer holds.
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 
 }  // namespace terrabake::pipeline

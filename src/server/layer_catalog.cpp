@@ -9,6 +9,7 @@
 #include "core/error.hpp"
 #include "core/log.hpp"
 #include "server/directory_layer.hpp"
+#include "server/mbtiles_layer.hpp"
 #include "server/on_demand_layer.hpp"
 #include "server/route.hpp"
 
@@ -23,6 +24,21 @@ std::vector<std::string> folderNames(const std::string& tiles_dir) {
   for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code ignored;
     if (it->is_directory(ignored)) names.push_back(it->path().filename().string());
+  }
+  if (ec) throw InputError("tiles: cannot read folder '" + tiles_dir + "': " + ec.message());
+  std::sort(names.begin(), names.end());
+  return names;
+}
+
+// "<name>" of each "<name>.mbtiles" file in the tiles folder, sorted.
+std::vector<std::string> mbtilesNames(const std::string& tiles_dir) {
+  std::error_code ec;
+  std::vector<std::string> names;
+  for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code ignored;
+    if (it->is_regular_file(ignored) && it->path().extension() == ".mbtiles") {
+      names.push_back(it->path().stem().string());
+    }
   }
   if (ec) throw InputError("tiles: cannot read folder '" + tiles_dir + "': " + ec.message());
   std::sort(names.begin(), names.end());
@@ -62,6 +78,26 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
       log::info("layer " + name + ": tiles from " + folder.string());
     } catch (const std::exception& e) {
       log::warning("layer folder '" + folder.string() + "' skipped: tilejson.json: " + oneLine(e.what()));
+    }
+  }
+
+  for (const std::string& name : mbtilesNames(config.tiles_dir)) {
+    if (name.front() == '.') continue;
+    const fs::path file = fs::path(config.tiles_dir) / (name + ".mbtiles");
+    if (names.count(name)) {
+      log::warning("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from its folder");
+      continue;
+    }
+    if (parseRoute("/" + name + "/tilejson.json").kind != Route::Kind::kTileJson) {
+      log::warning("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
+      continue;
+    }
+    try {
+      layers.push_back(std::make_unique<MbtilesLayer>(name, file.string()));
+      names.insert(name);
+      log::info("layer " + name + ": tiles from " + file.string());
+    } catch (const std::exception& e) {
+      log::warning("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
     }
   }
   return layers;

@@ -1,7 +1,7 @@
 #pragma once
 // A layer the server answers for, whatever holds its tiles: a folder a batch
-// run wrote, a folder filled on demand from the DEM, and later an MBTiles
-// file. The HTTP side sees only this interface.
+// run wrote, a folder filled on demand from the DEM, or an MBTiles file.
+// The HTTP side sees only this interface.
 #include <cstdint>
 #include <memory>
 #include <string>

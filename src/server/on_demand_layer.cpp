@@ -131,7 +131,7 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
   OnDemandLayer::Settings settings{job.layer,
                                    fs::path(tiles_dir) / job.layer,
                                    plan->tilejson,
-                                   TileCoverage(job.min_zoom, job.max_zoom, plan->scheme, plan->area),
+                                   TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->area),
                                    job.high_res_mesh,
                                    workers,
                                    queue_size};

@@ -1,0 +1,118 @@
+// `terrabake info`: what a DEM is and which zooms suit it, before tiling it.
+#include <cstdio>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "app/commands.hpp"
+#include "core/error.hpp"
+#include "dem/dem_source.hpp"
+#include "pipeline/zoom_choice.hpp"
+#include "tiling/scheme.hpp"
+
+namespace terrabake::app {
+namespace {
+
+constexpr const char* kInfoExamples = R"(Examples:
+  terrabake info tests/data/sample_dem.tif
+  terrabake info north.tif south.tif --tile-size 512    # merged in this order, as tile merges them)";
+
+constexpr int kDefaultTileSize = 256;
+// Per-zoom tile counts wrap here, so the report stays one screen wide.
+constexpr std::size_t kLineWidth = 96;
+
+struct InfoOptions {
+  std::vector<std::string> dems;
+  int tile_size = kDefaultTileSize;
+};
+
+std::string format(const char* pattern, double a) {
+  char text[64];
+  std::snprintf(text, sizeof text, pattern, a);
+  return text;
+}
+
+std::string crsText(const dem::DemInfo& info) {
+  return info.crs_name + (info.epsg ? " (EPSG:" + std::to_string(*info.epsg) + ")" : " (no EPSG code)");
+}
+
+// One line per scheme: the suggested zooms, from where the DEM fits one tile
+// down to auto's choice, and the tiles each of them takes.
+void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem, int tile_size) {
+  const Extent area = dem.boundsIn(scheme.crs());
+  const int max_zoom = pipeline::autoMaxZoom(scheme, area, dem, tile_size);
+  const int min_zoom = pipeline::oneTileZoom(scheme, area, max_zoom);
+  std::vector<std::string> counts;
+  std::size_t total = 0;
+  for (int z = min_zoom; z <= max_zoom; ++z) {
+    const std::size_t tiles = scheme.tilesCovering(area, z).size();
+    total += tiles;
+    counts.push_back("z" + std::to_string(z) + " " + std::to_string(tiles));
+  }
+  char head[64];
+  std::snprintf(head, sizeof head, "  %-13s%d-%d, %zu tiles:", scheme.name().c_str(), min_zoom, max_zoom, total);
+  std::string line = head;
+  const std::string indent(20, ' ');
+  for (std::size_t i = 0; i < counts.size(); ++i) {
+    const std::string item = " " + counts[i] + (i + 1 < counts.size() ? "," : "");
+    if (line.size() + item.size() > kLineWidth) {
+      std::printf("%s\n", line.c_str());
+      line = indent;
+    }
+    line += item;
+  }
+  std::printf("%s\n", line.c_str());
+}
+
+void printInfo(const dem::DemSource& dem, int tile_size) {
+  const dem::DemInfo& info = dem.info();
+  const GridSpec& g = info.grid;
+  const double east = g.origin_x + g.width * g.cell_w, south = g.origin_y - g.height * g.cell_h;
+  const Extent lon_lat = dem.boundsIn("EPSG:4326");
+  std::printf("DEM        %s\n", info.path.c_str());
+  std::printf("CRS        %s\n", crsText(info).c_str());
+  std::printf("size       %d x %d pixels, %s, %d overview%s\n", g.width, g.height, info.data_type.c_str(),
+              info.overview_count, info.overview_count == 1 ? "" : "s");
+  std::printf("nodata     %s\n", info.nodata ? format("%.10g", *info.nodata).c_str() : "none declared");
+  std::printf("pixel      %s x %s %s; %s m on the ground at the centre\n", format("%.8g", g.cell_w).c_str(),
+              format("%.8g", g.cell_h).c_str(), info.crs_unit.c_str(),
+              format("%.2f", pipeline::demPixelSizeM(dem)).c_str());
+  std::printf("extent     west %s, south %s, east %s, north %s (%s)\n", format("%.10g", g.origin_x).c_str(),
+              format("%.10g", south).c_str(), format("%.10g", east).c_str(), format("%.10g", g.origin_y).c_str(),
+              info.crs_unit.c_str());
+  std::printf("lon/lat    west %.6f, south %.6f, east %.6f, north %.6f\n", lon_lat.min_x, lon_lat.min_y,
+              lon_lat.max_x, lon_lat.max_y);
+  std::printf("zooms      for %d-texel tiles: from where the DEM fits one tile to auto's choice, the deepest\n"
+              "           zoom whose texels are no smaller than the DEM's pixels\n",
+              tile_size);
+  std::vector<std::unique_ptr<tiling::Scheme>> schemes;
+  schemes.push_back(tiling::makeWebMercator());
+  schemes.push_back(tiling::makeGeodetic());
+  schemes.push_back(tiling::makeNative(g, tile_size));
+  for (const auto& scheme : schemes) {
+    try {
+      printScheme(*scheme, dem, tile_size);
+    } catch (const Error& e) {  // a DEM beyond Web Mercator's latitudes, say
+      std::printf("  %-13s not available: %s\n", scheme->name().c_str(), oneLine(e.what()).c_str());
+    }
+  }
+}
+
+}  // namespace
+
+Action addInfoCommand(CLI::App& app) {
+  auto options = std::make_shared<InfoOptions>();
+  CLI::App* cmd = app.add_subcommand("info", "Describe a DEM and the zooms that suit it (writes nothing)");
+  cmd->footer(std::string(kInfoExamples) + "\n\n" + kExitCodes);
+  cmd->add_option("dem", options->dems, "DEM file(s), merged in priority order as `tile` merges them")
+      ->required();
+  cmd->add_option("--tile-size", options->tile_size, "Texels a tile side, for the zoom suggestions (default 256)")
+      ->check(CLI::Range(16, 4096));
+  return [options, cmd]() -> int {
+    if (!cmd->parsed()) return int(ExitCode::kUsage);
+    printInfo(dem::DemSource(options->dems), options->tile_size);
+    return int(ExitCode::kOk);
+  };
+}
+
+}  // namespace terrabake::app

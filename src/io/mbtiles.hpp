@@ -1,0 +1,87 @@
+#pragma once
+// A layer in one MBTiles 1.3 file (config/README.md, "MBTiles"): the normal
+// maps in `tiles`, the low-poly meshes in `meshes`, the high-res meshes in
+// `high_res_meshes`, rows in TMS order; metadata with the layer's tilejson
+// and the job that made it. SQLite stays behind this header.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <set>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "core/types.hpp"
+
+namespace terrabake::io {
+
+enum class MbtilesTable { kTiles, kMeshes, kHighResMeshes };
+
+// Where a tile lies in every table: MBTiles counts rows from the south (TMS).
+struct MbtilesKey {
+  int zoom_level = 0;
+  int tile_column = 0;
+  int tile_row = 0;
+};
+
+// `tms_rows`: the scheme's y already counts from the south (geodetic) and is
+// kept; otherwise (webmercator, native) tile_row = 2^z - 1 - y.
+MbtilesKey mbtilesKey(const TileId& tile, bool tms_rows);
+
+// The metadata row holding the fingerprint of the job that made the layer
+// (empty until a run records one); a file without it is not terrabake's.
+constexpr const char* kMbtilesJobRow = "terrabake_job";
+
+using MetadataRows = std::vector<std::pair<std::string, std::string>>;
+
+// The metadata rows MBTiles 1.3 names, from a layer's tilejson (io::tileJson):
+// name, format, bounds, center, minzoom, maxzoom, type, version, description,
+// scheme, and the tilejson itself as "json". Throws std::invalid_argument for
+// text that is not such a tilejson.
+MetadataRows mbtilesMetadata(const std::string& tilejson);
+
+// One connection to a terrabake MBTiles file. Not thread-safe: one thread at
+// a time. Errors are InputError naming the file.
+class MbtilesFile {
+ public:
+  // Creates the file with its tables when missing (or empty), else checks it
+  // is an MBTiles file terrabake wrote (a `terrabake_job` metadata row).
+  // `high_res_meshes` adds that table. Writes go through a write-ahead log.
+  static std::unique_ptr<MbtilesFile> openForWriting(const std::string& path, bool high_res_meshes);
+  // Read-only, with the same check.
+  static std::unique_ptr<MbtilesFile> openForReading(const std::string& path);
+
+  ~MbtilesFile();
+  MbtilesFile(const MbtilesFile&) = delete;
+  MbtilesFile& operator=(const MbtilesFile&) = delete;
+
+  const std::string& path() const;
+
+  std::optional<std::string> metadata(const std::string& name) const;
+  // Inserts or replaces the rows, in one transaction.
+  void setMetadata(const MetadataRows& rows);
+
+  bool hasTile(MbtilesTable table, const MbtilesKey& key) const;
+  // nullopt when the table or the row is missing.
+  std::optional<std::string> readTile(MbtilesTable table, const MbtilesKey& key) const;
+
+  // The tile's image, mesh and (when not empty) high-res mesh in one
+  // transaction: a tile is in the file whole or not at all.
+  void writeTile(const MbtilesKey& key, const std::vector<std::uint8_t>& png, const std::vector<std::uint8_t>& glb,
+                 const std::vector<std::uint8_t>& high_res_glb);
+
+  // Folds the write-ahead log into the file and goes back to a rollback
+  // journal, so the file stands alone: no -wal or -shm beside it, readable
+  // from a read-only folder. While another process has the file open this
+  // is left to the last one to finish.
+  void standAlone();
+
+ private:
+  struct Impl;
+  explicit MbtilesFile(std::unique_ptr<Impl> impl);
+  // Throws unless the file is terrabake's; remembers which tables it has.
+  void checkOwnership(const std::set<std::string>& tables);
+  std::unique_ptr<Impl> m_impl;
+};
+
+}  // namespace terrabake::io

@@ -1,0 +1,76 @@
+#include "pipeline/mbtiles_sink.hpp"
+
+#include <filesystem>
+#include <mutex>
+
+#include "core/error.hpp"
+#include "io/mbtiles.hpp"
+
+namespace terrabake::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::unique_ptr<io::MbtilesFile> openFile(const std::string& path, bool high_res_mesh) {
+  const fs::path folder = fs::path(path).parent_path();
+  std::error_code ec;
+  if (!folder.empty()) fs::create_directories(folder, ec);
+  if (ec) throw InputError("output: cannot create folder '" + folder.string() + "': " + ec.message());
+  try {
+    return io::MbtilesFile::openForWriting(path, high_res_mesh);
+  } catch (const InputError& e) {
+    throw InputError(std::string("output: ") + e.what());
+  }
+}
+
+// One connection behind a mutex: SQLite takes one writer at a time anyway,
+// and a tile's commit is short next to making it.
+class MbtilesSink : public TileSink {
+ public:
+  MbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows)
+      : m_file(openFile(path, high_res_mesh)), m_high_res_mesh(high_res_mesh), m_tms_rows(tms_rows) {}
+
+  std::string location() const override { return m_file->path(); }
+
+  std::string recordedJob() const override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    return m_file->metadata(io::kMbtilesJobRow).value_or("");
+  }
+
+  void recordJob(const std::string& fingerprint) override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
+  }
+
+  bool hasTile(const TileId& tile) const override {
+    // A tile's rows are committed together: the last table written answers for all.
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    return m_file->hasTile(m_high_res_mesh ? io::MbtilesTable::kHighResMeshes : io::MbtilesTable::kMeshes,
+                           io::mbtilesKey(tile, m_tms_rows));
+  }
+
+  void write(const TileId& tile, const TileFiles& files) override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->writeTile(io::mbtilesKey(tile, m_tms_rows), files.png, files.glb, files.high_res_glb);
+  }
+
+  void finish(const std::string& tilejson) override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->setMetadata(io::mbtilesMetadata(tilejson));
+    m_file->standAlone();
+  }
+
+ private:
+  mutable std::mutex m_mutex;
+  std::unique_ptr<io::MbtilesFile> m_file;
+  bool m_high_res_mesh;
+  bool m_tms_rows;
+};
+
+}  // namespace
+
+std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows) {
+  return std::make_unique<MbtilesSink>(path, high_res_mesh, tms_rows);
+}
+
+}  // namespace terrabake::pipeline

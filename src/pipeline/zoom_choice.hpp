@@ -1,0 +1,28 @@
+#pragma once
+// Which zooms suit a DEM: `tiling.zoom: auto` and `terrabake info` both ask.
+#include <string>
+
+#include "core/types.hpp"
+#include "dem/dem_source.hpp"
+#include "tiling/scheme.hpp"
+
+namespace terrabake::pipeline {
+
+// Ground size in metres of a cell_w x cell_h cell of `crs` centred on (x, y):
+// the square root of its area, so cells that are not square on the ground
+// (geodetic ones away from the equator) compare by area.
+double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w, double cell_h);
+
+// The ground size of a DEM pixel at the centre of the DEM.
+double demPixelSizeM(const dem::DemSource& dem);
+
+// The deepest zoom whose texels, at the centre of `area` (the DEM in the
+// scheme's CRS), are no smaller than the DEM's pixels; 0 when even zoom 0's
+// are smaller. Native: the full-resolution level.
+int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem, int tile_size);
+
+// The deepest zoom up to `max_zoom` at which one tile covers `area`; 0 when
+// no zoom does (an area across a zoom-0 tile edge).
+int oneTileZoom(const tiling::Scheme& scheme, const Extent& area, int max_zoom);
+
+}  // namespace terrabake::pipeline

@@ -1,0 +1,45 @@
+#pragma once
+// A layer a batch run wrote into one MBTiles file (`output.format: mbtiles`),
+// served at the same URLs as a folder layer: the image, mesh and high-res
+// mesh of z/x/y are rows of tables tiles, meshes and high_res_meshes.
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+#include "io/mbtiles.hpp"
+#include "server/layer_source.hpp"
+#include "server/tile_coverage.hpp"
+
+namespace terrabake::server {
+
+class MbtilesLayer : public LayerSource {
+ public:
+  // Opens the file read-only. Throws InputError when it is not an MBTiles
+  // file terrabake wrote, std::runtime_error when its tilejson (metadata row
+  // `json`, written when its run finished) is missing or unusable.
+  MbtilesLayer(std::string name, const std::string& path);
+
+  const std::string& name() const override { return m_name; }
+  bool bakesOnDemand() const override { return false; }
+  std::string tileJson(const std::string& layer_url) const override;
+  TileAnswer tile(const TileId& tile, TileFormat format) override;
+
+ private:
+  MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file);
+
+  // A connection is used by one thread at a time: each request borrows an
+  // idle one, or opens another, so requests read in parallel.
+  std::unique_ptr<io::MbtilesFile> borrow();
+  void giveBack(std::unique_ptr<io::MbtilesFile> file);
+
+  std::string m_name;
+  std::string m_path;
+  std::string m_tilejson;
+  TileCoverage m_coverage;
+  bool m_tms_rows;  // the layer's y counts from the south as the file's rows do
+  std::mutex m_mutex;
+  std::vector<std::unique_ptr<io::MbtilesFile>> m_idle;
+};
+
+}  // namespace terrabake::server

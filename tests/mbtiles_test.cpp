@@ -1,0 +1,505 @@
+// MBTiles output (output.format: mbtiles) against the folder layout of the
+// same job: the file opens with the sqlite3 tool and carries the MBTiles 1.3
+// metadata; every blob is the folder's file at the TMS row the scheme calls
+// for; --resume and the job record work on it; and `terrabake serve` answers
+// for it with the folder layer's bytes. The file is read with SQLite here,
+// not with terrabake's reader.
+#include <gtest/gtest.h>
+
+#include <httplib.h>
+#include <sqlite3.h>
+#include <sys/wait.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <optional>
+#include <ostream>
+#include <set>
+#include <sstream>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "config/serve_config.hpp"
+#include "config/tile_job.hpp"
+#include "core/error.hpp"
+#include "layer_check.hpp"
+#include "pipeline/tile_job_runner.hpp"
+#include "server/http_rules.hpp"
+#include "server/layer_catalog.hpp"
+#include "server/server.hpp"
+#include "support/analytic_terrain.hpp"
+#include "support/image_reader.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+// What ctest runs in parallel must not share a folder: each case gets its own.
+fs::path caseDir() {
+  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
+  std::string name = std::string(info->test_suite_name()) + "." + info->name();
+  for (char& c : name) {
+    if (c == '/') c = '_';  // parameterised names
+  }
+  const fs::path dir = test::testOutput("mbtiles") / name;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  return dir;
+}
+
+std::string readBytes(const fs::path& path) {
+  std::ifstream in(path, std::ios::binary);
+  return std::string(std::istreambuf_iterator<char>(in), {});
+}
+
+void writeBytes(const fs::path& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
+
+fs::path smallDem() {
+  return test::sharedFixture("analytic_utm33_128.tif", [](const fs::path& path) {
+    test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 128, 128);
+  });
+}
+
+struct SchemeCase {
+  const char* scheme;
+  int min_zoom;
+  int max_zoom;
+  bool xyz_rows;  // y counts from the north: MBTiles stores 2^z - 1 - y
+};
+
+constexpr SchemeCase kWebMercator{"webmercator", 12, 13, true};
+
+void PrintTo(const SchemeCase& scheme, std::ostream* out) { *out << scheme.scheme; }
+
+config::TileJob smallJob(const fs::path& out, const std::string& layer, const std::string& format,
+                         const SchemeCase& scheme = kWebMercator) {
+  config::TileJob job;
+  job.dems = {smallDem().string()};
+  job.output_dir = out.string();
+  job.layer = layer;
+  job.format = format;
+  job.scheme = scheme.scheme;
+  job.min_zoom = scheme.min_zoom;
+  job.max_zoom = scheme.max_zoom;
+  job.zoom_set = true;
+  job.tile_size = 64;
+  job.backend = "cpu";
+  job.workers = 2;
+  return job;
+}
+
+fs::path mbtilesPath(const config::TileJob& job) { return fs::path(job.output_dir) / (job.layer + ".mbtiles"); }
+
+// The tiles of a folder layer, from its .png files.
+std::vector<TileId> folderTiles(const fs::path& layer) {
+  std::vector<TileId> tiles;
+  for (const auto& entry : fs::recursive_directory_iterator(layer)) {
+    const fs::path& p = entry.path();
+    if (p.extension() != ".png") continue;
+    tiles.push_back({std::stoi(p.parent_path().parent_path().filename().string()),
+                     std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
+  }
+  std::sort(tiles.begin(), tiles.end());
+  return tiles;
+}
+
+fs::path tileFile(const fs::path& layer, const TileId& tile, const std::string& extension) {
+  return layer / (tile.str() + "." + extension);
+}
+
+// What the sqlite3 command-line tool prints for `sql` in JSON mode.
+Json sqliteTool(const fs::path& file, const std::string& sql) {
+  const std::string command = "sqlite3 -readonly -json '" + file.string() + "' \"" + sql + "\"";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  if (!pipe) throw std::runtime_error("cannot run " + command);
+  std::string output;
+  char buffer[4096];
+  for (std::size_t n; (n = std::fread(buffer, 1, sizeof buffer, pipe)) > 0;) output.append(buffer, n);
+  const int status = ::pclose(pipe);
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << command << "\n" << output;
+  return output.find_first_not_of(" \n") == std::string::npos ? Json::array() : Json::parse(output);
+}
+
+// Plain SQLite on the file, independent of terrabake's reader.
+class Database {
+ public:
+  explicit Database(const fs::path& path) {
+    if (sqlite3_open_v2(path.c_str(), &m_db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE, nullptr) != SQLITE_OK) {
+      throw std::runtime_error("cannot open " + path.string() + ": " + sqlite3_errmsg(m_db));
+    }
+  }
+  ~Database() { sqlite3_close(m_db); }
+
+  std::optional<std::string> blob(const std::string& table, int zoom, int column, int row) const {
+    sqlite3_stmt* s = prepare("SELECT tile_data FROM " + table +
+                              " WHERE zoom_level = ?1 AND tile_column = ?2 AND tile_row = ?3");
+    sqlite3_bind_int(s, 1, zoom);
+    sqlite3_bind_int(s, 2, column);
+    sqlite3_bind_int(s, 3, row);
+    std::optional<std::string> bytes;
+    if (sqlite3_step(s) == SQLITE_ROW) {
+      bytes = std::string(static_cast<const char*>(sqlite3_column_blob(s, 0)), std::size_t(sqlite3_column_bytes(s, 0)));
+    }
+    sqlite3_finalize(s);
+    return bytes;
+  }
+
+  int count(const std::string& sql) const {
+    sqlite3_stmt* s = prepare(sql);
+    const int n = sqlite3_step(s) == SQLITE_ROW ? sqlite3_column_int(s, 0) : -1;
+    sqlite3_finalize(s);
+    return n;
+  }
+
+  void exec(const std::string& sql) {
+    if (sqlite3_exec(m_db, sql.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) {
+      throw std::runtime_error(sql + ": " + sqlite3_errmsg(m_db));
+    }
+  }
+
+ private:
+  sqlite3_stmt* prepare(const std::string& sql) const {
+    sqlite3_stmt* s = nullptr;
+    if (sqlite3_prepare_v2(m_db, sql.c_str(), -1, &s, nullptr) != SQLITE_OK) {
+      throw std::runtime_error(sql + ": " + sqlite3_errmsg(m_db));
+    }
+    return s;
+  }
+
+  sqlite3* m_db = nullptr;
+};
+
+// MBTiles rows count from the south (TMS), computed here from the spec.
+int tmsRow(const TileId& tile, bool xyz_rows) { return xyz_rows ? (1 << tile.z) - 1 - tile.y : tile.y; }
+
+// Removes every row of the tile, as if it had never been written.
+void deleteTile(const fs::path& file, const TileId& tile, bool xyz_rows) {
+  Database db(file);
+  for (const std::string table : {"tiles", "meshes", "high_res_meshes"}) {
+    if (db.count("SELECT count(*) FROM sqlite_master WHERE name = '" + table + "'") == 0) continue;
+    db.exec("DELETE FROM " + table + " WHERE zoom_level = " + std::to_string(tile.z) +
+            " AND tile_column = " + std::to_string(tile.x) +
+            " AND tile_row = " + std::to_string(tmsRow(tile, xyz_rows)));
+  }
+}
+
+std::vector<std::string> split(const std::string& text, char separator) {
+  std::vector<std::string> parts;
+  std::stringstream in(text);
+  for (std::string part; std::getline(in, part, separator);) parts.push_back(part);
+  return parts;
+}
+
+TEST(Mbtiles, OpensWithTheSqliteToolWithMbtilesMetadata) {
+  const fs::path dir = caseDir();
+  const config::TileJob folder_job = smallJob(dir, "layer", "files");
+  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
+  const pipeline::RunSummary summary = pipeline::runTileJob(job);
+  ASSERT_EQ(summary.failed, 0);
+  const fs::path file = mbtilesPath(job);
+  EXPECT_EQ(summary.layer_dir, file.string());
+
+  std::map<std::string, std::string> metadata;
+  for (const Json& row : sqliteTool(file, "SELECT name, value FROM metadata")) {
+    const std::string name = row.at("name").get<std::string>();
+    EXPECT_TRUE(metadata.emplace(name, row.at("value").get<std::string>()).second) << "metadata row twice: " << name;
+  }
+  for (const char* name : {"name", "format", "bounds", "center", "minzoom", "maxzoom", "type", "version",
+                           "description", "scheme", "json", "terrabake_job"}) {
+    EXPECT_EQ(metadata.count(name), 1u) << "no metadata row " << name;
+  }
+  EXPECT_EQ(metadata["name"], "layer");
+  EXPECT_EQ(metadata["format"], "png");
+  EXPECT_EQ(metadata["type"], "baselayer");
+  EXPECT_EQ(metadata["minzoom"], "12");
+  EXPECT_EQ(metadata["maxzoom"], "13");
+  EXPECT_EQ(metadata["scheme"], "tms");
+  EXPECT_NO_THROW((void)std::stoi(metadata["version"]));
+  EXPECT_EQ(metadata["terrabake_job"], config::layerFingerprint(job));
+
+  // The tilejson is the folder layer's, and bounds and center are its numbers.
+  const Json tilejson = Json::parse(readBytes(test::layerDir(folder_job) / "tilejson.json"));
+  EXPECT_EQ(Json::parse(metadata["json"]), tilejson);
+  const std::vector<std::string> bounds = split(metadata["bounds"], ','), center = split(metadata["center"], ',');
+  ASSERT_EQ(bounds.size(), 4u);
+  ASSERT_EQ(center.size(), 3u);
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(std::stod(bounds[i]), tilejson["bounds"][i].get<double>());
+  for (std::size_t i = 0; i < 3; ++i) EXPECT_DOUBLE_EQ(std::stod(center[i]), tilejson["center"][i].get<double>());
+
+  std::set<std::string> tables;
+  for (const Json& row : sqliteTool(file, "SELECT name FROM sqlite_master WHERE type = 'table'")) {
+    tables.insert(row.at("name").get<std::string>());
+  }
+  EXPECT_EQ(tables, (std::set<std::string>{"metadata", "tiles", "meshes"}));
+  for (const char* table : {"tiles", "meshes"}) {
+    std::vector<std::string> columns;
+    for (const Json& row : sqliteTool(file, std::string("PRAGMA table_info(") + table + ")")) {
+      columns.push_back(row.at("name").get<std::string>());
+    }
+    EXPECT_EQ(columns, (std::vector<std::string>{"zoom_level", "tile_column", "tile_row", "tile_data"})) << table;
+    // A unique index on exactly (zoom_level, tile_column, tile_row).
+    bool unique_key = false;
+    for (const Json& index : sqliteTool(file, std::string("PRAGMA index_list(") + table + ")")) {
+      if (index.at("unique") != 1) continue;
+      std::vector<std::string> key;
+      for (const Json& column : sqliteTool(file, "PRAGMA index_info(" + index.at("name").get<std::string>() + ")")) {
+        key.push_back(column.at("name").get<std::string>());
+      }
+      unique_key |= key == std::vector<std::string>{"zoom_level", "tile_column", "tile_row"};
+    }
+    EXPECT_TRUE(unique_key) << table;
+  }
+
+  // One self-contained file: no write-ahead log, nothing beside it.
+  EXPECT_EQ(sqliteTool(file, "PRAGMA journal_mode"), Json::parse(R"([{"journal_mode": "delete"}])"));
+  EXPECT_EQ(sqliteTool(file, "PRAGMA integrity_check"), Json::parse(R"([{"integrity_check": "ok"}])"));
+  EXPECT_EQ(sqliteTool(file, "PRAGMA application_id"), Json::parse(R"([{"application_id": 1297105496}])"));
+  std::set<std::string> entries;
+  for (const auto& entry : fs::directory_iterator(dir)) entries.insert(entry.path().filename().string());
+  EXPECT_EQ(entries, (std::set<std::string>{"layer", "layer.mbtiles"}));
+}
+
+// Every scheme: each blob is the folder's file, at the row MBTiles calls for.
+class MbtilesRows : public ::testing::TestWithParam<SchemeCase> {};
+
+TEST_P(MbtilesRows, BlobsAreTheFolderFilesAtTmsRows) {
+  const SchemeCase scheme = GetParam();
+  const fs::path dir = caseDir();
+  config::TileJob folder_job = smallJob(dir, "layer", "files", scheme);
+  config::TileJob job = smallJob(dir, "layer", "mbtiles", scheme);
+  folder_job.high_res_mesh = job.high_res_mesh = true;
+  ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+
+  const fs::path layer = test::layerDir(folder_job);
+  const std::vector<TileId> tiles = folderTiles(layer);
+  std::set<int> zooms;
+  for (const TileId& tile : tiles) zooms.insert(tile.z);
+  ASSERT_EQ(zooms.size(), std::size_t(scheme.max_zoom - scheme.min_zoom + 1)) << "a tile at every zoom";
+
+  const Database db(mbtilesPath(job));
+  for (const char* table : {"tiles", "meshes", "high_res_meshes"}) {
+    EXPECT_EQ(db.count(std::string("SELECT count(*) FROM ") + table), int(tiles.size())) << table;
+  }
+  bool some_row_flipped = false;
+  for (const TileId& tile : tiles) {
+    const int row = tmsRow(tile, scheme.xyz_rows);
+    some_row_flipped |= row != tile.y;
+    const auto png = db.blob("tiles", tile.z, tile.x, row);
+    ASSERT_TRUE(png) << "no image for " << tile.str() << " at row " << row;
+    const fs::path blob_file = dir / "blob.png";
+    writeBytes(blob_file, *png);
+    const test_support::PngImage from_blob = test_support::readPng(blob_file);
+    const test_support::PngImage from_folder = test_support::readPng(tileFile(layer, tile, "png"));
+    EXPECT_EQ(from_blob.width, from_folder.width) << tile.str();
+    EXPECT_EQ(from_blob.bits, from_folder.bits) << tile.str();
+    EXPECT_TRUE(from_blob.samples == from_folder.samples) << "image of " << tile.str() << " differs";
+    EXPECT_TRUE(db.blob("meshes", tile.z, tile.x, row) == readBytes(tileFile(layer, tile, "glb")))
+        << "mesh of " << tile.str() << " differs";
+    EXPECT_TRUE(db.blob("high_res_meshes", tile.z, tile.x, row) == readBytes(tileFile(layer, tile, "hires.glb")))
+        << "high-res mesh of " << tile.str() << " differs";
+  }
+  EXPECT_EQ(some_row_flipped, scheme.xyz_rows);
+}
+
+INSTANTIATE_TEST_SUITE_P(Schemes, MbtilesRows,
+                         ::testing::Values(kWebMercator, SchemeCase{"geodetic", 12, 13, false},
+                                           SchemeCase{"native", 0, 1, true}),
+                         [](const auto& info) { return std::string(info.param.scheme); });
+
+TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
+  const fs::path dir = caseDir();
+  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const pipeline::RunSummary first = pipeline::runTileJob(job);
+  ASSERT_EQ(first.failed, 0);
+  ASSERT_GT(first.written, 1);
+
+  pipeline::RunOptions resume;
+  resume.resume = true;
+  const pipeline::RunSummary again = pipeline::runTileJob(job, resume);
+  EXPECT_EQ(again.skipped, first.written);
+  EXPECT_EQ(again.written, 0);
+
+  // The database answers: a tile whose rows are gone is made again, alone.
+  const fs::path file = mbtilesPath(job);
+  const Database db(file);
+  const int top_row = db.count("SELECT max(tile_row) FROM tiles WHERE zoom_level = 13");
+  const TileId tile{13, db.count("SELECT min(tile_column) FROM tiles WHERE zoom_level = 13 AND tile_row = " +
+                                 std::to_string(top_row)),
+                    (1 << 13) - 1 - top_row};
+  deleteTile(file, tile, true);
+  const pipeline::RunSummary repair = pipeline::runTileJob(job, resume);
+  EXPECT_EQ(repair.written, 1);
+  EXPECT_EQ(repair.skipped, first.written - 1);
+  EXPECT_EQ(db.count("SELECT count(*) FROM meshes"), first.written);
+}
+
+TEST(Mbtiles, ADifferentJobNeedsForce) {
+  const fs::path dir = caseDir();
+  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+  config::TileJob other = job;
+  other.bits = 16;
+  const fs::path file = mbtilesPath(job);
+  const std::string before = readBytes(file);
+  EXPECT_THROW(pipeline::runTileJob(other), UsageError);
+  EXPECT_TRUE(readBytes(file) == before) << "a refused run changed the file";
+
+  pipeline::RunOptions force;
+  force.force = true;
+  ASSERT_EQ(pipeline::runTileJob(other, force).failed, 0);
+  const Json job_row = sqliteTool(file, "SELECT value FROM metadata WHERE name = 'terrabake_job'");
+  ASSERT_EQ(job_row.size(), 1u);
+  EXPECT_EQ(job_row[0].at("value"), config::layerFingerprint(other));
+}
+
+// A file at <dir>/<layer>.mbtiles that terrabake did not write is refused,
+// named, and left as it was.
+TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
+  const fs::path dir = caseDir();
+  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const fs::path file = mbtilesPath(job);
+
+  writeBytes(file, "not a database, just text\n");
+  const auto expectRefused = [&] {
+    const std::string before = readBytes(file);
+    try {
+      pipeline::runTileJob(job);
+      ADD_FAILURE() << "a foreign file was written to";
+    } catch (const InputError& e) {
+      EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
+    }
+    EXPECT_TRUE(readBytes(file) == before) << "a refused run changed the file";
+    EXPECT_FALSE(fs::exists(file.string() + "-wal"));
+  };
+  expectRefused();
+
+  // An MBTiles file of some other tool: no terrabake_job row.
+  fs::remove(file);
+  {
+    Database db(file);
+    db.exec("CREATE TABLE metadata (name text, value text); INSERT INTO metadata VALUES ('name', 'roads');"
+            "CREATE TABLE tiles (zoom_level integer, tile_column integer, tile_row integer, tile_data blob);"
+            "CREATE TABLE meshes (zoom_level integer, tile_column integer, tile_row integer, tile_data blob);");
+  }
+  expectRefused();
+}
+
+// A server on an ephemeral port, run on a thread of its own until the scope ends.
+class ServerThread {
+ public:
+  explicit ServerThread(const config::ServeConfig& config)
+      : m_server(config, server::openLayers(config)), m_thread([this] { m_server.run(); }) {}
+  ~ServerThread() {
+    m_server.stop();
+    m_thread.join();
+  }
+  int port() const { return m_server.port(); }
+
+ private:
+  server::Server m_server;
+  std::thread m_thread;
+};
+
+TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
+  const fs::path dir = caseDir();
+  const fs::path tiles_dir = dir / "tiles";
+  config::TileJob folder_job = smallJob(tiles_dir, "folder", "files");
+  config::TileJob job = smallJob(tiles_dir, "packed", "mbtiles");
+  folder_job.high_res_mesh = job.high_res_mesh = true;
+  ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+  const fs::path folder = test::layerDir(folder_job);
+  std::vector<TileId> tiles = folderTiles(folder);
+  ASSERT_GT(tiles.size(), 2u);
+  // A row missing from the file is a 404, like a missing file.
+  const TileId missing = tiles.back();
+  tiles.pop_back();
+  deleteTile(mbtilesPath(job), missing, true);
+
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (dir / "no_viewer").string();
+  const ServerThread server(config);
+  httplib::Client client("127.0.0.1", server.port());
+
+  const auto layers = client.Get("/layers.json");
+  ASSERT_TRUE(layers && layers->status == 200);
+  std::set<std::string> names;
+  const Json layer_list = Json::parse(layers->body);
+  for (const Json& layer : layer_list.at("layers")) names.insert(layer.at("name").get<std::string>());
+  EXPECT_EQ(names, (std::set<std::string>{"folder", "packed"}));
+
+  // The same tilejson, with absolute URLs into the MBTiles layer.
+  const auto packed_json = client.Get("/packed/tilejson.json");
+  const auto folder_json = client.Get("/folder/tilejson.json");
+  ASSERT_TRUE(packed_json && packed_json->status == 200 && folder_json && folder_json->status == 200);
+  EXPECT_EQ(packed_json->get_header_value("Content-Type"), "application/json");
+  Json packed = Json::parse(packed_json->body), expected = Json::parse(folder_json->body);
+  const std::string base = "http://127.0.0.1:" + std::to_string(server.port()) + "/packed/";
+  EXPECT_EQ(packed["tiles"], Json::array({base + "{z}/{x}/{y}.png"}));
+  EXPECT_EQ(packed["terrabake"]["mesh"], base + "{z}/{x}/{y}.glb");
+  for (Json* doc : {&packed, &expected}) {
+    doc->erase("name");
+    doc->erase("tiles");
+    (*doc)["terrabake"].erase("mesh");
+  }
+  EXPECT_EQ(packed, expected);
+
+  for (const TileId& tile : tiles) {
+    for (const std::string extension : {"png", "glb", "hires.glb"}) {
+      const std::string path = "/" + tile.str() + "." + extension;
+      const auto from_file = client.Get(("/packed" + path).c_str());
+      const auto from_folder = client.Get(("/folder" + path).c_str());
+      ASSERT_TRUE(from_file && from_folder) << path;
+      ASSERT_EQ(from_file->status, 200) << path;
+      EXPECT_TRUE(from_file->body == readBytes(tileFile(folder, tile, extension))) << path << " differs from the file";
+      EXPECT_TRUE(from_file->body == from_folder->body) << path << " differs from the folder layer's";
+      for (const char* header : {"Content-Type", "Cache-Control", "Access-Control-Allow-Origin"}) {
+        EXPECT_EQ(from_file->get_header_value(header), from_folder->get_header_value(header)) << header << path;
+      }
+      const std::string etag = from_file->get_header_value("ETag");
+      EXPECT_EQ(etag, server::contentEtag(from_file->body)) << path;
+      const auto again = client.Get(("/packed" + path).c_str(), {{"If-None-Match", etag}});
+      ASSERT_TRUE(again);
+      EXPECT_EQ(again->status, 304) << path;
+    }
+  }
+  for (const std::string& path :
+       {"/packed/" + missing.str() + ".png", "/packed/" + missing.str() + ".glb", "/packed/" + missing.str() + ".hires.glb",
+        std::string("/packed/11/0/0.png"), std::string("/packed/13/0/0.glb")}) {
+    const auto reply = client.Get(path.c_str());
+    ASSERT_TRUE(reply);
+    EXPECT_EQ(reply->status, 404) << path;
+  }
+
+  // Requests on several connections at once read the file in parallel.
+  std::vector<std::thread> readers;
+  std::atomic<int> wrong{0};
+  for (int i = 0; i < 4; ++i) {
+    readers.emplace_back([&] {
+      httplib::Client own("127.0.0.1", server.port());
+      for (const TileId& tile : tiles) {
+        const auto reply = own.Get(("/packed/" + tile.str() + ".png").c_str());
+        if (!reply || reply->status != 200 || reply->body != readBytes(tileFile(folder, tile, "png"))) ++wrong;
+      }
+    });
+  }
+  for (auto& reader : readers) reader.join();
+  EXPECT_EQ(wrong, 0);
+}
+
+}  // namespace
+}  // namespace terrabake

@@ -1,0 +1,155 @@
+// Runs that stop and start again (issue: crash test, shards): a run killed
+// with SIGKILL halfway and resumed leaves exactly the layer an uninterrupted
+// run writes, no partial file ever sits under a final name, and three shards
+// together write the single run's layer with no tile twice.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+#include <map>
+#include <regex>
+#include <thread>
+
+#include "child_process.hpp"
+#include "layer_check.hpp"
+#include "support/analytic_terrain.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr auto kRunLimit = std::chrono::minutes(5);
+// The crash comes once this many meshes exist: well into the run (about a
+// fifth of its tiles), never at its end.
+constexpr std::size_t kMeshesBeforeCrash = 12;
+
+// About 90 tiles over zooms 11-14: long enough to be killed well before the end.
+fs::path demForRuns() {
+  return test::sharedFixture("analytic_utm33_256.tif", [](const auto& path) {
+    test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 256, 256);
+  });
+}
+
+std::vector<std::string> jobArgs(const fs::path& out) {
+  return {"tile", "--dem", demForRuns().string(), "--zoom", "11-14", "--tile-size", "128", "--out",
+          out.string(), "--layer", "layer", "--workers", "2"};
+}
+
+// Every file of a folder by relative path, with its bytes.
+std::map<std::string, std::string> snapshot(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
+    if (!entry.is_regular_file()) continue;
+    std::ifstream in(entry.path(), std::ios::binary);
+    files[fs::relative(entry.path(), dir).string()] =
+        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+  }
+  return files;
+}
+
+std::size_t countMeshes(const fs::path& dir) {
+  std::size_t count = 0;
+  std::error_code ec;
+  for (auto it = fs::recursive_directory_iterator(dir, ec); !ec && it != fs::recursive_directory_iterator();
+       it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    count += name.size() > 4 && name.front() != '.' && name.substr(name.size() - 4) == ".glb";
+  }
+  return count;
+}
+
+int summaryCount(const std::string& out, const std::string& what) {
+  std::smatch match;
+  const std::regex pattern(what == "wrote" ? "wrote ([0-9]+) tiles" : "([0-9]+) " + what);
+  return std::regex_search(out, match, pattern) ? std::stoi(match[1]) : -1;
+}
+
+fs::path freshDir(const std::string& name) {
+  const fs::path dir = test::testOutput("resume") / name;
+  fs::remove_all(dir);
+  return dir;
+}
+
+TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
+  const fs::path whole_dir = freshDir("uninterrupted"), crash_dir = freshDir("crashed");
+  test::ChildProcess whole(jobArgs(whole_dir));
+  ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
+  const auto expected = snapshot(whole_dir / "layer");
+  const int tiles = summaryCount(whole.out(), "wrote");
+  ASSERT_GT(tiles, int(kMeshesBeforeCrash) * 3);
+
+  {
+    test::ChildProcess doomed(jobArgs(crash_dir));
+    while (countMeshes(crash_dir) < kMeshesBeforeCrash) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    doomed.signal(SIGKILL);
+    EXPECT_EQ(doomed.wait(kRunLimit), -1) << "the run finished before it could be killed";
+  }
+  // Whatever sits under a final name is whole: exactly the uninterrupted bytes.
+  const auto partial = snapshot(crash_dir / "layer");
+  std::size_t final_files = 0;
+  for (const auto& [path, bytes] : partial) {
+    if (fs::path(path).filename().string().front() == '.') continue;  // a temp file the kill left
+    ++final_files;
+    ASSERT_TRUE(expected.count(path)) << path;
+    EXPECT_EQ(bytes, expected.at(path)) << "partial file under a final name: " << path;
+  }
+  EXPECT_LT(final_files, expected.size());
+
+  std::vector<std::string> resume_args = jobArgs(crash_dir);
+  resume_args.push_back("--resume");
+  test::ChildProcess resumed(resume_args);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_GE(summaryCount(resumed.out(), "skipped"), int(kMeshesBeforeCrash));
+  EXPECT_EQ(summaryCount(resumed.out(), "skipped") + summaryCount(resumed.out(), "wrote"), tiles);
+  EXPECT_TRUE(snapshot(crash_dir / "layer") == expected) << "the resumed layer differs from an uninterrupted run";
+}
+
+TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
+  const fs::path dir = freshDir("other_job");
+  std::vector<std::string> args = jobArgs(dir);
+  args[4] = "14";  // --zoom 14 only
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  args.insert(args.end(), {"--bits", "16", "--resume"});
+  test::ChildProcess refused(args);
+  EXPECT_EQ(refused.wait(kRunLimit), 2);
+  EXPECT_NE(refused.err().find("different job"), std::string::npos) << refused.err();
+  args.push_back("--force");
+  test::ChildProcess forced(args);
+  EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();
+}
+
+TEST(Shards, ThreeShardsWriteTheSingleRunsLayerOnce) {
+  const fs::path single_dir = freshDir("single"), shards_dir = freshDir("shards");
+  test::ChildProcess single(jobArgs(single_dir));
+  ASSERT_EQ(single.wait(kRunLimit), 0) << single.err();
+  const int tiles = summaryCount(single.out(), "wrote");
+
+  // The shards run at once, into one folder, as a job array's machines would
+  // on a shared volume.
+  std::vector<std::unique_ptr<test::ChildProcess>> shards;
+  for (int k = 1; k <= 3; ++k) {
+    std::vector<std::string> args = jobArgs(shards_dir);
+    args.insert(args.end(), {"--shard", std::to_string(k) + "/3"});
+    shards.push_back(std::make_unique<test::ChildProcess>(args));
+  }
+  int written = 0;
+  for (auto& shard : shards) {
+    ASSERT_EQ(shard->wait(kRunLimit), 0) << shard->err();
+    written += summaryCount(shard->out(), "wrote");
+  }
+  EXPECT_EQ(written, tiles) << "a tile was written by two shards, or by none";
+  EXPECT_TRUE(snapshot(shards_dir / "layer") == snapshot(single_dir / "layer"));
+}
+
+TEST(Shards, BadShardIsAUsageError) {
+  test::ChildProcess bad({"tile", "--dem", demForRuns().string(), "--zoom", "11", "--shard", "4/3"});
+  EXPECT_EQ(bad.wait(kRunLimit), 2);
+  EXPECT_NE(bad.err().find("--shard"), std::string::npos) << bad.err();
+}
+
+}  // namespace
+}  // namespace terrabake
