@@ -20,11 +20,16 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "file_helpers.hpp"
 
 namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+using test::filesUnder;
+using test::readBytes;
+using test::snapshot;
+using test::writeText;
 
 // The documented exit codes, written out rather than taken from
 // core/error.hpp: the numbers are the contract with scripts, not the enum.
@@ -104,26 +109,6 @@ void writeDem(const fs::path& path, bool with_crs) {
             CE_None);
 }
 
-void writeText(const fs::path& path, const std::string& text) {
-  std::ofstream(path, std::ios::binary) << text;
-}
-
-std::string readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-// Every entry under `dir` that is not a folder (files, links, hidden temp
-// files), relative to `dir`; empty when `dir` does not exist.
-std::set<std::string> filesUnder(const fs::path& dir) {
-  std::set<std::string> files;
-  if (!fs::exists(dir)) return files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (!entry.is_directory()) files.insert(entry.path().lexically_relative(dir).string());
-  }
-  return files;
-}
-
 std::size_t countLines(const std::string& text) { return std::count(text.begin(), text.end(), '\n'); }
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
@@ -168,12 +153,6 @@ std::set<std::string> checkLayer(const fs::path& layer_dir) {
   EXPECT_TRUE(has_job_record) << layer_dir;
   EXPECT_EQ(pngs, glbs) << "every .png needs its .glb and the other way round";
   return pngs;
-}
-
-std::map<std::string, std::string> snapshot(const fs::path& dir) {
-  std::map<std::string, std::string> contents;
-  for (const std::string& name : filesUnder(dir)) contents[name] = readBytes(dir / name);
-  return contents;
 }
 
 // The small native run of case 8, into `out`.

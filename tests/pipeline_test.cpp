@@ -10,6 +10,7 @@
 #include <iterator>
 #include <map>
 
+#include "file_helpers.hpp"
 #include "layer_check.hpp"
 #include "core/error.hpp"
 #include "dem/dem_source.hpp"
@@ -40,17 +41,6 @@ std::filesystem::path demWithHoles() {
       ASSERT_EQ(band->RasterIO(GF_Write, 0, r, kDemPixels, 1, row.data(), kDemPixels, 1, GDT_Float32, 0, 0), CE_None);
     }
   });
-}
-
-std::map<std::string, std::string> filesOf(const std::filesystem::path& layer) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : std::filesystem::recursive_directory_iterator(layer)) {
-    if (!entry.is_regular_file()) continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    files[std::filesystem::relative(entry.path(), layer).string()] =
-        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  return files;
 }
 
 TEST(Pipeline, HolesAreFilledAndVoidTilesAreNotWritten) {
@@ -89,7 +79,7 @@ TEST(Pipeline, OneAndFourWorkersWriteTheSameBytes) {
   four.workers = 4;
   ASSERT_EQ(pipeline::runTileJob(one).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(four).failed, 0);
-  const auto a = filesOf(test::layerDir(one)), b = filesOf(test::layerDir(four));
+  const auto a = test::snapshot(test::layerDir(one)), b = test::snapshot(test::layerDir(four));
   EXPECT_GT(a.size(), 10u);
   EXPECT_TRUE(a == b) << "layers made with 1 and 4 workers differ";
 }

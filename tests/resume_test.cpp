@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "child_process.hpp"
+#include "file_helpers.hpp"
 #include "layer_check.hpp"
 #include "support/analytic_terrain.hpp"
 
@@ -36,18 +37,6 @@ fs::path demForRuns() {
 std::vector<std::string> jobArgs(const fs::path& out) {
   return {"tile", "--dem", demForRuns().string(), "--zoom", "11-14", "--tile-size", "128", "--out",
           out.string(), "--layer", "layer", "--workers", "2"};
-}
-
-// Every file of a folder by relative path, with its bytes.
-std::map<std::string, std::string> snapshot(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (!entry.is_regular_file()) continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    files[fs::relative(entry.path(), dir).string()] =
-        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-  return files;
 }
 
 std::size_t countMeshes(const fs::path& dir) {
@@ -77,7 +66,7 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
   const fs::path whole_dir = freshDir("uninterrupted"), crash_dir = freshDir("crashed");
   test::ChildProcess whole(jobArgs(whole_dir));
   ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
-  const auto expected = snapshot(whole_dir / "layer");
+  const auto expected = test::snapshot(whole_dir / "layer");
   const int tiles = summaryCount(whole.out(), "wrote");
   ASSERT_GT(tiles, int(kMeshesBeforeCrash) * 3);
 
@@ -88,7 +77,7 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
     EXPECT_EQ(doomed.wait(kRunLimit), -1) << "the run finished before it could be killed";
   }
   // Whatever sits under a final name is whole: exactly the uninterrupted bytes.
-  const auto partial = snapshot(crash_dir / "layer");
+  const auto partial = test::snapshot(crash_dir / "layer");
   std::size_t final_files = 0;
   for (const auto& [path, bytes] : partial) {
     if (fs::path(path).filename().string().front() == '.') continue;  // a temp file the kill left
@@ -104,7 +93,7 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
   ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
   EXPECT_GE(summaryCount(resumed.out(), "skipped"), int(kMeshesBeforeCrash));
   EXPECT_EQ(summaryCount(resumed.out(), "skipped") + summaryCount(resumed.out(), "wrote"), tiles);
-  EXPECT_TRUE(snapshot(crash_dir / "layer") == expected) << "the resumed layer differs from an uninterrupted run";
+  EXPECT_TRUE(test::snapshot(crash_dir / "layer") == expected) << "the resumed layer differs from an uninterrupted run";
 }
 
 TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
@@ -142,7 +131,7 @@ TEST(Shards, ThreeShardsWriteTheSingleRunsLayerOnce) {
     written += summaryCount(shard->out(), "wrote");
   }
   EXPECT_EQ(written, tiles) << "a tile was written by two shards, or by none";
-  EXPECT_TRUE(snapshot(shards_dir / "layer") == snapshot(single_dir / "layer"));
+  EXPECT_TRUE(test::snapshot(shards_dir / "layer") == test::snapshot(single_dir / "layer"));
 }
 
 TEST(Shards, BadShardIsAUsageError) {

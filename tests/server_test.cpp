@@ -35,6 +35,7 @@
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "child_process.hpp"
+#include "file_helpers.hpp"
 #include "gl_test_support.hpp"
 #include "layer_check.hpp"
 #include "pipeline/tile_job_runner.hpp"
@@ -52,6 +53,9 @@ namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+using test::filesUnder;
+using test::readBytes;
+using test::writeText;
 using Json = nlohmann::json;
 using server::Route;
 using server::TileFormat;
@@ -73,26 +77,6 @@ fs::path caseDir() {
   fs::remove_all(dir);
   fs::create_directories(dir);
   return dir;
-}
-
-void writeText(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path, std::ios::binary) << text;
-}
-
-std::string readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-// Every entry under `dir` that is not a folder, relative to it.
-std::set<std::string> filesUnder(const fs::path& dir) {
-  std::set<std::string> files;
-  if (!fs::exists(dir)) return files;
-  for (const auto& entry : fs::recursive_directory_iterator(dir)) {
-    if (!entry.is_directory()) files.insert(entry.path().lexically_relative(dir).string());
-  }
-  return files;
 }
 
 bool startsWith(const std::string& text, const std::string& start) { return text.rfind(start, 0) == 0; }

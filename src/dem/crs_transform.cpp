@@ -3,35 +3,16 @@
 #include <ogr_spatialref.h>
 
 #include "core/error.hpp"
-#include "dem/gdal_setup.hpp"
+#include "dem/gdal_util.hpp"
 
 namespace terrabake::dem {
-namespace {
-
-OGRSpatialReference spatialReference(const std::string& crs) {
-  OGRSpatialReference srs;
-  if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
-    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
-  }
-  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
-  return srs;
-}
-
-}  // namespace
 
 struct ToLonLat::Impl {
   std::unique_ptr<OGRCoordinateTransformation> transform;
 };
 
 ToLonLat::ToLonLat(const std::string& crs) : m_impl(std::make_unique<Impl>()) {
-  ensureGdalReady();
-  OGRSpatialReference source, wgs84;
-  if (source.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
-    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
-  }
-  wgs84.importFromEPSG(4326);
-  source.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  wgs84.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  const OGRSpatialReference source = spatialReference(crs), wgs84 = spatialReference("EPSG:4326");
   m_impl->transform.reset(OGRCreateCoordinateTransformation(&source, &wgs84));
   if (!m_impl->transform) throw InputError("dem: no transformation from '" + crs.substr(0, 80) + "' to WGS84");
 }
@@ -50,7 +31,6 @@ void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
 }
 
 Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to) {
-  ensureGdalReady();
   const OGRSpatialReference source = spatialReference(from), target = spatialReference(to);
   std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&source, &target));
   Extent out;

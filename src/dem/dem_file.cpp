@@ -13,33 +13,11 @@
 #include <optional>
 
 #include "core/error.hpp"
-#include "dem/gdal_setup.hpp"
+#include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
 
 namespace terrabake::dem {
 namespace {
-
-std::string lastGdalError() {
-  const char* message = CPLGetLastErrorMsg();
-  return message && *message ? oneLine(message) : "unknown GDAL error";
-}
-
-OGRSpatialReference spatialReference(const std::string& crs) {
-  OGRSpatialReference srs;
-  if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
-    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
-  }
-  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
-  return srs;
-}
-
-std::string toWkt(const OGRSpatialReference& srs) {
-  char* wkt = nullptr;
-  srs.exportToWkt(&wkt);
-  std::string result = wkt ? wkt : "";
-  CPLFree(wkt);
-  return result;
-}
 
 // The EPSG code the CRS declares, else one GDAL finds it equivalent to.
 std::optional<int> epsgCode(const OGRSpatialReference& srs) {

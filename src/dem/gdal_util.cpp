@@ -1,0 +1,53 @@
+#include "dem/gdal_util.hpp"
+
+#include <cpl_conv.h>
+#include <gdal.h>
+
+#include <mutex>
+
+#include "core/error.hpp"
+#include "core/log.hpp"
+
+namespace terrabake::dem {
+namespace {
+
+void CPL_STDCALL routeGdalMessage(CPLErr level, CPLErrorNum, const char* message) {
+  // Failures are reported by the caller with CPLGetLastErrorMsg(); warnings
+  // are detail a user asks for with --verbose.
+  if (level == CE_Warning) log::debug(std::string("gdal: ") + message);
+}
+
+}  // namespace
+
+void ensureGdalReady() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    GDALAllRegister();
+    CPLSetErrorHandler(routeGdalMessage);
+  });
+}
+
+std::string lastGdalError() {
+  const char* message = CPLGetLastErrorMsg();
+  return message && *message ? oneLine(message) : "unknown GDAL error";
+}
+
+OGRSpatialReference spatialReference(const std::string& crs) {
+  ensureGdalReady();
+  OGRSpatialReference srs;
+  if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
+    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
+  }
+  srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
+  return srs;
+}
+
+std::string toWkt(const OGRSpatialReference& srs) {
+  char* wkt = nullptr;
+  srs.exportToWkt(&wkt);
+  std::string result = wkt ? wkt : "";
+  CPLFree(wkt);
+  return result;
+}
+
+}  // namespace terrabake::dem
