@@ -38,6 +38,11 @@ Frame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
   return {n, glm::dvec4(t, w)};
 }
 
+// The frame at sample (c, r) of a position raster, from its four neighbours.
+Frame sampleFrame(const Raster<glm::dvec3>& p, int c, int r) {
+  return frameFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> gridIndices(int cols, int rows) {
@@ -85,11 +90,9 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   for (int j = -1; j <= s; ++j) {
     for (int i = -1; i <= s; ++i) {
       const int c = a + i, r = a + j;
-      const glm::dvec3 du = p.at(c + 1, r) - p.at(c - 1, r);
-      const glm::dvec3 dv = p.at(c, r + 1) - p.at(c, r - 1);
       mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
       mesh.position.emplace_back(p.at(c, r));
-      mesh.normal.emplace_back(frameFromDifferences(du, dv).normal);
+      mesh.normal.emplace_back(sampleFrame(p, c, r).normal);
     }
   }
   return mesh;
@@ -135,7 +138,7 @@ GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
   for (int j = 0; j <= s; ++j) {
     for (int i = 0; i <= s; ++i) {
       const int c = a + i, r = a + j;
-      const Frame frame = frameFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+      const Frame frame = sampleFrame(p, c, r);
       mesh.position.emplace_back(p.at(c, r));
       mesh.normal.emplace_back(frame.normal);
       mesh.tangent.emplace_back(frame.tangent);

@@ -5,7 +5,6 @@
 #include <chrono>
 #include <exception>
 #include <filesystem>
-#include <map>
 #include <mutex>
 #include <thread>
 
@@ -13,7 +12,6 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
-#include "io/tile_files.hpp"
 #include "pipeline/mbtiles_sink.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
