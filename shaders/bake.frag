@@ -1,6 +1,6 @@
 #version 330 core
 // Writes the high-res normal in the low-poly mesh's tangent space
-// (CONTRACT section 4): the low-poly frame at this texel is interpolated over
+// (docs/CONTRACT.md section 4): the low-poly frame at this texel is interpolated over
 // its triangle exactly as a glTF renderer does, then [T B N] is inverted.
 in vec3 v_normal;
 out vec4 o_normal;

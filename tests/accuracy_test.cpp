@@ -1,6 +1,6 @@
-// Accuracy against an analytic terrain (issue item a): every texel of every
-// tile is decoded with its own tile's .glb, as CONTRACT section 4 says a
-// renderer does, and compared with the terrain's exact normal.
+// Accuracy against an analytic terrain: every texel of every tile is
+// decoded with its own tile's .glb, as docs/CONTRACT.md §4 says a renderer
+// does, and compared with the terrain's exact normal.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -17,7 +17,7 @@ namespace ts = test_support;
 
 // 8 bits: glTF decoding cannot represent an exact zero (128 decodes to
 // +1/255), so an untilted normal already decodes about 0.32 degrees off;
-// quantisation of tilted normals averages less. The issue's bounds.
+// quantisation of tilted normals averages less. docs/CONTRACT.md §4 states these bounds.
 constexpr double kMaxMeanDeg8 = 0.35;
 constexpr double kMaxP99Deg8 = 0.6;
 // 16 bits: quantisation is negligible; what remains is how well a mesh with a

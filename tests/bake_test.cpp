@@ -1,5 +1,5 @@
 // Known answers for every baker (CPU reference, OSMesa, EGL) and agreement
-// between the GL bakers and the CPU reference (issue: known answers, d).
+// between the GL bakers and the CPU reference.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -21,7 +21,7 @@ constexpr int kGrid = 9;
 constexpr double kTexelM = 10.0;
 
 // At most this share of texels may differ by more than one quantisation step
-// between a GL bake and the CPU reference (the issue's bound). The GL bake
+// between a GL bake and the CPU reference (docs/CONTRACT.md §4). The GL bake
 // interpolates in float, the reference in double; a value within a few ulps
 // of a rounding boundary can round either way, which is the one-step case.
 constexpr double kMaxShareBeyondOneStep = 0.001;

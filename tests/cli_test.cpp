@@ -1,4 +1,4 @@
-// End-to-end tests of the terrabake executable (issue item f): the real
+// End-to-end tests of the terrabake executable: the real
 // binary runs as a subprocess, and each failure must give one line on stderr
 // naming the culprit, a documented exit code, and no partial file.
 #include <gtest/gtest.h>

@@ -1,4 +1,4 @@
-// Mosaic invariance (CONTRACT section 7, issue item c): a 2 x 2 block of
+// Mosaic invariance (docs/CONTRACT.md §7): a 2 x 2 block of
 // tiles decodes to the same world normals as one tile over the same area at
 // the same texel size, edges included; neighbouring meshes share their edge
 // vertices, normals and tangents.
@@ -17,8 +17,9 @@ namespace {
 
 namespace ts = test_support;
 
-// The issue's bound, for a block whose four meshes are the larger tile's mesh
-// cut in four: both bakes then see the same tangent frame at every texel.
+// The bound of docs/CONTRACT.md §7 for a block whose four meshes are the
+// larger tile's mesh cut in four: both bakes then see the same tangent frame
+// at every texel.
 constexpr double kMaxMosaicAngleDeg = 0.6;
 // With the default grid on both sizes the block's low-poly mesh is twice as
 // dense, so the two bakes round different tangent-space vectors. One 8-bit
@@ -26,9 +27,9 @@ constexpr double kMaxMosaicAngleDeg = 0.6;
 // (0.367 degrees, error vector (1, 1, -1) / 255 against a diagonal normal);
 // two independent ones by twice that.
 const double kMaxTwoRoundingsDeg = 2 * std::sqrt(8.0 / 3.0) / 255 * 180 / M_PI;
-// Their mean stays within the single-decode accuracy bound of the issue.
+// Their mean stays within the single-decode accuracy bound (docs/CONTRACT.md §4).
 constexpr double kMaxMeanTwoRoundingsDeg = 0.35;
-// CONTRACT section 5: edge vertices of neighbours coincide to 1 mm in ECEF.
+// docs/CONTRACT.md §5: edge vertices of neighbours coincide to 1 mm in ECEF.
 constexpr double kMaxEdgeGapM = 1e-3;
 // Edge normals and tangents are computed in double from the same samples and
 // stored as float32 unit vectors in each tile's own frame: 1e-3 degrees is
@@ -179,7 +180,7 @@ INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, Mosaic,
 
 // Tiles that lie partly outside the DEM fill the rest from the DEM around
 // them and from the job's backdrop; their shared edges must still meet
-// (CONTRACT section 5 makes no exception at the DEM's edge).
+// (docs/CONTRACT.md §5 makes no exception at the DEM's edge).
 TEST(MosaicAtTheDemEdge, TilesBeyondTheDemStillShareTheirEdges) {
   const auto dem = test::sharedFixture("analytic_utm33_128.tif", [](const auto& path) {
     ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 128, 128);

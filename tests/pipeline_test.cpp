@@ -94,7 +94,7 @@ namespace ts = test_support;
 
 // A fallback DEM of the same terrain fills a void of the first one: the
 // decoded normals there match the terrain (within the 8-bit accuracy bound
-// of the issue plus resampling from another CRS), and the edges of the
+// of docs/CONTRACT.md §4 plus resampling from another CRS), and the edges of the
 // former hole show no spike or wall.
 constexpr double kMaxMergedAngleDeg = 1.0;
 // Control: without the fallback, the void is interpolated and the normals

@@ -1,4 +1,4 @@
-// Runs that stop and start again (issue: crash test, shards): a run killed
+// Runs that stop and start again (crash and resume, shards): a run killed
 // with SIGKILL halfway and resumed leaves exactly the layer an uninterrupted
 // run writes, no partial file ever sits under a final name, and three shards
 // together write the single run's layer with no tile twice.

@@ -1,4 +1,4 @@
-// Tiling schemes against CONTRACT section 2, and texel grids against section 3.
+// Tiling schemes against docs/CONTRACT.md §2, and texel grids against §3.
 #include <gtest/gtest.h>
 
 #include "tiling/scheme.hpp"

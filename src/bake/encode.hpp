@@ -1,5 +1,5 @@
 #pragma once
-// Normal map to integer RGB, exactly as CONTRACT section 3 states.
+// Normal map to integer RGB, exactly as docs/CONTRACT.md §3 states.
 #include <cstdint>
 
 #include "bake/baker.hpp"

@@ -32,7 +32,7 @@ struct GlbInfo {
   std::array<double, 16> enu_to_ecef{};  // column-major, glTF axes -> ECEF
 };
 
-// glTF 2.0 binary of the low-poly mesh (CONTRACT section 5).
+// glTF 2.0 binary of the low-poly mesh (docs/CONTRACT.md §5).
 std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info);
 
 struct TileJsonInfo {
@@ -52,7 +52,7 @@ struct TileJsonInfo {
   std::vector<std::string> sources;    // DEM paths as the user gave them
 };
 
-// TileJSON 3.0.0 text with the "terrabake" object (CONTRACT section 6).
+// TileJSON 3.0.0 text with the "terrabake" object (docs/CONTRACT.md §6).
 std::string tileJson(const TileJsonInfo& info);
 
 }  // namespace terrabake::io

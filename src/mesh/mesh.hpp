@@ -47,7 +47,7 @@ struct GridMesh {
   std::vector<std::uint32_t> indices;
 };
 
-// The tangent frame a glTF renderer reconstructs at a point (CONTRACT 4):
+// The tangent frame a glTF renderer reconstructs at a point (docs/CONTRACT.md §4):
 // normal and tangent interpolated over the triangle and normalised, then
 // b = w * cross(n, t). t and b need not be orthogonal to each other.
 struct TangentFrame {

@@ -1,5 +1,5 @@
 #pragma once
-// Tiling schemes (CONTRACT section 2): which tiles exist at a zoom, where
+// Tiling schemes (docs/CONTRACT.md §2): which tiles exist at a zoom, where
 // each lies in the scheme's CRS, and where its files go.
 #include <memory>
 #include <string>

@@ -7,7 +7,7 @@ it costs nothing on disk while GDAL sees (1024 R)^2 pixels and no overviews.
     tests/scale/big_dem.py [--build DIR] [--repeats R] [--zoom Z] [--workers N,M,...]
                            [--max-rss-mib MIB]
 
-    # the two measurements:
+    # the two measurements the README reports ("Scale"):
     tests/scale/big_dem.py --repeats 8 --zoom auto --workers 1,2      # 8192^2 pyramid
     tests/scale/big_dem.py --repeats 40 --zoom 4-8 --max-rss-mib 2048  # 40960^2, memory bound
 

@@ -1,7 +1,7 @@
 #pragma once
 // Reads a terrabake tile mesh (.glb) from the glTF 2.0 binary format alone,
 // and decodes normal-map texels with it the way a glTF renderer does
-// (CONTRACT.md sections 4 and 5), independently of the product's code.
+// (docs/CONTRACT.md §4 and §5), independently of the product's code.
 #include <array>
 #include <cstdint>
 #include <filesystem>

@@ -1,6 +1,6 @@
 #pragma once
 // Reads normal-map PNGs with their exact stored integers, and decodes texels
-// as CONTRACT.md section 3 defines, independently of the product's code.
+// as docs/CONTRACT.md §3 defines, independently of the product's code.
 #include <cstdint>
 #include <filesystem>
 #include <glm/vec3.hpp>
