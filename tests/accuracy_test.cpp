@@ -55,12 +55,12 @@ enum class DemCrs { kUtm, kGeographic };
 
 struct Case {
   DemCrs crs;
-  std::string scheme;
+  SchemeKind scheme;
   int bits;
 };
 
 std::string caseName(const Case& c) {
-  return std::string(c.crs == DemCrs::kUtm ? "utm" : "geographic") + "_" + c.scheme + "_" +
+  return std::string(c.crs == DemCrs::kUtm ? "utm" : "geographic") + "_" + std::string(wordOf(c.scheme)) + "_" +
          std::to_string(c.bits) + "bit";
 }
 
@@ -87,7 +87,7 @@ TEST_P(Accuracy, DecodedNormalsMatchTheAnalyticTerrain) {
   // Web Mercator zoom 12 has 19 m texels at 60 degrees north, the finest
   // zoom that does not undersample a 30 m DEM by more than 2x; native's
   // deepest level is the DEM's own grid.
-  const bool native = c.scheme == "native";
+  const bool native = c.scheme == SchemeKind::kNative;
   const int zoom = native ? 1 : 12;
   config::TileJob job = test::tileJob(dem, "accuracy/" + caseName(c), c.scheme, zoom, zoom);
   job.bits = c.bits;
@@ -134,7 +134,7 @@ TEST_P(Accuracy, DecodedNormalsMatchTheAnalyticTerrain) {
 std::vector<Case> allCases() {
   std::vector<Case> cases;
   for (DemCrs crs : {DemCrs::kUtm, DemCrs::kGeographic}) {
-    for (const char* scheme : {"webmercator", "native"}) {
+    for (const SchemeKind scheme : {SchemeKind::kWebMercator, SchemeKind::kNative}) {
       for (int bits : {8, 16}) cases.push_back({crs, scheme, bits});
     }
   }

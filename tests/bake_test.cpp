@@ -40,7 +40,7 @@ Baked bakeSurfaces(bake::Baker& baker, const test::HeightField& high, const test
   const auto high_mesh = mesh::buildHighResMesh(high_samples);
   const auto low_mesh = mesh::buildLowPolyMesh(low_samples, grid);
   const auto map = baker.bake(high_mesh, low_mesh, tile_size);
-  return {bake::encodeNormalMap(map, bits, bake::Green::kUp)};
+  return {bake::encodeNormalMap(map, bits, Green::kUp)};
 }
 
 std::uint16_t encodeComponent(double c, int bits) {
@@ -48,7 +48,7 @@ std::uint16_t encodeComponent(double c, int bits) {
   return std::uint16_t(std::round((c * 0.5 + 0.5) * max_value));
 }
 
-class BakerKnownAnswers : public ::testing::TestWithParam<gl::Backend> {};
+class BakerKnownAnswers : public ::testing::TestWithParam<Backend> {};
 
 TEST_P(BakerKnownAnswers, IdenticalFlatMeshesGiveStraightUp) {
   TERRABAKE_BAKER_OR_SKIP(baker, GetParam());
@@ -123,12 +123,12 @@ TEST_P(BakerKnownAnswers, NorthFacingSlopeRaisesGreen) {
 }
 
 INSTANTIATE_TEST_SUITE_P(AllBackends, BakerKnownAnswers,
-                         ::testing::Values(gl::Backend::kCpu, gl::Backend::kOsMesa, gl::Backend::kEgl),
+                         ::testing::Values(Backend::kCpu, Backend::kOsMesa, Backend::kEgl),
                          [](const auto& info) {
                            switch (info.param) {
-                             case gl::Backend::kCpu: return std::string("cpu");
-                             case gl::Backend::kOsMesa: return std::string("osmesa");
-                             case gl::Backend::kEgl: return std::string("egl");
+                             case Backend::kCpu: return std::string("cpu");
+                             case Backend::kOsMesa: return std::string("osmesa");
+                             case Backend::kEgl: return std::string("egl");
                              default: return std::string("auto");
                            }
                          });
@@ -138,7 +138,7 @@ double hills(double e, double n) {
   return 120.0 * std::sin(e / 90.0) * std::cos(n / 70.0) + 40.0 * std::sin((e + 2 * n) / 33.0);
 }
 
-class GlAgreesWithCpu : public ::testing::TestWithParam<gl::Backend> {};
+class GlAgreesWithCpu : public ::testing::TestWithParam<Backend> {};
 
 TEST_P(GlAgreesWithCpu, WithinOneStepAlmostEverywhere) {
   TERRABAKE_BAKER_OR_SKIP(gl_baker, GetParam());
@@ -175,9 +175,9 @@ TEST_P(GlAgreesWithCpu, WithinOneStepAlmostEverywhere) {
 }
 
 INSTANTIATE_TEST_SUITE_P(GlBackends, GlAgreesWithCpu,
-                         ::testing::Values(gl::Backend::kOsMesa, gl::Backend::kEgl),
+                         ::testing::Values(Backend::kOsMesa, Backend::kEgl),
                          [](const auto& info) {
-                           return std::string(info.param == gl::Backend::kOsMesa ? "osmesa" : "egl");
+                           return std::string(info.param == Backend::kOsMesa ? "osmesa" : "egl");
                          });
 
 }  // namespace

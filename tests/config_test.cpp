@@ -60,14 +60,14 @@ TEST(ConfigSample, LoadsTheMainJob) {
   EXPECT_EQ(job.output_dir, normal(kSourceDir / "tiles"));
   EXPECT_EQ(job.layer, "sample");
   EXPECT_EQ(job.bits, 8);
-  EXPECT_EQ(job.green, "up");
-  EXPECT_EQ(job.scheme, "webmercator");
+  EXPECT_EQ(job.green, Green::kUp);
+  EXPECT_EQ(job.scheme, SchemeKind::kWebMercator);
   EXPECT_TRUE(job.zoom_set);
   EXPECT_EQ(job.min_zoom, 9);
   EXPECT_EQ(job.max_zoom, 12);
   EXPECT_EQ(job.tile_size, 256);
   EXPECT_EQ(job.low_poly_grid, 17);
-  EXPECT_EQ(job.backend, "auto");
+  EXPECT_EQ(job.backend, Backend::kAuto);
   EXPECT_EQ(job.workers, 0);
   EXPECT_NO_THROW(validate(job, path));
 }
@@ -89,11 +89,11 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
   EXPECT_EQ(job.output_dir, "tiles");  // a default is relative to the working directory
   EXPECT_EQ(job.layer, "default");
   EXPECT_EQ(job.bits, 8);
-  EXPECT_EQ(job.green, "up");
-  EXPECT_EQ(job.scheme, "webmercator");
+  EXPECT_EQ(job.green, Green::kUp);
+  EXPECT_EQ(job.scheme, SchemeKind::kWebMercator);
   EXPECT_EQ(job.tile_size, 256);
   EXPECT_EQ(job.low_poly_grid, 17);
-  EXPECT_EQ(job.backend, "auto");
+  EXPECT_EQ(job.backend, Backend::kAuto);
   EXPECT_EQ(job.workers, 0);
   EXPECT_EQ(job.layer, defaults.layer);
   EXPECT_NO_THROW(validate(job, path));
@@ -334,13 +334,13 @@ TEST(ConfigOverrides, EveryKeyFromText) {
   EXPECT_EQ(job.output_dir, "/data/out");
   EXPECT_EQ(job.layer, "hires_v2");
   EXPECT_EQ(job.bits, 16);
-  EXPECT_EQ(job.green, "down");
-  EXPECT_EQ(job.scheme, "native");
+  EXPECT_EQ(job.green, Green::kDown);
+  EXPECT_EQ(job.scheme, SchemeKind::kNative);
   EXPECT_EQ(job.min_zoom, 10);
   EXPECT_EQ(job.max_zoom, 11);
   EXPECT_EQ(job.tile_size, 512);
   EXPECT_EQ(job.low_poly_grid, 33);
-  EXPECT_EQ(job.backend, "cpu");
+  EXPECT_EQ(job.backend, Backend::kCpu);
   EXPECT_EQ(job.workers, 4);
   EXPECT_NO_THROW(validate(job, "--config"));
 }

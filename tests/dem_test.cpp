@@ -51,8 +51,8 @@ TEST(DemSource, ReadsItsOwnGridExactly) {
   EXPECT_DOUBLE_EQ(g.cell_w, 30.0);
   // Native full resolution: cubic sampling at pixel centres returns the
   // pixels themselves.
-  const auto native = tiling::makeNative(g, 32);
-  const GridSpec window = native->texelGrid({1, 0, 0}, 32, 2);
+  const auto native = tiling::makeScheme(SchemeKind::kNative, 32, &g);
+  const GridSpec window = native->texelGrid({1, 0, 0}, 2);
   const Raster<float> h = dem.read(window, dem.planFor(window));
   EXPECT_TRUE(std::isnan(h.at(0, 0)));  // beyond the DEM's north-west corner
   const double e = g.origin_x + 5.5 * 30, n = g.origin_y - 7.5 * 30;
@@ -104,12 +104,12 @@ TEST_P(UndeclaredVoids, BecomeHolesWithoutTouchingTheirNeighbours) {
   EXPECT_FALSE(dem.info().nodata.has_value());
   // Web Mercator at 60 degrees north: every texel is interpolated from
   // several DEM pixels, so a void marker mixed in would show as a spike.
-  const auto scheme = tiling::makeWebMercator();
+  const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 64);
   const Extent area = dem.boundsIn(scheme->crs());
   const auto tiles = scheme->tilesCovering(area, 14);
   int holes = 0;
   for (const TileId& tile : tiles) {
-    const GridSpec grid = scheme->texelGrid(tile, 64, 2);
+    const GridSpec grid = scheme->texelGrid(tile, 2);
     const Raster<float> h = dem.read(grid, dem.planFor(grid));
     for (float v : h.data) {
       if (std::isnan(v)) {

@@ -19,7 +19,7 @@ inline bool glRequired() {
 
 // Returns the baker, or nullptr after recording a skip (or a failure when GL
 // is required).
-inline std::unique_ptr<bake::Baker> makeBakerOrSkip(gl::Backend backend) {
+inline std::unique_ptr<bake::Baker> makeBakerOrSkip(Backend backend) {
   try {
     return gl::createBaker(backend);
   } catch (const Error& e) {

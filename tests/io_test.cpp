@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 
 namespace fs = std::filesystem;
@@ -24,6 +25,9 @@ using terrabake::Image;
 using terrabake::InputError;
 using terrabake::mesh::GridMesh;
 namespace io = terrabake::io;
+using terrabake::Green;
+using terrabake::OutputFormat;
+using terrabake::SchemeKind;
 
 namespace {
 
@@ -482,14 +486,14 @@ TEST(Glb, WritesATileTheValidatorCanCheck) {
 TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   io::TileJsonInfo info;
   info.name = "alps";
-  info.scheme = "geodetic";
+  info.scheme = SchemeKind::kGeodetic;
   info.tms_rows = true;
   info.min_zoom = 3;
   info.max_zoom = 9;
   info.bounds_deg = {170.0, -10.0, -170.0, 20.0};  // crosses the antimeridian
   info.tile_size = 512;
   info.bits = 16;
-  info.green_up = false;
+  info.green = Green::kDown;
   info.alpha = true;
   info.z_scale = 0.3048;
   info.exaggeration = 2;
@@ -516,12 +520,45 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
       "sources": ["dem/a.tif", "dem/b.tif"]})"));
 
   info.tms_rows = false;
-  info.green_up = true;
+  info.green = Green::kUp;
   info.bounds_deg = {10.0, 40.0, 12.0, 50.0};
   const json k = json::parse(io::tileJson(info));
   EXPECT_EQ(k["scheme"], "xyz");
   EXPECT_EQ(k["terrabake"]["green"], "up");
   EXPECT_EQ(k["center"], json::array({11.0, 45.0, 9}));
+}
+
+TEST(TileJson, ReadsBackWhatItWrote) {
+  io::TileJsonInfo info;
+  info.name = "alps";
+  info.scheme = SchemeKind::kGeodetic;
+  info.tms_rows = true;
+  info.min_zoom = 3;
+  info.max_zoom = 9;
+  info.bounds_deg = {10.0, 40.0, 12.0, 50.0};
+  info.tile_size = 512;
+  const io::TileJsonSummary summary = io::readTileJson(io::tileJson(info));
+  EXPECT_EQ(summary.min_zoom, 3);
+  EXPECT_EQ(summary.max_zoom, 9);
+  EXPECT_EQ(summary.bounds_deg, info.bounds_deg);
+  EXPECT_TRUE(summary.tms_rows);
+  EXPECT_EQ(summary.scheme, SchemeKind::kGeodetic);
+  EXPECT_EQ(summary.tile_size, 512);
+  EXPECT_THROW(io::readTileJson("[1, 2]"), std::runtime_error);
+  EXPECT_THROW(io::readTileJson(R"({"minzoom": 1})"), std::runtime_error);
+}
+
+// ------------------------------------------------------------- layer layout
+
+TEST(LayerLayout, PathsFollowTheLayerTemplate) {
+  EXPECT_EQ(io::tilePath("tiles/sample", {12, 2161, 1447}, io::TileFormat::kPng), "tiles/sample/12/2161/1447.png");
+  EXPECT_EQ(io::relativeTilePath({3, 1, 2}, io::TileFormat::kHighResGlb), "3/1/2.hires.glb");
+  for (const io::TileFormat format : {io::TileFormat::kPng, io::TileFormat::kGlb, io::TileFormat::kHighResGlb}) {
+    EXPECT_EQ(io::formatOfExtension(io::extensionOf(format)), format);
+  }
+  EXPECT_EQ(io::formatOfExtension("jpg"), std::nullopt);
+  EXPECT_EQ(io::layerLocation("out/", "alps", OutputFormat::kFiles), "out/alps");
+  EXPECT_EQ(io::layerLocation("out", "alps", OutputFormat::kMbtiles), "out/alps.mbtiles");
 }
 
 }  // namespace

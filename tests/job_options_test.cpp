@@ -95,10 +95,10 @@ nlohmann::json tileJsonOf(const fs::path& layer) {
   return nlohmann::json::parse(in);
 }
 
-config::TileJob cpuJob(const fs::path& dem, const std::string& out_name, const std::string& scheme, int min_zoom,
+config::TileJob cpuJob(const fs::path& dem, const std::string& out_name, SchemeKind scheme, int min_zoom,
                        int max_zoom) {
   config::TileJob job = test::tileJob(dem, "job_options/" + out_name, scheme, min_zoom, max_zoom);
-  job.backend = "cpu";  // the reference baker: these tests are about inputs, not about GL
+  job.backend = Backend::kCpu;  // the reference baker: these tests are about inputs, not about GL
   return job;
 }
 
@@ -248,9 +248,9 @@ TEST(VerticalUnits, FeetWithZScaleBakeTheBytesOfMetres) {
   const fs::path metres = test::sharedFixture("units_metres.tif", [&](const fs::path& path) {
     writeDem(path, n, n, [&](int c, int r) { return float(double(terrainFt(n, n, c, r)) * kFootM); });
   });
-  config::TileJob metre_job = cpuJob(metres, "units_metres", "native", 2, 2);
+  config::TileJob metre_job = cpuJob(metres, "units_metres", SchemeKind::kNative, 2, 2);
   metre_job.tile_size = kUnitsTileSize;
-  config::TileJob feet_job = cpuJob(feet, "units_feet", "native", 2, 2);
+  config::TileJob feet_job = cpuJob(feet, "units_feet", SchemeKind::kNative, 2, 2);
   feet_job.tile_size = kUnitsTileSize;
   feet_job.z_scale = kFootM;
   ASSERT_EQ(pipeline::runTileJob(metre_job).failed, 0);
@@ -275,9 +275,9 @@ TEST(VerticalUnits, ExaggerationScalesHeightsAfterZScale) {
     writeDem(path, n, n,
              [&](int c, int r) { return float(double(terrainFt(n, n, c, r)) * (kFootM * kExaggeration)); });
   });
-  config::TileJob tall_job = cpuJob(tall, "units_tall", "native", 2, 2);
+  config::TileJob tall_job = cpuJob(tall, "units_tall", SchemeKind::kNative, 2, 2);
   tall_job.tile_size = kUnitsTileSize;
-  config::TileJob exaggerated = cpuJob(feet, "units_exaggerated", "native", 2, 2);
+  config::TileJob exaggerated = cpuJob(feet, "units_exaggerated", SchemeKind::kNative, 2, 2);
   exaggerated.tile_size = kUnitsTileSize;
   exaggerated.z_scale = kFootM;
   exaggerated.exaggeration = kExaggeration;
@@ -319,7 +319,7 @@ TEST(VerticalUnits, ExaggerationTiltsNormalsAsExpected) {
     writeDem(path, n, n, [&](int c, int) { return float(500 + kSlope * kPixelM * c); });
   });
   for (const double exaggeration : {1.0, 3.0}) {
-    config::TileJob job = cpuJob(plane, "plane_x" + std::to_string(int(exaggeration)), "native", 2, 2);
+    config::TileJob job = cpuJob(plane, "plane_x" + std::to_string(int(exaggeration)), SchemeKind::kNative, 2, 2);
     job.tile_size = kUnitsTileSize;
     job.exaggeration = exaggeration;
     ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
@@ -337,11 +337,11 @@ fs::path dem60North() {
   });
 }
 
-int autoZoom(const std::string& scheme, int tile_size) {
+int autoZoom(SchemeKind scheme, int tile_size) {
   config::TileJob job = cpuJob(dem60North(), "unused", scheme, 0, 0);
   job.max_zoom_auto = true;
   job.tile_size = tile_size;
-  return pipeline::planLayer(job, dem::DemSource(job.dems)).max_zoom;
+  return pipeline::planLayer(job).max_zoom;
 }
 
 TEST(ZoomAuto, WebMercatorPicksTheDeepestZoomWithTexelsNoSmallerThanPixels) {
@@ -351,25 +351,25 @@ TEST(ZoomAuto, WebMercatorPicksTheDeepestZoomWithTexelsNoSmallerThanPixels) {
   int expected = 0;
   while (kEquatorM * std::cos(kCentreLat * M_PI / 180) / (256 << (expected + 1)) >= kPixelM) ++expected;
   ASSERT_EQ(expected, 11);
-  EXPECT_EQ(autoZoom("webmercator", 256), 11);
+  EXPECT_EQ(autoZoom(SchemeKind::kWebMercator, 256), 11);
   // Tiles half as wide hold texels half as wide: one zoom deeper.
-  EXPECT_EQ(autoZoom("webmercator", 128), 12);
+  EXPECT_EQ(autoZoom(SchemeKind::kWebMercator, 128), 12);
 }
 
 TEST(ZoomAuto, GeodeticComparesTexelAndPixelByArea) {
   // Geodetic texels at zoom z are 180 / (256 * 2^z) degrees a side: at 60 N,
   // 111.4 km a degree north-south and 55.8 km east-west, so the texel's
   // ground size (root of its area) is 54 m at zoom 10 and 27 m at zoom 11.
-  EXPECT_EQ(autoZoom("geodetic", 256), 10);
+  EXPECT_EQ(autoZoom(SchemeKind::kGeodetic, 256), 10);
 }
 
 TEST(ZoomAuto, NativeTakesTheFullResolutionLevel) {
   // 256 pixels in 64-texel tiles: levels 0 (one tile) to 2 (full resolution).
-  EXPECT_EQ(autoZoom("native", 64), 2);
+  EXPECT_EQ(autoZoom(SchemeKind::kNative, 64), 2);
 }
 
 TEST(ZoomAuto, RunsFromMinToTheChosenZoom) {
-  config::TileJob job = cpuJob(dem60North(), "auto_run", "native", 1, 0);
+  config::TileJob job = cpuJob(dem60North(), "auto_run", SchemeKind::kNative, 1, 0);
   job.tile_size = 64;
   job.max_zoom_auto = true;
   const auto summary = pipeline::runTileJob(job);
@@ -381,7 +381,7 @@ TEST(ZoomAuto, RunsFromMinToTheChosenZoom) {
 
   job.min_zoom = 3;
   try {
-    pipeline::planLayer(job, dem::DemSource(job.dems));
+    pipeline::planLayer(job);
     ADD_FAILURE() << "min above auto's choice was accepted";
   } catch (const UsageError& e) {
     EXPECT_EQ(std::string(e.what()).rfind("tiling.zoom: min 3 is above auto's choice, 2", 0), 0u) << e.what();
@@ -399,13 +399,13 @@ std::pair<int, int> xyzTile(double lon_deg, double lat_deg, int zoom) {
 
 TEST(Bbox, LimitsTheRunToTilesThatIntersectIt) {
   constexpr int kZoom = 13;
-  config::TileJob whole = cpuJob(dem60North(), "bbox_whole", "webmercator", kZoom, kZoom);
+  config::TileJob whole = cpuJob(dem60North(), "bbox_whole", SchemeKind::kWebMercator, kZoom, kZoom);
   whole.tile_size = 64;
   ASSERT_EQ(pipeline::runTileJob(whole).failed, 0);
 
   // The south-west part of the 7.7 km DEM, away from tile edges.
   const std::vector<double> box = {15.2573, 59.9713, 15.2991, 59.9961};
-  config::TileJob part = cpuJob(dem60North(), "bbox_part", "webmercator", kZoom, kZoom);
+  config::TileJob part = cpuJob(dem60North(), "bbox_part", SchemeKind::kWebMercator, kZoom, kZoom);
   part.tile_size = 64;
   part.bbox = box;
   ASSERT_EQ(pipeline::runTileJob(part).failed, 0);
@@ -428,10 +428,10 @@ TEST(Bbox, LimitsTheRunToTilesThatIntersectIt) {
 }
 
 TEST(Bbox, BesideTheDemIsAUsageErrorNamingTheKey) {
-  config::TileJob job = cpuJob(dem60North(), "bbox_beside", "webmercator", 10, 10);
+  config::TileJob job = cpuJob(dem60North(), "bbox_beside", SchemeKind::kWebMercator, 10, 10);
   job.bbox = {20, 40, 21, 41};
   try {
-    pipeline::planLayer(job, dem::DemSource(job.dems));
+    pipeline::planLayer(job);
     ADD_FAILURE() << "a box beside the DEM was accepted";
   } catch (const UsageError& e) {
     EXPECT_EQ(std::string(e.what()).rfind("tiling.bbox: lon 20 to 21, lat 40 to 41 does not overlap", 0), 0u)
@@ -454,7 +454,7 @@ fs::path demWithHole() {
 }
 
 config::TileJob holeJob(const std::string& name) {
-  config::TileJob job = cpuJob(demWithHole(), name, "native", 1, 1);
+  config::TileJob job = cpuJob(demWithHole(), name, SchemeKind::kNative, 1, 1);
   job.tile_size = kHoleTileSize;
   return job;
 }
@@ -495,7 +495,7 @@ TEST(Alpha, SixteenBitAlphaIsFullScale) {
   bake::NormalMap map{2, {{0, 0, 1}, {0, 0, 1}, {0, 0, 1}, {0, 0, 1}}};
   Raster<std::uint8_t> covered(2, 2, 1);
   covered.at(1, 0) = 0;
-  const Image<std::uint16_t> rgba = bake::addAlpha(bake::encodeNormalMap(map, 16, bake::Green::kUp), covered, 16);
+  const Image<std::uint16_t> rgba = bake::addAlpha(bake::encodeNormalMap(map, 16, Green::kUp), covered, 16);
   ASSERT_EQ(rgba.channels, 4);
   EXPECT_EQ(rgba.pixels, (std::vector<std::uint16_t>{32768, 32768, 65535, 65535, 32768, 32768, 65535, 0,  //
                                                      32768, 32768, 65535, 65535, 32768, 32768, 65535, 65535}));
@@ -509,7 +509,7 @@ TEST(MaxFill, ChangesOnlyTilesWhoseWindowHasHoles) {
       return c >= 150 && c < 180 && r >= 150 && r < 180 ? NAN : float(terrainM(256, 256, c, r));
     });
   });
-  config::TileJob membrane = cpuJob(dem, "fill_64", "native", 2, 2);
+  config::TileJob membrane = cpuJob(dem, "fill_64", SchemeKind::kNative, 2, 2);
   membrane.tile_size = 64;
   config::TileJob backdrop = membrane;
   backdrop.output_dir = test::testOutput("job_options/fill_0").string();

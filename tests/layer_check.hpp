@@ -44,7 +44,7 @@ inline std::filesystem::path sharedFixture(const std::string& name,
 }
 
 inline config::TileJob tileJob(const std::filesystem::path& dem, const std::string& out_name,
-                               const std::string& scheme, int min_zoom, int max_zoom) {
+                               SchemeKind scheme, int min_zoom, int max_zoom) {
   config::TileJob job;
   job.dems = {dem.string()};
   job.output_dir = testOutput(out_name).string();

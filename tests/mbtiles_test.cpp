@@ -71,17 +71,17 @@ fs::path smallDem() {
 }
 
 struct SchemeCase {
-  const char* scheme;
+  SchemeKind scheme;
   int min_zoom;
   int max_zoom;
   bool xyz_rows;  // y counts from the north: MBTiles stores 2^z - 1 - y
 };
 
-constexpr SchemeCase kWebMercator{"webmercator", 12, 13, true};
+constexpr SchemeCase kWebMercator{SchemeKind::kWebMercator, 12, 13, true};
 
-void PrintTo(const SchemeCase& scheme, std::ostream* out) { *out << scheme.scheme; }
+void PrintTo(const SchemeCase& scheme, std::ostream* out) { *out << wordOf(scheme.scheme); }
 
-config::TileJob smallJob(const fs::path& out, const std::string& layer, const std::string& format,
+config::TileJob smallJob(const fs::path& out, const std::string& layer, OutputFormat format,
                          const SchemeCase& scheme = kWebMercator) {
   config::TileJob job;
   job.dems = {smallDem().string()};
@@ -93,7 +93,7 @@ config::TileJob smallJob(const fs::path& out, const std::string& layer, const st
   job.max_zoom = scheme.max_zoom;
   job.zoom_set = true;
   job.tile_size = 64;
-  job.backend = "cpu";
+  job.backend = Backend::kCpu;
   job.workers = 2;
   return job;
 }
@@ -202,8 +202,8 @@ std::vector<std::string> split(const std::string& text, char separator) {
 
 TEST(Mbtiles, OpensWithTheSqliteToolWithMbtilesMetadata) {
   const fs::path dir = caseDir();
-  const config::TileJob folder_job = smallJob(dir, "layer", "files");
-  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const config::TileJob folder_job = smallJob(dir, "layer", OutputFormat::kFiles);
+  const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   const pipeline::RunSummary summary = pipeline::runTileJob(job);
   ASSERT_EQ(summary.failed, 0);
@@ -276,8 +276,8 @@ class MbtilesRows : public ::testing::TestWithParam<SchemeCase> {};
 TEST_P(MbtilesRows, BlobsAreTheFolderFilesAtTmsRows) {
   const SchemeCase scheme = GetParam();
   const fs::path dir = caseDir();
-  config::TileJob folder_job = smallJob(dir, "layer", "files", scheme);
-  config::TileJob job = smallJob(dir, "layer", "mbtiles", scheme);
+  config::TileJob folder_job = smallJob(dir, "layer", OutputFormat::kFiles, scheme);
+  config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles, scheme);
   folder_job.high_res_mesh = job.high_res_mesh = true;
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
@@ -314,13 +314,13 @@ TEST_P(MbtilesRows, BlobsAreTheFolderFilesAtTmsRows) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Schemes, MbtilesRows,
-                         ::testing::Values(kWebMercator, SchemeCase{"geodetic", 12, 13, false},
-                                           SchemeCase{"native", 0, 1, true}),
-                         [](const auto& info) { return std::string(info.param.scheme); });
+                         ::testing::Values(kWebMercator, SchemeCase{SchemeKind::kGeodetic, 12, 13, false},
+                                           SchemeCase{SchemeKind::kNative, 0, 1, true}),
+                         [](const auto& info) { return std::string(wordOf(info.param.scheme)); });
 
 TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
   const fs::path dir = caseDir();
-  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
   const pipeline::RunSummary first = pipeline::runTileJob(job);
   ASSERT_EQ(first.failed, 0);
   ASSERT_GT(first.written, 1);
@@ -347,7 +347,7 @@ TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
 
 TEST(Mbtiles, ADifferentJobNeedsForce) {
   const fs::path dir = caseDir();
-  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
   config::TileJob other = job;
   other.bits = 16;
@@ -368,7 +368,7 @@ TEST(Mbtiles, ADifferentJobNeedsForce) {
 // named, and left as it was.
 TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
   const fs::path dir = caseDir();
-  const config::TileJob job = smallJob(dir, "layer", "mbtiles");
+  const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
   const fs::path file = mbtilesPath(job);
 
   writeBytes(file, "not a database, just text\n");
@@ -415,8 +415,8 @@ class ServerThread {
 TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   const fs::path dir = caseDir();
   const fs::path tiles_dir = dir / "tiles";
-  config::TileJob folder_job = smallJob(tiles_dir, "folder", "files");
-  config::TileJob job = smallJob(tiles_dir, "packed", "mbtiles");
+  config::TileJob folder_job = smallJob(tiles_dir, "folder", OutputFormat::kFiles);
+  config::TileJob job = smallJob(tiles_dir, "packed", OutputFormat::kMbtiles);
   folder_job.high_res_mesh = job.high_res_mesh = true;
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);

@@ -114,11 +114,11 @@ class Mosaic : public ::testing::TestWithParam<MosaicCase> {};
 TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   const int zoom = GetParam().zoom;
   const auto dem = analyticDem();
-  config::TileJob big_job = test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_big", "webmercator", zoom, zoom);
+  config::TileJob big_job = test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_big", SchemeKind::kWebMercator, zoom, zoom);
   big_job.tile_size = kBigSize;
   big_job.low_poly_grid = kBigGrid;
   config::TileJob small_job =
-      test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_small", "webmercator", zoom + 1, zoom + 1);
+      test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_small", SchemeKind::kWebMercator, zoom + 1, zoom + 1);
   small_job.tile_size = kSmallSize;
   small_job.low_poly_grid = GetParam().small_grid;
   ASSERT_EQ(pipeline::runTileJob(big_job).failed, 0);
@@ -186,7 +186,7 @@ TEST(MosaicAtTheDemEdge, TilesBeyondTheDemStillShareTheirEdges) {
     ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 128, 128);
   });
   constexpr int kZoom = 13;  // 2.4 km tiles around a 3.8 km DEM
-  config::TileJob job = test::tileJob(dem, "mosaic/dem_edge", "webmercator", kZoom, kZoom);
+  config::TileJob job = test::tileJob(dem, "mosaic/dem_edge", SchemeKind::kWebMercator, kZoom, kZoom);
   job.tile_size = 128;
   const auto summary = pipeline::runTileJob(job);
   ASSERT_EQ(summary.failed, 0);

@@ -44,7 +44,7 @@ std::filesystem::path demWithHoles() {
 }
 
 TEST(Pipeline, HolesAreFilledAndVoidTilesAreNotWritten) {
-  config::TileJob job = test::tileJob(demWithHoles(), "pipeline/holes", "native", 1, 1);
+  config::TileJob job = test::tileJob(demWithHoles(), "pipeline/holes", SchemeKind::kNative, 1, 1);
   job.tile_size = kTileSize;
   const auto summary = pipeline::runTileJob(job);
   EXPECT_EQ(summary.written, 3);
@@ -71,7 +71,7 @@ TEST(Pipeline, OneAndFourWorkersWriteTheSameBytes) {
   const auto dem = test::sharedFixture("analytic_utm33_256.tif", [](const auto& path) {
     test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 256, 256);
   });
-  config::TileJob one = test::tileJob(dem, "pipeline/workers1", "webmercator", 11, 13);
+  config::TileJob one = test::tileJob(dem, "pipeline/workers1", SchemeKind::kWebMercator, 11, 13);
   one.tile_size = 128;
   one.workers = 1;
   config::TileJob four = one;
@@ -127,7 +127,7 @@ std::filesystem::path geographicFallback() {
 
 // Worst angle between decoded and true normals over the texels of the void.
 double worstAngleInVoidDeg(const std::vector<std::string>& dems, const std::string& name) {
-  config::TileJob job = test::tileJob(dems.front(), "pipeline/" + name, "native", 1, 1);
+  config::TileJob job = test::tileJob(dems.front(), "pipeline/" + name, SchemeKind::kNative, 1, 1);
   job.dems = dems;
   job.tile_size = 64;
   EXPECT_EQ(pipeline::runTileJob(job).failed, 0);

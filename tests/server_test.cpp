@@ -58,7 +58,7 @@ using test::readBytes;
 using test::writeText;
 using Json = nlohmann::json;
 using server::Route;
-using server::TileFormat;
+using io::TileFormat;
 
 const fs::path kSourceDir = fs::path(TERRABAKE_SOURCE_DIR).lexically_normal();
 
@@ -101,7 +101,7 @@ config::TileJob smallJob(const fs::path& tiles, const std::string& layer) {
   job.max_zoom = 13;
   job.zoom_set = true;
   job.tile_size = 64;
-  job.backend = "cpu";
+  job.backend = Backend::kCpu;
   job.workers = 2;
   return job;
 }
@@ -291,8 +291,8 @@ std::vector<std::uint8_t> minimalGlb() {
   return glb;
 }
 
-pipeline::TileFiles fakeFiles() {
-  pipeline::TileFiles files;
+io::TileFiles fakeFiles() {
+  io::TileFiles files;
   const std::string png = "\x89PNG fake";
   files.png.assign(png.begin(), png.end());
   files.glb = minimalGlb();
@@ -390,9 +390,9 @@ TEST(ServeRoutes, KnownRoutes) {
   ASSERT_EQ(tile.kind, Route::Kind::kTile);
   EXPECT_EQ(tile.layer, "sample");
   EXPECT_EQ(tile.tile, (TileId{12, 2161, 1448}));
-  EXPECT_EQ(tile.format, TileFormat::kHighResGlb);
-  EXPECT_EQ(server::parseRoute("/sample/0/0/0.png").format, TileFormat::kPng);
-  EXPECT_EQ(server::parseRoute("/sample/0/0/0.glb").format, TileFormat::kGlb);
+  EXPECT_EQ(tile.format, io::TileFormat::kHighResGlb);
+  EXPECT_EQ(server::parseRoute("/sample/0/0/0.png").format, io::TileFormat::kPng);
+  EXPECT_EQ(server::parseRoute("/sample/0/0/0.glb").format, io::TileFormat::kGlb);
 }
 
 TEST(ServeRoutes, MalformedPathsAreBadRequests) {
@@ -448,7 +448,7 @@ TEST(ServeHttpRules, OnlyPlausibleHostsBuildUrls) {
 
 std::shared_ptr<const server::BakedTile> bakedTile() {
   auto tile = std::make_shared<server::BakedTile>();
-  (*tile)[TileFormat::kPng] = {"png", "\"etag\""};
+  (*tile)[io::TileFormat::kPng] = {"png", "\"etag\""};
   return tile;
 }
 
@@ -470,7 +470,7 @@ TEST(BakeQueue, RequestsForOneTileShareOneBake) {
   for (const auto& ticket : tickets) {
     ASSERT_EQ(ticket.kind, server::BakeQueue::Ticket::Kind::kWait);
     EXPECT_EQ(ticket.outcome.get().status, server::BakeOutcome::Status::kBaked);
-    EXPECT_EQ(ticket.outcome.get().tile->at(TileFormat::kPng).bytes, "png");
+    EXPECT_EQ(ticket.outcome.get().tile->at(io::TileFormat::kPng).bytes, "png");
   }
   EXPECT_EQ(bakes, 1);
   EXPECT_EQ(queue.counters().started, 1u);
@@ -951,7 +951,7 @@ TEST(ServeOnDemand, RequestsWaitingOnOneHeldBakeShareIt) {
   auto layer = fakeLayer(dir / "tiles", 2, 8, [&](const TileId&) {
     ++bakes;
     gate.pass();
-    return std::optional<pipeline::TileFiles>(fakeFiles());
+    return std::optional<io::TileFiles>(fakeFiles());
   });
   ServerThread running(fakeConfig(dir), [&] {
     std::vector<std::unique_ptr<server::LayerSource>> layers;
@@ -976,7 +976,7 @@ TEST(ServeOnDemand, AFullQueueAnswers503WithRetryAfter) {
   Gate gate;
   auto layer = fakeLayer(dir / "tiles", 1, 1, [&](const TileId&) {
     gate.pass();
-    return std::optional<pipeline::TileFiles>(fakeFiles());
+    return std::optional<io::TileFiles>(fakeFiles());
   });
   server::LayerSource* fake = layer.get();
   config::ServeConfig config = fakeConfig(dir);
@@ -1028,7 +1028,7 @@ TEST(ServeOnDemand, AFailedBakeAnswers500AndKeepsNothing) {
 
 TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
   const fs::path dir = caseDir();
-  auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) -> std::optional<pipeline::TileFiles> {
+  auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) -> std::optional<io::TileFiles> {
     throw std::runtime_error("injected failure");
   });
   ServerThread running(fakeConfig(dir), [&] {
@@ -1045,7 +1045,7 @@ TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
 
 TEST(ServeOnDemand, ATileWithoutDemSamplesIs404) {
   const fs::path dir = caseDir();
-  auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) { return std::optional<pipeline::TileFiles>(); });
+  auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) { return std::optional<io::TileFiles>(); });
   ServerThread running(fakeConfig(dir), [&] {
     std::vector<std::unique_ptr<server::LayerSource>> layers;
     layers.push_back(std::move(layer));
@@ -1080,7 +1080,7 @@ TEST(ServeOnDemand, StopFinishesTheRunningBakeAndAbandonsQueuedOnes) {
   Gate gate;
   auto layer = fakeLayer(dir / "tiles", 1, 4, [&](const TileId&) {
     gate.pass();
-    return std::optional<pipeline::TileFiles>(fakeFiles());
+    return std::optional<io::TileFiles>(fakeFiles());
   });
   server::LayerSource* fake = layer.get();
   ServerThread running(fakeConfig(dir), [&] {

@@ -1,6 +1,8 @@
 // Tiling schemes against docs/CONTRACT.md §2, and texel grids against §3.
 #include <gtest/gtest.h>
 
+#include <stdexcept>
+
 #include "tiling/scheme.hpp"
 
 namespace terrabake {
@@ -9,7 +11,7 @@ namespace {
 constexpr double kHalfWorldM = 20037508.342789244;
 
 TEST(WebMercator, ZoomZeroIsTheWholeSquareAndRowsRunSouth) {
-  const auto s = tiling::makeWebMercator();
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
   const Extent e = s->tileExtent({0, 0, 0});
   EXPECT_DOUBLE_EQ(e.min_x, -kHalfWorldM);
   EXPECT_DOUBLE_EQ(e.max_y, kHalfWorldM);
@@ -20,13 +22,13 @@ TEST(WebMercator, ZoomZeroIsTheWholeSquareAndRowsRunSouth) {
 }
 
 TEST(WebMercator, NeighboursShareEdgesExactly) {
-  const auto s = tiling::makeWebMercator();
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
   EXPECT_EQ(s->tileExtent({12, 2161, 1447}).max_x, s->tileExtent({12, 2162, 1447}).min_x);
   EXPECT_EQ(s->tileExtent({12, 2161, 1447}).min_y, s->tileExtent({12, 2161, 1448}).max_y);
 }
 
 TEST(WebMercator, CoveringListsOverlappingTilesRowMajor) {
-  const auto s = tiling::makeWebMercator();
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
   const auto tiles = s->tilesCovering({-1, -1, 1, 1}, 1);
   ASSERT_EQ(tiles.size(), 4u);
   EXPECT_EQ(tiles[0], (TileId{1, 0, 0}));
@@ -35,7 +37,7 @@ TEST(WebMercator, CoveringListsOverlappingTilesRowMajor) {
 }
 
 TEST(Geodetic, TwoRootTilesAndTmsRows) {
-  const auto s = tiling::makeGeodetic();
+  const auto s = tiling::makeScheme(SchemeKind::kGeodetic, 256);
   EXPECT_TRUE(s->tmsRows());
   const Extent west = s->tileExtent({0, 0, 0}), east = s->tileExtent({0, 1, 0});
   EXPECT_DOUBLE_EQ(west.min_x, -180);
@@ -57,7 +59,7 @@ TEST(Native, LevelsHalveFromFullResolution) {
   dem.cell_w = dem.cell_h = 30;
   dem.width = 1000;
   dem.height = 600;
-  const auto s = tiling::makeNative(dem, 256);
+  const auto s = tiling::makeScheme(SchemeKind::kNative, 256, &dem);
   EXPECT_EQ(s->maxZoom(), 2);  // 256, 512, 1024 pixels a tile
   const Extent full = s->tileExtent({2, 1, 0});
   EXPECT_DOUBLE_EQ(full.min_x, 1000 + 256 * 30);
@@ -67,8 +69,8 @@ TEST(Native, LevelsHalveFromFullResolution) {
 }
 
 TEST(TexelGrid, CentresAtHalfTexelsWithApron) {
-  const auto s = tiling::makeWebMercator();
-  const GridSpec g = s->texelGrid({0, 0, 0}, 256, 3);
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
+  const GridSpec g = s->texelGrid({0, 0, 0}, 3);
   const double texel = 2 * kHalfWorldM / 256;
   EXPECT_EQ(g.width, 262);
   // Texel (0, 0) is cell (3, 3); its centre is half a texel in from the corner.
@@ -76,8 +78,31 @@ TEST(TexelGrid, CentresAtHalfTexelsWithApron) {
   EXPECT_NEAR(g.centreY(3), kHalfWorldM - 0.5 * texel, 1e-6);
 }
 
-TEST(Paths, FollowTheLayerTemplate) {
-  EXPECT_EQ(tiling::tilePath("tiles/sample", {12, 2161, 1447}, "png"), "tiles/sample/12/2161/1447.png");
+TEST(WebMercator, LonLatBoxesMapToTheSquareAndStopShortOfThePoles) {
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
+  const Extent world = *s->fromLonLat({-180, -s->maxLatDeg(), 180, s->maxLatDeg()});
+  EXPECT_NEAR(world.min_x, -kHalfWorldM, 1e-6);
+  EXPECT_NEAR(world.max_x, kHalfWorldM, 1e-6);
+  EXPECT_NEAR(world.min_y, -kHalfWorldM, 1e-3);
+  EXPECT_NEAR(world.max_y, kHalfWorldM, 1e-3);
+}
+
+TEST(Schemes, CoversAgreesWithTilesCovering) {
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
+  const Extent area = *s->fromLonLat({9.8, 46.36, 10.2, 46.64});
+  for (int z = 8; z <= 12; ++z) {
+    const std::vector<TileId> listed = s->tilesCovering(area, z);
+    for (const TileId& tile : listed) EXPECT_TRUE(s->covers(area, tile)) << tile.str();
+    const TileId first = listed.front(), last = listed.back();
+    EXPECT_FALSE(s->covers(area, {z, first.x - 1, first.y})) << "west of " << first.str();
+    EXPECT_FALSE(s->covers(area, {z, last.x, last.y + 1})) << "south of " << last.str();
+  }
+  EXPECT_FALSE(s->covers(area, {kMaxZoom + 1, 0, 0}));
+}
+
+TEST(Schemes, NativeNeedsTheDemGrid) {
+  EXPECT_THROW(tiling::makeScheme(SchemeKind::kNative, 256), std::invalid_argument);
+  EXPECT_EQ(tiling::makeScheme(SchemeKind::kGeodetic, 512)->tileSize(), 512);
 }
 
 }  // namespace

@@ -5,6 +5,8 @@
 #include <vector>
 
 #include "app/commands.hpp"
+#include "app/key_flags.hpp"
+#include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "dem/dem_source.hpp"
 #include "pipeline/zoom_choice.hpp"
@@ -17,13 +19,12 @@ constexpr const char* kInfoExamples = R"(Examples:
   terrabake info tests/data/sample_dem.tif
   terrabake info north.tif south.tif --tile-size 512    # merged in this order, as tile merges them)";
 
-constexpr int kDefaultTileSize = 256;
 // Per-zoom tile counts wrap here, so the report stays one screen wide.
 constexpr std::size_t kLineWidth = 96;
 
 struct InfoOptions {
   std::vector<std::string> dems;
-  int tile_size = kDefaultTileSize;
+  std::unique_ptr<KeyFlags> key_flags;  // --tile-size, as `tile` reads it
 };
 
 std::string format(const char* pattern, double a) {
@@ -38,9 +39,9 @@ std::string crsText(const dem::DemInfo& info) {
 
 // One line per scheme: the suggested zooms, from where the DEM fits one tile
 // down to auto's choice, and the tiles each of them takes.
-void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem, int tile_size) {
+void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   const Extent area = dem.boundsIn(scheme.crs());
-  const int max_zoom = pipeline::autoMaxZoom(scheme, area, dem, tile_size);
+  const int max_zoom = pipeline::autoMaxZoom(scheme, area, dem);
   const int min_zoom = pipeline::oneTileZoom(scheme, area, max_zoom);
   std::vector<std::string> counts;
   std::size_t total = 0;
@@ -85,15 +86,11 @@ void printInfo(const dem::DemSource& dem, int tile_size) {
   std::printf("zooms      for %d-texel tiles: from where the DEM fits one tile to auto's choice, the deepest\n"
               "           zoom whose texels are no smaller than the DEM's pixels\n",
               tile_size);
-  std::vector<std::unique_ptr<tiling::Scheme>> schemes;
-  schemes.push_back(tiling::makeWebMercator());
-  schemes.push_back(tiling::makeGeodetic());
-  schemes.push_back(tiling::makeNative(g, tile_size));
-  for (const auto& scheme : schemes) {
+  for (const auto& [kind, name] : Words<SchemeKind>::table) {
     try {
-      printScheme(*scheme, dem, tile_size);
+      printScheme(*tiling::makeScheme(kind, tile_size, &g), dem);
     } catch (const Error& e) {  // a DEM beyond Web Mercator's latitudes, say
-      std::printf("  %-13s not available: %s\n", scheme->name().c_str(), oneLine(e.what()).c_str());
+      std::printf("  %-13s not available: %s\n", std::string(name).c_str(), oneLine(e.what()).c_str());
     }
   }
 }
@@ -106,11 +103,14 @@ Action addInfoCommand(CLI::App& app) {
   cmd->footer(std::string(kInfoExamples) + "\n\n" + kExitCodes);
   cmd->add_option("dem", options->dems, "DEM file(s), merged in priority order as `tile` merges them")
       ->required();
-  cmd->add_option("--tile-size", options->tile_size, "Texels a tile side, for the zoom suggestions (default 256)")
-      ->check(CLI::Range(16, 4096));
+  options->key_flags = std::make_unique<KeyFlags>(cmd, config::listKeys(), std::vector<std::string>{"tiling.tile_size"});
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
-    printInfo(dem::DemSource(options->dems), options->tile_size);
+    config::TileJob job;
+    options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
+      config::applyOverride(job, key, text, flag);
+    });
+    printInfo(dem::DemSource(options->dems), job.tile_size);
     return int(ExitCode::kOk);
   };
 }

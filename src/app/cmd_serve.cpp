@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "app/commands.hpp"
+#include "app/key_flags.hpp"
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
 #include "server/layer_catalog.hpp"
@@ -21,22 +22,9 @@ constexpr const char* kServeExamples = R"(Examples:
   terrabake serve --tiles tiles --port 8080
   terrabake serve --config config/serve.yaml --bind 0.0.0.0 --port 0)";
 
-// A flag and the config key it overrides, validated like the file's value.
-struct ServeOverride {
-  const char* flag;
-  const char* key;
-  const char* help;
-};
-
-constexpr ServeOverride kOverrides[] = {
-    {"--tiles", "tiles", "Folder whose subfolders are layers (overrides tiles)"},
-    {"--bind", "http.bind", "Address to listen on, 127.0.0.1 by default (overrides http.bind)"},
-    {"--port", "http.port", "TCP port, 0 = any free port (overrides http.port)"},
-};
-
 struct ServeOptions {
   std::string config_path;
-  std::vector<std::string> override_text = std::vector<std::string>(std::size(kOverrides));
+  std::unique_ptr<KeyFlags> key_flags;
 };
 
 }  // namespace
@@ -46,20 +34,16 @@ Action addServeCommand(CLI::App& app) {
   CLI::App* cmd = app.add_subcommand("serve", "Serve layers over HTTP, baking missing tiles on demand");
   cmd->footer(std::string(kServeExamples) + "\n\n" + kExitCodes);
   cmd->add_option("-c,--config", options->config_path, "YAML serve file (keys: config/README.md)");
-  for (std::size_t i = 0; i < std::size(kOverrides); ++i) {
-    cmd->add_option(kOverrides[i].flag, options->override_text[i], kOverrides[i].help);
-  }
+  options->key_flags = std::make_unique<KeyFlags>(cmd, config::listServeKeys());
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     // First, before any thread exists: bake workers and HTTP threads inherit the mask.
     server::blockShutdownSignals();
     config::ServeConfig config =
         options->config_path.empty() ? config::ServeConfig{} : config::loadServeConfig(options->config_path);
-    for (std::size_t i = 0; i < std::size(kOverrides); ++i) {
-      if (cmd->count(kOverrides[i].flag) > 0) {
-        config::applyOverride(config, kOverrides[i].key, options->override_text[i], kOverrides[i].flag);
-      }
-    }
+    options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
+      config::applyOverride(config, key, text, flag);
+    });
     config::validate(config, options->config_path.empty() ? "command line" : options->config_path);
 
     server::Server server(config, server::openLayers(config));

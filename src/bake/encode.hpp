@@ -3,11 +3,10 @@
 #include <cstdint>
 
 #include "bake/baker.hpp"
+#include "core/choices.hpp"
 #include "core/types.hpp"
 
 namespace terrabake::bake {
-
-enum class Green { kUp, kDown };  // +Y of tangent space north (OpenGL) or south (DirectX)
 
 // rgb = round((n * 0.5 + 0.5) * (2^bits - 1)); bits is 8 or 16. Values are
 // stored in uint16_t whatever the depth.

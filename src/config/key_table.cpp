@@ -14,13 +14,14 @@
 #include <sstream>
 
 #include "core/error.hpp"
+#include "core/layer_name.hpp"
+#include "core/types.hpp"
 
 namespace terrabake::config::key_table {
 namespace {
 
 namespace fs = std::filesystem;
 
-constexpr int kMaxZoom = 24;
 constexpr const char* kAuto = "auto";
 constexpr const char* kNoBox = "none";
 constexpr size_t kMaxSuggestionDistance = 2;
@@ -269,13 +270,21 @@ bool parseBool(const KeySpec& key, const Text& item) {
   return item.text == "true";
 }
 
-std::vector<std::string> parsePaths(const KeySpec& key, const Value& value, bool allow_empty) {
-  if (value.items.empty() && !allow_empty) {
-    fail(value.where, key.name, "expected at least one path, got an empty list");
-  }
+std::string parseWord(const KeySpec& key, const Value& value) { return single(key, value).text; }
+
+std::string parsePath(const KeySpec& key, const Value& value) {
+  return resolvePath(value.base_dir, single(key, value).text);
+}
+
+std::vector<std::string> parseOptionalPaths(const KeySpec&, const Value& value) {
   std::vector<std::string> paths;
   for (const Text& item : value.items) paths.push_back(resolvePath(value.base_dir, item.text));
   return paths;
+}
+
+std::vector<std::string> parsePaths(const KeySpec& key, const Value& value) {
+  if (value.items.empty()) fail(value.where, key.name, "expected at least one path, got an empty list");
+  return parseOptionalPaths(key, value);
 }
 
 ZoomRange parseZoom(const KeySpec& key, const Value& value) {
@@ -360,17 +369,22 @@ std::string doubleProblem(double value, double min, double max, bool above_min) 
          numberText(max) + ", got " + numberText(value);
 }
 
-std::string wordProblem(const std::string& value, const std::vector<std::string>& words) {
+std::string wordProblem(std::string_view value, const std::vector<std::string>& words) {
   if (std::find(words.begin(), words.end(), value) != words.end()) return {};
-  return "must be " + joinWith(words, "or") + ", got " + quoted(value);
+  return "must be " + joinWith(words, "or") + ", got " + quoted(std::string(value));
 }
 
-std::string folderNameProblem(const std::string& value) {
-  // The name becomes one folder: no separators, nothing that climbs out.
-  const bool safe_chars = std::all_of(value.begin(), value.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
-  });
-  if (!value.empty() && safe_chars && value != "." && value != "..") return {};
+std::string pathProblem(const std::string& value) { return value.empty() ? "must not be empty" : ""; }
+
+std::string pathsProblem(const std::vector<std::string>& paths) {
+  for (const std::string& path : paths) {
+    if (path.empty()) return "paths must not be empty";
+  }
+  return {};
+}
+
+std::string layerNameProblem(const std::string& value) {
+  if (isLayerName(value)) return {};
   return "must be a folder name of letters, digits, '.', '_' and '-' (not '.' or '..'), got " + quoted(value);
 }
 
@@ -405,6 +419,8 @@ std::string boxProblem(const std::vector<double>& box) {
   if (south >= north) return "south " + numberText(south) + " must be less than north " + numberText(north);
   return {};
 }
+
+std::string writeText(const std::string& text) { return text; }
 
 std::string joinPaths(const std::vector<std::string>& paths) {
   std::string text = "[";

@@ -5,36 +5,33 @@
 namespace terrabake::config {
 namespace {
 
-using IntField = key_table::IntField<ServeConfig>;
-using HostField = key_table::HostField<ServeConfig>;
-using PathField = key_table::PathField<ServeConfig>;
-using PathListField = key_table::PathListField<ServeConfig>;
+namespace kt = key_table;
+using kt::number;
+using kt::text;
 
 constexpr int kMaxPort = 65535;
 constexpr int kYearS = 365 * 24 * 3600;  // the longest max-age caches are asked to honour
 
-// Keep config/README.md in step (server_test checks every key is there).
-const key_table::KeyTable<ServeConfig>& table() {
-  static const key_table::KeyTable<ServeConfig> kTable({
-      {"tiles", "path", "folder whose subfolders are layers (each with a tilejson.json)",
-       PathField{&ServeConfig::tiles_dir}},
-      {"layers", "path or list of paths",
+// The one table of keys of a serve file; server_test checks config/README.md against it.
+const kt::KeyTable<ServeConfig>& table() {
+  static const kt::KeyTable<ServeConfig> kTable({
+      {"tiles", "--tiles", "path", "folder whose subfolders are layers (each with a tilejson.json)",
+       text(&ServeConfig::tiles_dir, kt::parsePath, kt::pathProblem, kt::writeText)},
+      {"layers", "", "path or list of paths",
        "tile-job files whose layers are baked on demand, into <tiles>/<output.layer>",
-       PathListField{&ServeConfig::layer_jobs, false}},
-      {"http.bind", "host", "address to listen on: an IP address or a host name",
-       HostField{&ServeConfig::bind}},
-      {"http.port", "integer", "TCP port, 0 = any free port, 0..65535",
-       IntField{&ServeConfig::port, 0, kMaxPort}},
-      {"http.threads", "integer", "requests handled at once, 1..256",
-       IntField{&ServeConfig::threads, 1, 256}},
-      {"http.tile_max_age_s", "integer", "seconds browsers may keep a tile without asking again, 0..31536000",
-       IntField{&ServeConfig::tile_max_age_s, 0, kYearS}},
-      {"viewer.dir", "path", "folder of the web viewer: index.html, viewer.js, node_modules/three",
-       PathField{&ServeConfig::viewer_dir}},
-      {"bake.queue_size", "integer", "on-demand bakes waiting per layer before requests get 503, 1..65536",
-       IntField{&ServeConfig::queue_size, 1, 65536}},
-      {"bake.retry_after_s", "integer", "Retry-After of a 503 for a full bake queue, seconds, 1..3600",
-       IntField{&ServeConfig::retry_after_s, 1, 3600}},
+       text(&ServeConfig::layer_jobs, kt::parseOptionalPaths, kt::pathsProblem, kt::joinPaths)},
+      {"http.bind", "--bind", "host", "address to listen on: an IP address or a host name",
+       text(&ServeConfig::bind, kt::parseWord, kt::hostProblem, kt::writeText)},
+      {"http.port", "--port", "integer", "TCP port, 0 = any free port, 0..65535", number(&ServeConfig::port, 0, kMaxPort)},
+      {"http.threads", "", "integer", "requests handled at once, 1..256", number(&ServeConfig::threads, 1, 256)},
+      {"http.tile_max_age_s", "", "integer", "seconds browsers may keep a tile without asking again, 0..31536000",
+       number(&ServeConfig::tile_max_age_s, 0, kYearS)},
+      {"viewer.dir", "", "path", "folder of the web viewer: index.html, viewer.js, node_modules/three",
+       text(&ServeConfig::viewer_dir, kt::parsePath, kt::pathProblem, kt::writeText)},
+      {"bake.queue_size", "", "integer", "on-demand bakes waiting per layer before requests get 503, 1..65536",
+       number(&ServeConfig::queue_size, 1, 65536)},
+      {"bake.retry_after_s", "", "integer", "Retry-After of a 503 for a full bake queue, seconds, 1..3600",
+       number(&ServeConfig::retry_after_s, 1, 3600)},
   });
   return kTable;
 }

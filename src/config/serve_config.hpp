@@ -4,7 +4,7 @@
 #include <string>
 #include <vector>
 
-#include "config/tile_job.hpp"  // KeyInfo
+#include "config/key_info.hpp"
 
 namespace terrabake::config {
 

@@ -1,33 +1,37 @@
 #pragma once
 // Settings of a `terrabake tile` run: every key of the YAML file, with its
-// default. config/README.md documents each one; keep the two in step.
+// default. The key table in tile_job.cpp declares each key once (flag, type,
+// range, doc); config/README.md is checked against it.
 #include <string>
 #include <vector>
+
+#include "config/key_info.hpp"
+#include "core/choices.hpp"
 
 namespace terrabake::config {
 
 struct TileJob {
-  std::vector<std::string> dems;       // dem: one path or a list (required)
-  std::string output_dir = "tiles";    // output.dir
-  std::string layer = "default";       // output.layer
-  std::string format = "files";        // output.format: files | mbtiles
-  int bits = 8;                        // output.bits: 8 or 16
-  std::string green = "up";            // output.green: "up" (OpenGL) or "down" (DirectX)
-  bool high_res_mesh = false;          // output.high_res_mesh: also write {y}.hires.glb
-  bool alpha = false;                  // output.alpha: RGBA, alpha 0 where the DEM had no sample
-  std::string scheme = "webmercator";  // tiling.scheme: webmercator | geodetic | native
-  int min_zoom = 0;                    // tiling.zoom: N, [min, max], "min-max", max may be "auto"
-  int max_zoom = 0;                    // unused when max_zoom_auto
-  bool max_zoom_auto = false;          // the deepest zoom the DEM's resolution supports
-  bool zoom_set = false;               // tiling.zoom given at all (it is required)
-  std::vector<double> bbox;            // tiling.bbox: west, south, east, north (degrees); empty: all
-  int tile_size = 256;                 // tiling.tile_size: texels a side, 16..4096
-  double z_scale = 1;                  // heights.z_scale: metres per DEM height unit
-  double exaggeration = 1;             // heights.exaggeration: vertical exaggeration
-  int max_fill_px = 64;                // nodata.max_fill_px: texels filled from a hole's edge
-  int low_poly_grid = 17;        // low_poly.grid: vertices a side, 2..257
-  std::string backend = "auto";  // bake.backend: auto | osmesa | egl | cpu
-  int workers = 0;               // bake.workers: 0 = one per core
+  std::vector<std::string> dems;                  // dem: one path or a list (required)
+  std::string output_dir = "tiles";               // output.dir
+  std::string layer = "default";                  // output.layer
+  OutputFormat format = OutputFormat::kFiles;     // output.format
+  int bits = 8;                                   // output.bits: 8 or 16
+  Green green = Green::kUp;                       // output.green
+  bool high_res_mesh = false;                     // output.high_res_mesh: also write {y}.hires.glb
+  bool alpha = false;                             // output.alpha: RGBA, alpha 0 where the DEM had no sample
+  SchemeKind scheme = SchemeKind::kWebMercator;   // tiling.scheme
+  int min_zoom = 0;                               // tiling.zoom: N, [min, max], "min-max", max may be "auto"
+  int max_zoom = 0;                               // unused when max_zoom_auto
+  bool max_zoom_auto = false;                     // the deepest zoom the DEM's resolution supports
+  bool zoom_set = false;                          // tiling.zoom given at all (it is required)
+  std::vector<double> bbox;                       // tiling.bbox: west, south, east, north (degrees); empty: all
+  int tile_size = 256;                            // tiling.tile_size: texels a side
+  double z_scale = 1;                             // heights.z_scale: metres per DEM height unit
+  double exaggeration = 1;                        // heights.exaggeration: vertical exaggeration
+  int max_fill_px = 64;                           // nodata.max_fill_px: texels filled from a hole's edge
+  int low_poly_grid = 17;                         // low_poly.grid: vertices a side
+  Backend backend = Backend::kAuto;               // bake.backend
+  int workers = 0;                                // bake.workers: 0 = one per core
 };
 
 // Reads a YAML file. Relative paths in it resolve against the file's folder.
@@ -52,14 +56,6 @@ std::string layerFingerprint(const TileJob& job);
 // Checks the settings as a whole (required keys present, zoom order, ...).
 // Throws UsageError "<origin>: <key>: <problem>".
 void validate(const TileJob& job, const std::string& origin);
-
-// One key as documented: for --help texts and for checking the docs.
-struct KeyInfo {
-  std::string name;           // "tiling.tile_size"
-  std::string type;           // "integer", "path", ...
-  std::string default_value;  // as written in YAML; empty for a required key
-  std::string description;    // one line, with unit and range
-};
 
 // Every key, in the order of config/sample.yaml.
 std::vector<KeyInfo> listKeys();

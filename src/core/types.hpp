@@ -7,6 +7,9 @@
 
 namespace terrabake {
 
+// The deepest zoom of any scheme; a deeper one is no tile of any layer.
+inline constexpr int kMaxZoom = 24;
+
 struct TileId {
   int z = 0;
   int x = 0;

@@ -1,18 +1,11 @@
 #include "gl/baker_factory.hpp"
 
+#include <stdexcept>
+
 #include "bake/cpu_baker.hpp"
-#include "core/error.hpp"
 #include "gl/gl_baker.hpp"
 
 namespace terrabake::gl {
-
-Backend parseBackend(const std::string& name) {
-  if (name == "auto") return Backend::kAuto;
-  if (name == "osmesa") return Backend::kOsMesa;
-  if (name == "egl") return Backend::kEgl;
-  if (name == "cpu") return Backend::kCpu;
-  throw UsageError("bake.backend: must be auto, osmesa, egl or cpu, got '" + name + "'");
-}
 
 std::unique_ptr<bake::Baker> createBaker(Backend backend) {
   switch (backend) {
@@ -27,7 +20,7 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
       if (hasHardwareEglDevice()) return std::make_unique<GlBaker>(createEglContext(EglPlatform::kDevice));
       return std::make_unique<GlBaker>(createOsMesaContext());
   }
-  throw UsageError("bake.backend: unknown backend");
+  throw std::logic_error("createBaker: unknown backend");
 }
 
 }  // namespace terrabake::gl

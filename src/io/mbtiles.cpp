@@ -180,6 +180,15 @@ MbtilesKey mbtilesKey(const TileId& tile, bool tms_rows) {
   return {tile.z, tile.x, row};
 }
 
+MbtilesTable mbtilesTable(TileFormat format) {
+  switch (format) {
+    case TileFormat::kPng: return MbtilesTable::kTiles;
+    case TileFormat::kGlb: return MbtilesTable::kMeshes;
+    case TileFormat::kHighResGlb: return MbtilesTable::kHighResMeshes;
+  }
+  throw std::logic_error("mbtilesTable: unknown tile format");
+}
+
 MetadataRows mbtilesMetadata(const std::string& tilejson) {
   const Json doc = Json::parse(tilejson, nullptr, false);
   if (doc.is_discarded() || !doc.is_object()) throw std::invalid_argument("mbtilesMetadata: not a JSON object");
@@ -196,7 +205,7 @@ MetadataRows mbtilesMetadata(const std::string& tilejson) {
         {"version", "1"},
         {"description", kDescription},
         {"scheme", "tms"},
-        {"json", tilejson},
+        {kMbtilesTileJsonRow, tilejson},
     };
   } catch (const Json::exception& e) {
     throw std::invalid_argument(std::string("mbtilesMetadata: ") + e.what());

@@ -12,10 +12,14 @@
 #include <vector>
 
 #include "core/types.hpp"
+#include "io/layer_layout.hpp"
 
 namespace terrabake::io {
 
 enum class MbtilesTable { kTiles, kMeshes, kHighResMeshes };
+
+// The table that holds a tile's file of `format`.
+MbtilesTable mbtilesTable(TileFormat format);
 
 // Where a tile lies in every table: MBTiles counts rows from the south (TMS).
 struct MbtilesKey {
@@ -31,6 +35,8 @@ MbtilesKey mbtilesKey(const TileId& tile, bool tms_rows);
 // The metadata row holding the fingerprint of the job that made the layer
 // (empty until a run records one); a file without it is not terrabake's.
 constexpr const char* kMbtilesJobRow = "terrabake_job";
+// The metadata row holding the layer's tilejson, written last by a run.
+constexpr const char* kMbtilesTileJsonRow = "json";
 
 using MetadataRows = std::vector<std::pair<std::string, std::string>>;
 

@@ -3,9 +3,11 @@
 // Every file appears atomically under its final name (temp file + rename).
 #include <array>
 #include <cstdint>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/choices.hpp"
 #include "core/types.hpp"
 #include "mesh/mesh.hpp"
 
@@ -35,24 +37,46 @@ struct GlbInfo {
 // glTF 2.0 binary of the low-poly mesh (docs/CONTRACT.md §5).
 std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info);
 
+// What a layer's tilejson.json says, written by tileJson() and read back by
+// readTileJson().
 struct TileJsonInfo {
   std::string name;                    // the layer
-  std::string scheme;                  // "webmercator", "native", ...
+  SchemeKind scheme{};
   bool tms_rows = false;               // true when y = 0 is the south edge
   int min_zoom = 0;
   int max_zoom = 0;
   std::array<double, 4> bounds_deg{};  // west, south, east, north
-  int tile_size = 256;
-  int bits = 8;
-  bool green_up = true;
+  int tile_size = 0;
+  int bits = 0;
+  Green green{};
   bool alpha = false;                  // RGBA images, alpha 0 where the DEM had no sample
-  double z_scale = 1;                  // metres per DEM height unit
-  double exaggeration = 1;             // vertical exaggeration of normals and meshes
-  int low_poly_grid = 17;
+  double z_scale = 0;                  // metres per DEM height unit
+  double exaggeration = 0;             // vertical exaggeration of normals and meshes
+  int low_poly_grid = 0;
   std::vector<std::string> sources;    // DEM paths as the user gave them
 };
 
 // TileJSON 3.0.0 text with the "terrabake" object (docs/CONTRACT.md §6).
 std::string tileJson(const TileJsonInfo& info);
+
+// What a reader of a layer needs from its tilejson: the zooms, bounds and
+// row order, and the scheme and tile size when the "terrabake" object names
+// them (nullopt / 0 otherwise). Throws std::runtime_error saying what is
+// missing or malformed.
+struct TileJsonSummary {
+  int min_zoom = 0;
+  int max_zoom = 0;
+  std::array<double, 4> bounds_deg{};  // west, south, east, north
+  bool tms_rows = false;               // "scheme": "tms"
+  std::optional<SchemeKind> scheme;    // terrabake.scheme
+  int tile_size = 0;                   // terrabake.tile_size
+};
+TileJsonSummary readTileJson(const std::string& text);
+
+// `text` with each relative URL in "tiles" and "terrabake.mesh" resolved
+// against `layer_url` ("http://host:port/<layer>/"); other URLs stay as they
+// are. Relative URLs would resolve against the viewer page, not the
+// tilejson, in many clients.
+std::string withAbsoluteUrls(const std::string& text, const std::string& layer_url);
 
 }  // namespace terrabake::io

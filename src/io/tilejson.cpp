@@ -9,7 +9,9 @@
 namespace terrabake::io {
 namespace {
 
-using Json = nlohmann::ordered_json;
+using Json = nlohmann::ordered_json;  // keeps the key order the file was written in
+
+constexpr const char* kFormatVersion = "1";
 
 // Middle longitude of [west, east], also when the bounds cross the antimeridian
 // (west > east).
@@ -18,6 +20,19 @@ double middleLongitude(double west, double east) {
   double mid = (west + east) / 2;
   if (mid >= 180) mid -= 360;
   return mid;
+}
+
+Json parseObject(const std::string& text) {
+  Json doc = Json::parse(text, nullptr, false);
+  if (doc.is_discarded() || !doc.is_object()) throw std::runtime_error("not a JSON object");
+  return doc;
+}
+
+// "./{z}/{x}/{y}.png" or "{z}/{x}/{y}.png" under the layer; "http://..." and
+// "/..." are left alone.
+std::string resolve(const std::string& url, const std::string& layer_url) {
+  if (url.find("://") != std::string::npos || url.rfind('/', 0) == 0) return url;
+  return layer_url + (url.rfind("./", 0) == 0 ? url.substr(2) : url);
 }
 
 }  // namespace
@@ -42,11 +57,11 @@ std::string tileJson(const TileJsonInfo& info) {
       // The deepest zoom, where the layer's full detail shows.
       {"center", {middleLongitude(b[0], b[2]), (b[1] + b[3]) / 2, info.max_zoom}},
       {"terrabake",
-       {{"version", "1"},
-        {"scheme", info.scheme},
+       {{"version", kFormatVersion},
+        {"scheme", std::string(wordOf(info.scheme))},
         {"tile_size", info.tile_size},
         {"bits", info.bits},
-        {"green", info.green_up ? "up" : "down"},
+        {"green", std::string(wordOf(info.green))},
         {"alpha", info.alpha},
         {"z_scale", info.z_scale},
         {"exaggeration", info.exaggeration},
@@ -54,6 +69,47 @@ std::string tileJson(const TileJsonInfo& info) {
         {"low_poly", {{"grid", info.low_poly_grid}}},
         {"sources", info.sources}}},
   };
+  return doc.dump(2) + "\n";
+}
+
+TileJsonSummary readTileJson(const std::string& text) {
+  const Json doc = parseObject(text);
+  TileJsonSummary summary;
+  try {
+    summary.min_zoom = doc.at("minzoom").get<int>();
+    summary.max_zoom = doc.at("maxzoom").get<int>();
+    summary.bounds_deg = doc.at("bounds").get<std::array<double, 4>>();
+  } catch (const Json::exception& e) {
+    throw std::runtime_error(std::string("minzoom, maxzoom or bounds: ") + e.what());
+  }
+  // TileJSON's "scheme": "tms" when y counts from the south; "xyz", the default, otherwise.
+  const auto rows = doc.find("scheme");
+  summary.tms_rows = rows != doc.end() && rows->is_string() && rows->get<std::string>() == "tms";
+  const auto terrabake = doc.find("terrabake");
+  if (terrabake != doc.end() && terrabake->is_object()) {
+    const auto scheme = terrabake->find("scheme");
+    if (scheme != terrabake->end() && scheme->is_string()) {
+      summary.scheme = choiceOf<SchemeKind>(scheme->get<std::string>());
+    }
+    const auto tile_size = terrabake->find("tile_size");
+    if (tile_size != terrabake->end() && tile_size->is_number_integer()) summary.tile_size = tile_size->get<int>();
+  }
+  return summary;
+}
+
+std::string withAbsoluteUrls(const std::string& text, const std::string& layer_url) {
+  Json doc = parseObject(text);
+  const auto tiles = doc.find("tiles");
+  if (tiles != doc.end() && tiles->is_array()) {
+    for (Json& url : *tiles) {
+      if (url.is_string()) url = resolve(url.get<std::string>(), layer_url);
+    }
+  }
+  const auto terrabake = doc.find("terrabake");
+  if (terrabake != doc.end() && terrabake->is_object()) {
+    const auto mesh = terrabake->find("mesh");
+    if (mesh != terrabake->end() && mesh->is_string()) *mesh = resolve(mesh->get<std::string>(), layer_url);
+  }
   return doc.dump(2) + "\n";
 }
 

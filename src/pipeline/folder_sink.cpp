@@ -4,15 +4,14 @@
 
 #include "core/error.hpp"
 #include "io/tile_files.hpp"
+#include "pipeline/mbtiles_sink.hpp"
 #include "pipeline/tile_sink.hpp"
-#include "tiling/scheme.hpp"
+#include "io/layer_layout.hpp"
 
 namespace terrabake::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-constexpr const char* kJobFile = "terrabake-job.txt";
 
 // What a crashed run left: temporary files no live writer holds.
 void removeAbandonedTempFiles(const fs::path& layer) {
@@ -39,25 +38,24 @@ class FolderSink : public TileSink {
   std::string location() const override { return m_dir; }
 
   std::string recordedJob() const override {
-    std::ifstream in(fs::path(m_dir) / kJobFile);
+    std::ifstream in(fs::path(m_dir) / io::kJobFile);
     return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
   }
 
   void recordJob(const std::string& fingerprint) override {
-    io::writeFileAtomically((fs::path(m_dir) / kJobFile).string(),
+    io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
   }
 
   bool hasTile(const TileId& tile) const override {
-    // writeTileFiles writes the image, then the mesh, then the high-res mesh.
     std::error_code ec;
-    return fs::exists(tiling::tilePath(m_dir, tile, m_high_res_mesh ? "hires.glb" : "glb"), ec);
+    return fs::exists(io::tilePath(m_dir, tile, io::lastWrittenFormat(m_high_res_mesh)), ec);
   }
 
-  void write(const TileId& tile, const TileFiles& files) override { writeTileFiles(m_dir, tile, files); }
+  void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
 
   void finish(const std::string& tilejson) override {
-    io::writeFileAtomically(m_dir + "/tilejson.json", std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
+    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(), std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
   }
 
  private:
@@ -69,6 +67,14 @@ class FolderSink : public TileSink {
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh) {
   return std::make_unique<FolderSink>(layer_dir, high_res_mesh);
+}
+
+std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
+  const bool high_res_mesh = plan.settings.high_res_mesh;
+  if (plan.format == OutputFormat::kMbtiles) {
+    return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
+  }
+  return openFolderSink(plan.location, high_res_mesh);
 }
 
 }  // namespace terrabake::pipeline

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <thread>
 #include <tuple>
 #include <utility>
 
 #include "core/error.hpp"
 #include "dem/crs_transform.hpp"
+#include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/mesh.hpp"
 #include "pipeline/zoom_choice.hpp"
@@ -14,16 +16,7 @@
 namespace terrabake::pipeline {
 namespace {
 
-// Web Mercator stops short of the poles; tilejson bounds must too.
-constexpr double kWebMercatorMaxLatDeg = 85.0511287798066;
 constexpr const char* kLonLat = "EPSG:4326";
-
-std::shared_ptr<const tiling::Scheme> makeScheme(const config::TileJob& job, const dem::DemSource& dem) {
-  if (job.scheme == "webmercator") return tiling::makeWebMercator();
-  if (job.scheme == "geodetic") return tiling::makeGeodetic();
-  if (job.scheme == "native") return tiling::makeNative(dem.info().grid, job.tile_size);
-  throw UsageError("tiling.scheme: unsupported scheme '" + job.scheme + "'");
-}
 
 Extent intersection(const Extent& a, const Extent& b) {
   return {std::max(a.min_x, b.min_x), std::max(a.min_y, b.min_y), std::min(a.max_x, b.max_x),
@@ -40,10 +33,8 @@ std::string lonLatText(const Extent& e) {
 // latitudes the scheme reaches and within the job's bbox.
 Extent lonLatCover(const config::TileJob& job, const tiling::Scheme& scheme, const dem::DemSource& dem) {
   Extent cover = dem.boundsIn(kLonLat);
-  if (scheme.name() == "webmercator") {
-    cover.min_y = std::max(cover.min_y, -kWebMercatorMaxLatDeg);
-    cover.max_y = std::min(cover.max_y, kWebMercatorMaxLatDeg);
-  }
+  cover.min_y = std::max(cover.min_y, -scheme.maxLatDeg());
+  cover.max_y = std::min(cover.max_y, scheme.maxLatDeg());
   if (job.bbox.empty()) return cover;
   const Extent box{job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]};
   if (!box.intersects(cover)) {
@@ -58,15 +49,15 @@ std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& 
                               const dem::DemSource& dem) {
   if (!job.max_zoom_auto) {
     if (job.max_zoom > scheme.maxZoom()) {
-      throw UsageError("tiling.zoom: " + job.scheme + " tiling of '" + dem.info().path + "' has zooms 0-" +
+      throw UsageError("tiling.zoom: " + scheme.name() + " tiling of '" + dem.info().path + "' has zooms 0-" +
                        std::to_string(scheme.maxZoom()) + ", asked for " + std::to_string(job.max_zoom));
     }
     return {job.min_zoom, job.max_zoom};
   }
-  const int max_zoom = autoMaxZoom(scheme, dem_area, dem, job.tile_size);
+  const int max_zoom = autoMaxZoom(scheme, dem_area, dem);
   if (job.min_zoom > max_zoom) {
     throw UsageError("tiling.zoom: min " + std::to_string(job.min_zoom) + " is above auto's choice, " +
-                     std::to_string(max_zoom) + ", for " + job.scheme + " tiling of '" + dem.info().path + "'");
+                     std::to_string(max_zoom) + ", for " + scheme.name() + " tiling of '" + dem.info().path + "'");
   }
   return {job.min_zoom, max_zoom};
 }
@@ -74,14 +65,14 @@ std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& 
 io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan, const Extent& lon_lat) {
   io::TileJsonInfo info;
   info.name = job.layer;
-  info.scheme = plan.scheme->name();
+  info.scheme = plan.scheme->kind();
   info.tms_rows = plan.scheme->tmsRows();
   info.min_zoom = plan.min_zoom;
   info.max_zoom = plan.max_zoom;
   info.bounds_deg = {lon_lat.min_x, lon_lat.min_y, lon_lat.max_x, lon_lat.max_y};
-  info.tile_size = job.tile_size;
+  info.tile_size = plan.scheme->tileSize();
   info.bits = job.bits;
-  info.green_up = job.green == "up";
+  info.green = job.green;
   info.alpha = job.alpha;
   info.z_scale = job.z_scale;
   info.exaggeration = job.exaggeration;
@@ -90,34 +81,47 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan,
   return info;
 }
 
+TileSettings tileSettings(const config::TileJob& job) {
+  TileSettings settings;
+  settings.apron = mesh::requiredApron(job.tile_size, job.low_poly_grid);
+  settings.low_poly_grid = job.low_poly_grid;
+  settings.bits = job.bits;
+  settings.green = job.green;
+  settings.high_res_mesh = job.high_res_mesh;
+  settings.alpha = job.alpha;
+  settings.height_scale = job.z_scale * job.exaggeration;
+  settings.max_fill_px = job.max_fill_px;
+  return settings;
+}
+
 }  // namespace
 
-LayerPlan planLayer(const config::TileJob& job, const dem::DemSource& dem) {
+LayerPlan planLayer(const config::TileJob& job) {
+  config::validate(job, "job");
+  const dem::DemSource dem(job.dems);
   LayerPlan plan;
-  plan.scheme = makeScheme(job, dem);
+  plan.dem_paths = job.dems;
+  plan.scheme = tiling::makeScheme(job.scheme, job.tile_size, &dem.info().grid);
+  plan.settings = tileSettings(job);
   const Extent dem_area = dem.boundsIn(plan.scheme->crs());
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, dem);
   const Extent lon_lat = lonLatCover(job, *plan.scheme, dem);
   plan.area = job.bbox.empty()
                   ? dem_area
                   : intersection(dem_area, dem::transformExtent(lon_lat, kLonLat, plan.scheme->crs()));
-  const int apron = mesh::requiredApron(job.tile_size, job.low_poly_grid);
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
     // Judged at a tile in the middle of the DEM, the same for the whole zoom
     // whatever the bbox, so a bbox run writes the bytes a whole run does.
     const auto tiles = plan.scheme->tilesCovering(dem_area, z);
-    plan.read_plans[z] = dem.planFor(plan.scheme->texelGrid(tiles[tiles.size() / 2], job.tile_size, apron));
+    plan.read_plans[z] = dem.planFor(plan.scheme->texelGrid(tiles[tiles.size() / 2], plan.settings.apron));
   }
   plan.backdrop = std::make_shared<const dem::Backdrop>(dem, plan.scheme->crs());
-  plan.settings.tile_size = job.tile_size;
-  plan.settings.low_poly_grid = job.low_poly_grid;
-  plan.settings.bits = job.bits;
-  plan.settings.green = job.green == "up" ? bake::Green::kUp : bake::Green::kDown;
-  plan.settings.high_res_mesh = job.high_res_mesh;
-  plan.settings.alpha = job.alpha;
-  plan.settings.height_scale = job.z_scale * job.exaggeration;
-  plan.settings.max_fill_px = job.max_fill_px;
-  plan.backend = gl::parseBackend(job.backend);
+  plan.backend = job.backend;
+  plan.workers = job.workers > 0 ? job.workers : int(std::max(1u, std::thread::hardware_concurrency()));
+  plan.layer_name = job.layer;
+  plan.format = job.format;
+  plan.location = io::layerLocation(job.output_dir, job.layer, job.format);
+  plan.fingerprint = config::layerFingerprint(job);
   plan.tilejson = io::tileJson(tileJsonInfo(job, plan, lon_lat));
   return plan;
 }

@@ -1,35 +1,38 @@
 #pragma once
-// What a run of a tile job decides once, before any tile: the scheme and the
-// area it covers, how each zoom reads the DEM, the backdrop, the settings of
-// every tile and the layer's tilejson. The batch runner and the tile server
-// both start from it, so a tile baked on demand has the bytes a batch run
-// writes.
+// A tile job made into a typed plan, once, before any tile: the DEM, the
+// scheme and the area it covers, how each zoom reads the DEM, the backdrop,
+// the settings of every tile, where the layer is stored and its tilejson.
+// The batch runner and the tile server both start from it, so a tile baked
+// on demand has the bytes a batch run writes; nothing downstream reads the
+// job again.
 #include <map>
 #include <memory>
 #include <string>
+#include <vector>
 
-#include "bake/encode.hpp"
 #include "config/tile_job.hpp"
+#include "core/choices.hpp"
 #include "core/types.hpp"
 #include "dem/backdrop.hpp"
 #include "dem/dem_source.hpp"
-#include "gl/baker_factory.hpp"
 #include "tiling/scheme.hpp"
 
 namespace terrabake::pipeline {
 
+// What every tile of the layer is made with (the scheme holds the tile size).
 struct TileSettings {
-  int tile_size = 256;
-  int low_poly_grid = 17;
-  int bits = 8;
-  bake::Green green = bake::Green::kUp;
+  int apron = 0;  // texels read beyond each tile edge for the meshes' normals
+  int low_poly_grid = 0;
+  int bits = 0;
+  Green green{};
   bool high_res_mesh = false;  // also make the high-res display mesh
   bool alpha = false;          // RGBA: alpha 0 on texels the DEM had no sample for
-  double height_scale = 1;     // metres of output height per DEM unit (z_scale * exaggeration)
-  int max_fill_px = 64;        // holes are filled this far in; beyond, the backdrop
+  double height_scale = 0;     // metres of output height per DEM unit (z_scale * exaggeration)
+  int max_fill_px = 0;         // holes are filled this far in; beyond, the backdrop
 };
 
 struct LayerPlan {
+  std::vector<std::string> dem_paths;  // in priority order
   std::shared_ptr<const tiling::Scheme> scheme;
   int min_zoom = 0;  // the job's zooms, "auto" resolved
   int max_zoom = 0;
@@ -37,12 +40,20 @@ struct LayerPlan {
   std::map<int, dem::ReadPlan> read_plans;  // per zoom of the job
   std::shared_ptr<const dem::Backdrop> backdrop;
   TileSettings settings;
-  gl::Backend backend = gl::Backend::kAuto;
-  std::string tilejson;  // tile URLs relative to the layer folder
+  Backend backend{};
+  int workers = 1;  // bake threads: bake.workers, or one per core
+
+  // Where the layer is stored and what it records.
+  std::string layer_name;
+  OutputFormat format{};
+  std::string location;     // the layer folder, or the .mbtiles file
+  std::string fingerprint;  // the job, as the layer records it
+  std::string tilejson;     // tile URLs relative to the layer folder
 };
 
-// Throws UsageError for zooms the scheme does not have or a bbox beside the
-// DEM, InputError for a DEM that cannot be read.
-LayerPlan planLayer(const config::TileJob& job, const dem::DemSource& dem);
+// Validates the job and opens its DEM. Throws UsageError for a bad job,
+// zooms the scheme does not have or a bbox beside the DEM, InputError for a
+// DEM that cannot be read.
+LayerPlan planLayer(const config::TileJob& job);
 
 }  // namespace terrabake::pipeline

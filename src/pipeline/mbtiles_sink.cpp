@@ -49,7 +49,7 @@ class MbtilesSink : public TileSink {
                            io::mbtilesKey(tile, m_tms_rows));
   }
 
-  void write(const TileId& tile, const TileFiles& files) override {
+  void write(const TileId& tile, const io::TileFiles& files) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     m_file->writeTile(io::mbtilesKey(tile, m_tms_rows), files.png, files.glb, files.high_res_glb);
   }

@@ -1,5 +1,5 @@
 #pragma once
-// A layer written into one MBTiles file instead of a folder
+// The two kinds of sink: a layer folder, or one MBTiles file
 // (config/README.md, "MBTiles").
 #include <memory>
 #include <string>
@@ -8,12 +8,10 @@
 
 namespace terrabake::pipeline {
 
-// <dir>/<layer>.mbtiles: images in `tiles`, meshes in `meshes` (and
-// `high_res_meshes`), the job fingerprint in metadata row `terrabake_job`,
-// the tilejson in `json`. `tms_rows`: the scheme's y counts from the south
-// already (geodetic) and is stored as it is; otherwise rows are flipped.
-// Throws InputError naming the file when it cannot be created, or exists and
-// is not an MBTiles file terrabake wrote.
+// The sinks openSink() chooses between. `tms_rows`: the scheme's y counts
+// from the south already (geodetic) and is stored as it is; otherwise MBTiles
+// rows are flipped.
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
 
 }  // namespace terrabake::pipeline

@@ -12,22 +12,12 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
-#include "pipeline/mbtiles_sink.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
 #include "pipeline/tile_sink.hpp"
 
 namespace terrabake::pipeline {
 namespace {
-
-// An MBTiles sink needs the scheme's row order: MBTiles counts rows from the south.
-std::unique_ptr<TileSink> openSink(const config::TileJob& job, const LayerPlan& plan) {
-  const std::filesystem::path layer = std::filesystem::path(job.output_dir) / job.layer;
-  if (job.format == "mbtiles") {
-    return openMbtilesSink(layer.lexically_normal().string() + ".mbtiles", job.high_res_mesh, plan.scheme->tmsRows());
-  }
-  return openFolderSink(layer.lexically_normal().string(), job.high_res_mesh);
-}
 
 // A layer holds one job's tiles: a run into a layer another job made would
 // mix them, so it needs --force.
@@ -52,13 +42,10 @@ std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int 
 
 RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
-  config::validate(job, "job");
-
   // Everything that can fail for the whole run fails here, before any tile.
-  const dem::DemSource dem(job.dems);
-  const auto plan = std::make_shared<const LayerPlan>(planLayer(job, dem));
-  const std::unique_ptr<TileSink> sink = openSink(job, *plan);
-  claimLayer(*sink, config::layerFingerprint(job), options.force);
+  const auto plan = std::make_shared<const LayerPlan>(planLayer(job));
+  const std::unique_ptr<TileSink> sink = openSink(*plan);
+  claimLayer(*sink, plan->fingerprint, options.force);
   RunSummary summary;
   summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.
@@ -74,8 +61,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
               std::to_string(tiles.size()) + " of " + std::to_string(all.size()) + " tiles");
   }
 
-  const int workers = std::max(1, std::min<int>(job.workers > 0 ? job.workers : int(std::thread::hardware_concurrency()),
-                                                int(tiles.size())));
+  const int workers = std::max(1, std::min(plan->workers, int(tiles.size())));
   std::atomic<std::size_t> next{0};
   std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
@@ -86,7 +72,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
     try {
-      maker = std::make_unique<TileMaker>(job.dems, plan);
+      maker = std::make_unique<TileMaker>(plan);
     } catch (...) {
       std::lock_guard<std::mutex> lock(fatal_mutex);
       if (!fatal) fatal = std::current_exception();

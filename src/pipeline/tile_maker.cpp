@@ -5,7 +5,9 @@
 
 #include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
+#include "bake/encode.hpp"
 #include "geo/local_frame.hpp"
+#include "gl/baker_factory.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/mesh.hpp"
 
@@ -47,16 +49,14 @@ struct TileMaker::Impl {
   const TileSettings& settings;
   dem::ToLonLat to_lon_lat;
   std::unique_ptr<bake::Baker> baker;
-  int apron;
 
-  Impl(const std::vector<std::string>& dem_paths, std::shared_ptr<const LayerPlan> p)
-      : dem(dem_paths),
+  explicit Impl(std::shared_ptr<const LayerPlan> p)
+      : dem(p->dem_paths),
         plan(std::move(p)),
         scheme(*plan->scheme),
         settings(plan->settings),
         to_lon_lat(scheme.crs()),
-        baker(gl::createBaker(plan->backend)),
-        apron(mesh::requiredApron(settings.tile_size, settings.low_poly_grid)) {}
+        baker(gl::createBaker(plan->backend)) {}
 
   // `heights` of `grid` with every hole filled so that the result depends
   // only on where a texel is, not on which tile asks: holes are filled up to
@@ -97,8 +97,8 @@ struct TileMaker::Impl {
     }
     to_lon_lat.transform(lon_lat);
     mesh::SampleGrid samples;
-    samples.tile_size = settings.tile_size;
-    samples.apron = apron;
+    samples.tile_size = scheme.tileSize();
+    samples.apron = settings.apron;
     samples.position = Raster<glm::dvec3>(grid.width, grid.height);
     for (std::size_t k = 0; k < lon_lat.size(); ++k) {
       samples.position.data[k] = frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
@@ -114,30 +114,22 @@ struct TileMaker::Impl {
   }
 };
 
-void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files) {
-  io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "png"), files.png);
-  io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "glb"), files.glb);
-  if (!files.high_res_glb.empty()) {
-    io::writeFileAtomically(tiling::tilePath(layer_dir, tile, "hires.glb"), files.high_res_glb);
-  }
-}
-
-TileMaker::TileMaker(const std::vector<std::string>& dem_paths, std::shared_ptr<const LayerPlan> plan)
-    : m_impl(std::make_unique<Impl>(dem_paths, std::move(plan))) {}
+TileMaker::TileMaker(std::shared_ptr<const LayerPlan> plan) : m_impl(std::make_unique<Impl>(std::move(plan))) {}
 
 TileMaker::~TileMaker() = default;
 
 std::string TileMaker::bakerDescription() const { return m_impl->baker->description(); }
 
-std::optional<TileFiles> TileMaker::make(const TileId& tile) {
+std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   Impl& s = *m_impl;
   const dem::ReadPlan& read_plan = s.plan->read_plans.at(tile.z);
-  const int size = s.settings.tile_size;
-  const GridSpec grid = s.scheme.texelGrid(tile, size, s.apron);
+  const int size = s.scheme.tileSize();
+  const int apron = s.settings.apron;
+  const GridSpec grid = s.scheme.texelGrid(tile, apron);
   Raster<float> heights = s.dem.read(grid, read_plan);
-  if (!hasValidSample(heights, s.apron, size)) return std::nullopt;
+  if (!hasValidSample(heights, apron, size)) return std::nullopt;
   // Coverage is what the DEM itself gives, before any fill.
-  const Raster<std::uint8_t> covered = s.settings.alpha ? coverage(heights, s.apron, size) : Raster<std::uint8_t>();
+  const Raster<std::uint8_t> covered = s.settings.alpha ? coverage(heights, apron, size) : Raster<std::uint8_t>();
   if (hasHoles(heights)) heights = s.filledHeights(grid, read_plan, std::move(heights));
   scaleHeights(heights, s.settings.height_scale);
 
@@ -152,7 +144,7 @@ std::optional<TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.origin_lon_deg = frame.originLonDeg();
   glb_info.origin_lat_deg = frame.originLatDeg();
   glb_info.enu_to_ecef = frame.localToEcef();
-  TileFiles files;
+  io::TileFiles files;
   Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
   if (s.settings.alpha) image = bake::addAlpha(image, covered, s.settings.bits);
   files.png = io::encodePng(image, s.settings.bits);

@@ -6,7 +6,8 @@
 #include <string>
 
 #include "core/types.hpp"
-#include "pipeline/tile_maker.hpp"
+#include "io/layer_layout.hpp"
+#include "pipeline/layer_plan.hpp"
 
 namespace terrabake::pipeline {
 
@@ -22,14 +23,20 @@ class TileSink {
   // True when every file of the tile is there (what --resume skips).
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
-  virtual void write(const TileId& tile, const TileFiles& files) = 0;
+  virtual void write(const TileId& tile, const io::TileFiles& files) = 0;
   // Writes the layer's description (tilejson, or MBTiles metadata) last.
   virtual void finish(const std::string& tilejson) = 0;
 };
 
-// <dir>/<layer>/{z}/{x}/{y}.png|.glb[|.hires.glb], tilejson.json, and the
-// job fingerprint in terrabake-job.txt. A crashed run may leave hidden temporary
-// files behind; opening the folder removes those no live writer holds.
-std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
+// Where the plan stores its layer (io/layer_layout.hpp): a folder of
+// {z}/{x}/{y}.png|.glb[|.hires.glb] files with tilejson.json and the job
+// fingerprint in terrabake-job.txt, or one MBTiles file (images in `tiles`,
+// meshes in `meshes` and `high_res_meshes`, the job in metadata row
+// `terrabake_job`, the tilejson in `json`; rows flipped to MBTiles' TMS
+// order unless the scheme counts from the south already). A crashed run may
+// leave hidden temporary files in a folder; opening it removes those no live
+// writer holds. Throws InputError naming the folder or file when it cannot be
+// created, or an MBTiles file exists that terrabake did not write.
+std::unique_ptr<TileSink> openSink(const LayerPlan& plan);
 
 }  // namespace terrabake::pipeline

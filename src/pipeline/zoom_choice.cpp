@@ -32,8 +32,9 @@ double demPixelSizeM(const dem::DemSource& dem) {
                          g.cell_h);
 }
 
-int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem, int tile_size) {
-  if (scheme.name() == "native") return scheme.maxZoom();
+int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem) {
+  if (scheme.kind() == SchemeKind::kNative) return scheme.maxZoom();
+  const int tile_size = scheme.tileSize();
   const double pixel_m = demPixelSizeM(dem);
   const double x = (area.min_x + area.max_x) / 2, y = (area.min_y + area.max_y) / 2;
   int zoom = 0;

@@ -19,7 +19,7 @@ double demPixelSizeM(const dem::DemSource& dem);
 // The deepest zoom whose texels, at the centre of `area` (the DEM in the
 // scheme's CRS), are no smaller than the DEM's pixels; 0 when even zoom 0's
 // are smaller. Native: the full-resolution level.
-int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem, int tile_size);
+int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem);
 
 // The deepest zoom up to `max_zoom` at which one tile covers `area`; 0 when
 // no zoom does (an area across a zoom-0 tile edge).

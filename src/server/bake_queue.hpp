@@ -22,7 +22,7 @@
 namespace terrabake::server {
 
 // A tile's files as served, by format; what the bake made.
-using BakedTile = std::map<TileFormat, FileContent>;
+using BakedTile = std::map<io::TileFormat, FileContent>;
 
 struct BakeOutcome {
   enum class Status {

@@ -2,12 +2,14 @@
 
 #include <stdexcept>
 
+#include "io/tile_files.hpp"
+
 namespace terrabake::server {
 namespace {
 
-std::string readTileJson(const ServedFolder& folder) {
-  std::optional<FileContent> file = folder.read("tilejson.json");
-  if (!file) throw std::runtime_error("no readable tilejson.json");
+std::string tileJsonText(const ServedFolder& folder) {
+  std::optional<FileContent> file = folder.read(io::kTileJsonFile);
+  if (!file) throw std::runtime_error(std::string("no readable ") + io::kTileJsonFile);
   return std::move(file->bytes);
 }
 
@@ -16,18 +18,18 @@ std::string readTileJson(const ServedFolder& folder) {
 DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& folder)
     : m_name(std::move(name)),
       m_folder(folder),
-      m_tilejson(readTileJson(m_folder)),
-      m_coverage(coverageOf(summarizeTileJson(m_tilejson))) {}
+      m_tilejson(tileJsonText(m_folder)),
+      m_coverage(coverageOf(io::readTileJson(m_tilejson))) {}
 
 std::string DirectoryLayer::tileJson(const std::string& layer_url) const {
-  return withAbsoluteUrls(m_tilejson, layer_url);
+  return io::withAbsoluteUrls(m_tilejson, layer_url);
 }
 
-TileAnswer DirectoryLayer::tile(const TileId& tile, TileFormat format) {
+TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }
-  std::optional<FileContent> file = m_folder.read(relativeTilePath(tile, format));
+  std::optional<FileContent> file = m_folder.read(io::relativeTilePath(tile, format));
   if (!file) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
 }

@@ -8,6 +8,7 @@
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "io/layer_layout.hpp"
 #include "server/directory_layer.hpp"
 #include "server/mbtiles_layer.hpp"
 #include "server/on_demand_layer.hpp"
@@ -36,7 +37,7 @@ std::vector<std::string> mbtilesNames(const std::string& tiles_dir) {
   std::vector<std::string> names;
   for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code ignored;
-    if (it->is_regular_file(ignored) && it->path().extension() == ".mbtiles") {
+    if (it->is_regular_file(ignored) && it->path().extension() == io::kMbtilesExtension) {
       names.push_back(it->path().stem().string());
     }
   }
@@ -67,8 +68,8 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
   for (const std::string& name : folderNames(config.tiles_dir)) {
     if (names.count(name) || name.front() == '.') continue;
     const fs::path folder = fs::path(config.tiles_dir) / name;
-    if (!fs::exists(folder / "tilejson.json")) continue;  // not a layer
-    if (parseRoute("/" + name + "/tilejson.json").kind != Route::Kind::kTileJson) {
+    if (!fs::exists(folder / io::kTileJsonFile)) continue;  // not a layer
+    if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
       log::warning("layer folder '" + folder.string() + "' skipped: its name cannot be a layer in a URL");
       continue;
     }
@@ -77,18 +78,18 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
       names.insert(name);
       log::info("layer " + name + ": tiles from " + folder.string());
     } catch (const std::exception& e) {
-      log::warning("layer folder '" + folder.string() + "' skipped: tilejson.json: " + oneLine(e.what()));
+      log::warning("layer folder '" + folder.string() + "' skipped: " + std::string(io::kTileJsonFile) + ": " + oneLine(e.what()));
     }
   }
 
   for (const std::string& name : mbtilesNames(config.tiles_dir)) {
     if (name.front() == '.') continue;
-    const fs::path file = fs::path(config.tiles_dir) / (name + ".mbtiles");
+    const fs::path file = fs::path(config.tiles_dir) / (name + io::kMbtilesExtension);
     if (names.count(name)) {
       log::warning("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from its folder");
       continue;
     }
-    if (parseRoute("/" + name + "/tilejson.json").kind != Route::Kind::kTileJson) {
+    if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
       log::warning("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
       continue;
     }

@@ -7,26 +7,10 @@
 #include <string>
 
 #include "core/types.hpp"
+#include "io/layer_layout.hpp"
 #include "server/served_folder.hpp"
 
 namespace terrabake::server {
-
-enum class TileFormat { kPng, kGlb, kHighResGlb };
-
-// "png", "glb", "hires.glb": the file name extension of a tile in a layer folder.
-inline const char* extensionOf(TileFormat format) {
-  switch (format) {
-    case TileFormat::kPng: return "png";
-    case TileFormat::kGlb: return "glb";
-    case TileFormat::kHighResGlb: return "hires.glb";
-  }
-  return "";
-}
-
-// "z/x/y.png": where a tile's file lies in its layer folder.
-inline std::string relativeTilePath(const TileId& tile, TileFormat format) {
-  return tile.str() + "." + extensionOf(format);
-}
 
 struct TileAnswer {
   enum class Status {
@@ -62,7 +46,7 @@ class LayerSource {
   virtual std::string tileJson(const std::string& layer_url) const = 0;
 
   // Called from many HTTP threads at once.
-  virtual TileAnswer tile(const TileId& tile, TileFormat format) = 0;
+  virtual TileAnswer tile(const TileId& tile, io::TileFormat format) = 0;
 
   virtual BakeCounters bakeCounters() const { return {}; }
 

@@ -2,34 +2,20 @@
 
 #include <stdexcept>
 
-#include <nlohmann/json.hpp>
-
 #include "core/error.hpp"
+#include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
-#include "server/tilejson_doc.hpp"
 
 namespace terrabake::server {
 namespace {
 
-io::MbtilesTable tableOf(TileFormat format) {
-  switch (format) {
-    case TileFormat::kPng: return io::MbtilesTable::kTiles;
-    case TileFormat::kGlb: return io::MbtilesTable::kMeshes;
-    case TileFormat::kHighResGlb: return io::MbtilesTable::kHighResMeshes;
+std::string tileJsonText(const io::MbtilesFile& file) {
+  std::optional<std::string> json = file.metadata(io::kMbtilesTileJsonRow);
+  if (!json) {
+    throw std::runtime_error(std::string("no '") + io::kMbtilesTileJsonRow +
+                             "' metadata: the run that writes it has not finished");
   }
-  throw std::logic_error("tableOf: unknown tile format");
-}
-
-std::string readTileJson(const io::MbtilesFile& file) {
-  std::optional<std::string> json = file.metadata("json");
-  if (!json) throw std::runtime_error("no 'json' metadata: the run that writes it has not finished");
   return std::move(*json);
-}
-
-// TileJSON's "scheme": "tms" when y counts from the south; "xyz", the default, otherwise.
-bool tmsRows(const std::string& tilejson) {
-  const nlohmann::json doc = nlohmann::json::parse(tilejson, nullptr, false);
-  return doc.is_object() && doc.value("scheme", "xyz") == "tms";
 }
 
 }  // namespace
@@ -40,24 +26,24 @@ MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
 MbtilesLayer::MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file)
     : m_name(std::move(name)),
       m_path(file->path()),
-      m_tilejson(readTileJson(*file)),
-      m_coverage(coverageOf(summarizeTileJson(m_tilejson))),
-      m_tms_rows(tmsRows(m_tilejson)) {
+      m_tilejson(tileJsonText(*file)),
+      m_coverage(coverageOf(io::readTileJson(m_tilejson))),
+      m_tms_rows(io::readTileJson(m_tilejson).tms_rows) {
   m_idle.push_back(std::move(file));
 }
 
 std::string MbtilesLayer::tileJson(const std::string& layer_url) const {
-  return withAbsoluteUrls(m_tilejson, layer_url);
+  return io::withAbsoluteUrls(m_tilejson, layer_url);
 }
 
-TileAnswer MbtilesLayer::tile(const TileId& tile, TileFormat format) {
+TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }
   std::optional<std::string> bytes;
   try {
     std::unique_ptr<io::MbtilesFile> file = borrow();
-    bytes = file->readTile(tableOf(format), io::mbtilesKey(tile, m_tms_rows));
+    bytes = file->readTile(io::mbtilesTable(format), io::mbtilesKey(tile, m_tms_rows));
     giveBack(std::move(file));  // not after a failure: that connection may be broken
   } catch (const std::exception& e) {
     return {TileAnswer::Status::kFailed, nullptr, oneLine(e.what())};

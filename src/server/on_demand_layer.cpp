@@ -3,14 +3,14 @@
 #include <algorithm>
 #include <map>
 #include <mutex>
-#include <thread>
 #include <vector>
 
 #include "core/error.hpp"
 #include "core/log.hpp"
-#include "dem/dem_source.hpp"
+#include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "pipeline/layer_plan.hpp"
+#include "pipeline/tile_maker.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -25,7 +25,7 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
     throw InputError("layer " + settings.name + ": cannot create folder '" + settings.folder.string() +
                      "': " + (ec ? ec.message() : std::string("a file is in the way")));
   }
-  const fs::path tilejson = settings.folder / "tilejson.json";
+  const fs::path tilejson = settings.folder / io::kTileJsonFile;
   if (!fs::exists(tilejson)) {
     const std::vector<std::uint8_t> bytes(settings.tilejson.begin(), settings.tilejson.end());
     io::writeFileAtomically(tilejson.string(), bytes);
@@ -35,8 +35,8 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
 
 void removeTileFiles(const std::string& folder, const TileId& tile) {
   std::error_code ignored;
-  for (const TileFormat format : {TileFormat::kPng, TileFormat::kGlb, TileFormat::kHighResGlb}) {
-    fs::remove(fs::path(folder) / relativeTilePath(tile, format), ignored);
+  for (const io::TileFormat format : {io::TileFormat::kPng, io::TileFormat::kGlb, io::TileFormat::kHighResGlb}) {
+    fs::remove(io::tilePath(folder, tile, format), ignored);
   }
 }
 
@@ -55,21 +55,21 @@ OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile
       }) {}
 
 std::string OnDemandLayer::tileJson(const std::string& layer_url) const {
-  return withAbsoluteUrls(m_tilejson, layer_url);
+  return io::withAbsoluteUrls(m_tilejson, layer_url);
 }
 
-TileAnswer OnDemandLayer::tile(const TileId& tile, TileFormat format) {
+TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or area"};
   }
-  const std::string relative = relativeTilePath(tile, format);
+  const std::string relative = io::relativeTilePath(tile, format);
   BakeQueue::Ticket ticket;
   do {
     const std::uint64_t finished = m_queue.finishedCount();
     if (std::optional<FileContent> file = m_folder.read(relative)) {
       return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
     }
-    if (format == TileFormat::kHighResGlb && !m_high_res_mesh) {
+    if (format == io::TileFormat::kHighResGlb && !m_high_res_mesh) {
       return {TileAnswer::Status::kNotFound, nullptr, "this layer makes no high-res meshes"};
     }
     ticket = m_queue.request(tile, finished);
@@ -100,19 +100,19 @@ TileAnswer OnDemandLayer::tile(const TileId& tile, TileFormat format) {
 
 std::shared_ptr<const BakedTile> OnDemandLayer::bake(const MakeTile& make_tile, const TileId& tile) const {
   try {
-    const std::optional<pipeline::TileFiles> files = make_tile(tile);
+    const std::optional<io::TileFiles> files = make_tile(tile);
     if (!files) return nullptr;
-    pipeline::writeTileFiles(m_folder_path, tile, *files);
+    io::writeTileFiles(m_folder_path, tile, *files);
     auto baked = std::make_shared<BakedTile>();
-    const auto keep = [&](TileFormat format, const std::vector<std::uint8_t>& bytes) {
+    const auto keep = [&](io::TileFormat format, const std::vector<std::uint8_t>& bytes) {
       // The ETag of the file just written, so that later answers from disk match this one.
-      std::optional<std::string> etag = m_folder.etag(relativeTilePath(tile, format));
-      if (!etag) throw InputError("cannot read back '" + relativeTilePath(tile, format) + "' after writing it");
+      std::optional<std::string> etag = m_folder.etag(io::relativeTilePath(tile, format));
+      if (!etag) throw InputError("cannot read back '" + io::relativeTilePath(tile, format) + "' after writing it");
       baked->emplace(format, FileContent{std::string(bytes.begin(), bytes.end()), std::move(*etag)});
     };
-    keep(TileFormat::kPng, files->png);
-    keep(TileFormat::kGlb, files->glb);
-    if (!files->high_res_glb.empty()) keep(TileFormat::kHighResGlb, files->high_res_glb);
+    keep(io::TileFormat::kPng, files->png);
+    keep(io::TileFormat::kGlb, files->glb);
+    if (!files->high_res_glb.empty()) keep(io::TileFormat::kHighResGlb, files->high_res_glb);
     log::debug("layer " + m_name + ": baked " + tile.str());
     return baked;
   } catch (const std::exception& e) {
@@ -126,22 +126,21 @@ std::shared_ptr<const BakedTile> OnDemandLayer::bake(const MakeTile& make_tile, 
 std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, const std::string& tiles_dir,
                                                  std::size_t queue_size) {
   // The batch runner's plan: a tile baked here has the bytes a batch run writes.
-  const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job, dem::DemSource(job.dems)));
-  const int workers = job.workers > 0 ? job.workers : int(std::max(1u, std::thread::hardware_concurrency()));
-  OnDemandLayer::Settings settings{job.layer,
-                                   fs::path(tiles_dir) / job.layer,
+  const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job));
+  OnDemandLayer::Settings settings{plan->layer_name,
+                                   fs::path(tiles_dir) / plan->layer_name,
                                    plan->tilejson,
                                    TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->area),
-                                   job.high_res_mesh,
-                                   workers,
+                                   plan->settings.high_res_mesh,
+                                   plan->workers,
                                    queue_size};
 
   const auto logged = std::make_shared<std::once_flag>();
-  const auto make_tile = [job, plan, logged]() -> OnDemandLayer::MakeTile {
+  const auto make_tile = [plan, logged]() -> OnDemandLayer::MakeTile {
     // Made on the worker thread that keeps it: its GDAL handle and GL context belong there.
-    auto maker = std::make_shared<pipeline::TileMaker>(job.dems, plan);
+    auto maker = std::make_shared<pipeline::TileMaker>(plan);
     std::call_once(*logged, [&] {
-      log::info("layer " + job.layer + ": baking on demand with " + maker->bakerDescription());
+      log::info("layer " + plan->layer_name + ": baking on demand with " + maker->bakerDescription());
     });
     return [maker](const TileId& tile) { return maker->make(tile); };
   };

@@ -11,7 +11,7 @@
 #include <string>
 
 #include "config/tile_job.hpp"
-#include "pipeline/tile_maker.hpp"
+#include "io/layer_layout.hpp"
 #include "server/bake_queue.hpp"
 #include "server/layer_source.hpp"
 #include "server/served_folder.hpp"
@@ -23,7 +23,7 @@ class OnDemandLayer : public LayerSource {
  public:
   // Makes one tile's files in memory; nullopt when the tile holds no valid
   // DEM sample. Throws when it fails.
-  using MakeTile = std::function<std::optional<pipeline::TileFiles>(const TileId&)>;
+  using MakeTile = std::function<std::optional<io::TileFiles>(const TileId&)>;
   // Called once on each bake worker thread (see BakeQueue::BakeFactory).
   using MakeTileFactory = std::function<MakeTile()>;
 
@@ -44,7 +44,7 @@ class OnDemandLayer : public LayerSource {
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return true; }
   std::string tileJson(const std::string& layer_url) const override;
-  TileAnswer tile(const TileId& tile, TileFormat format) override;
+  TileAnswer tile(const TileId& tile, io::TileFormat format) override;
   BakeCounters bakeCounters() const override { return m_queue.counters(); }
   void stop() override { m_queue.stop(); }
 

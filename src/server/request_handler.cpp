@@ -50,7 +50,7 @@ HttpReply staticFile(const HttpRequest& request, const ServedFolder& folder, con
   return validated(request, contentTypeFor(file), std::move(content->bytes), content->etag, kRevalidate);
 }
 
-const char* contentTypeOf(TileFormat format) { return format == TileFormat::kPng ? "image/png" : "model/gltf-binary"; }
+const char* contentTypeOf(io::TileFormat format) { return format == io::TileFormat::kPng ? "image/png" : "model/gltf-binary"; }
 
 // "http://host:port/" as the client reached us.
 std::string baseUrl(const HttpRequest& request) {
@@ -152,7 +152,7 @@ HttpReply RequestHandler::layerList(const HttpRequest& request) const {
   Json list = Json::array();
   for (const auto& [name, layer] : m_layers) {
     list.push_back({{"name", name},
-                    {"tilejson", base_url + name + "/tilejson.json"},
+                    {"tilejson", base_url + name + "/" + io::kTileJsonFile},
                     {"on_demand", layer->bakesOnDemand()}});
   }
   std::string body = Json{{"layers", list}}.dump(2) + "\n";

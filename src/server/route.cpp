@@ -2,14 +2,14 @@
 
 #include <algorithm>
 #include <array>
-#include <cctype>
+#include <optional>
 #include <vector>
+
+#include "core/layer_name.hpp"
 
 namespace terrabake::server {
 namespace {
 
-// The deepest zoom of any scheme; a deeper one is no tile of any layer.
-constexpr int kMaxZoom = 24;
 // Nine digits fit an int; a tile number longer than that is no tile of any layer.
 constexpr std::size_t kMaxDigits = 9;
 constexpr std::array<const char*, 4> kReservedNames = {"health", "layers.json", "vendor", "viewer"};
@@ -44,12 +44,6 @@ bool isSafeSegment(const std::string& segment) {
   });
 }
 
-bool isLayerName(const std::string& name) {
-  return std::all_of(name.begin(), name.end(), [](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
-  });
-}
-
 // Decimal digits only, no sign, no leading zero: one spelling per tile.
 bool parseNumber(const std::string& text, int& value) {
   if (text.empty() || text.size() > kMaxDigits) return false;
@@ -75,15 +69,9 @@ Route parseTile(const std::vector<std::string>& parts) {
   const std::size_t dot = last.find('.');
   const std::string y_text = last.substr(0, dot);
   const std::string extension = dot == std::string::npos ? "" : last.substr(dot + 1);
-  if (extension == "png") {
-    route.format = TileFormat::kPng;
-  } else if (extension == "glb") {
-    route.format = TileFormat::kGlb;
-  } else if (extension == "hires.glb") {
-    route.format = TileFormat::kHighResGlb;
-  } else {
-    return bad("unknown tile extension '" + extension + "'; " + kShape);
-  }
+  const std::optional<io::TileFormat> format = io::formatOfExtension(extension);
+  if (!format) return bad("unknown tile extension '" + extension + "'; " + kShape);
+  route.format = *format;
   if (!parseNumber(parts[1], route.tile.z) || !parseNumber(parts[2], route.tile.x) ||
       !parseNumber(y_text, route.tile.y)) {
     return bad("z, x and y must be whole numbers without sign or leading zeros; " + std::string(kShape));
@@ -126,7 +114,7 @@ Route parseRoute(const std::string& path) {
   if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
   if (parts.size() == 1) return notFound("no such file; try /" + first + "/tilejson.json");
   if (parts.size() == 2) {
-    if (parts[1] != "tilejson.json") return notFound("no such file");
+    if (parts[1] != io::kTileJsonFile) return notFound("no such file");
     Route route = simple(Route::Kind::kTileJson);
     route.layer = first;
     return route;

@@ -24,7 +24,7 @@ struct Route {
   Kind kind = Kind::kNotFound;
   std::string layer;  // kTileJson, kTile
   TileId tile;        // kTile
-  TileFormat format = TileFormat::kPng;
+  io::TileFormat format = io::TileFormat::kPng;
   std::string file;     // kViewerFile, kVendorFile: relative to the folder, segments checked
   std::string problem;  // kBadRequest, kNotFound: what is wrong, for the response body
 };

@@ -4,7 +4,7 @@
 #include <memory>
 
 #include "core/types.hpp"
-#include "server/tilejson_doc.hpp"
+#include "io/tile_files.hpp"
 #include "tiling/scheme.hpp"
 
 namespace terrabake::server {
@@ -30,6 +30,6 @@ class TileCoverage {
 // What a layer's tilejson says it covers: for webmercator and geodetic
 // layers its bounds in the scheme's grid; for others (native: the grid
 // comes from the DEM) its zooms only.
-TileCoverage coverageOf(const TileJsonSummary& tilejson);
+TileCoverage coverageOf(const io::TileJsonSummary& tilejson);
 
 }  // namespace terrabake::server

@@ -1,10 +1,13 @@
 #pragma once
 // Tiling schemes (docs/CONTRACT.md §2): which tiles exist at a zoom, where
-// each lies in the scheme's CRS, and where its files go.
+// each lies in the scheme's CRS, and the texel grid of a tile. A scheme owns
+// its tile size and, for the global schemes, its lon/lat <-> CRS mapping.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
+#include "core/choices.hpp"
 #include "core/types.hpp"
 
 namespace terrabake::tiling {
@@ -21,36 +24,48 @@ struct LevelGrid {
 
 class Scheme {
  public:
+  explicit Scheme(int tile_size) : m_tile_size(tile_size) {}
   virtual ~Scheme() = default;
-  virtual std::string name() const = 0;
+
+  virtual SchemeKind kind() const = 0;
+  std::string name() const { return std::string(wordOf(kind())); }
   // The CRS tile extents are expressed in (WKT or "EPSG:n").
   virtual std::string crs() const = 0;
   // True when row y = 0 is the south edge (TMS), false for north (XYZ).
   virtual bool tmsRows() const = 0;
   virtual int maxZoom() const = 0;
   virtual LevelGrid levelGrid(int zoom) const = 0;
+  // Texels a side of every tile.
+  int tileSize() const { return m_tile_size; }
+
+  // The latitude, north and south, up to which the scheme reaches (Web
+  // Mercator stops short of the poles).
+  virtual double maxLatDeg() const { return 90; }
+  // A lon/lat box in the scheme's CRS; nullopt for a scheme whose CRS only
+  // the DEM's georeferencing can map (native).
+  virtual std::optional<Extent> fromLonLat(const Extent& lon_lat) const = 0;
 
   Extent tileExtent(const TileId& tile) const;
   // Tiles at `zoom` whose extent overlaps `area` (in the scheme's CRS), in
   // row-major order from the north-west.
   std::vector<TileId> tilesCovering(const Extent& area, int zoom) const;
+  // Whether `tile` is one of tilesCovering(area, tile.z), without listing the zoom.
+  bool covers(const Extent& area, const TileId& tile) const;
 
-  // The texel grid of a tile of `tile_size` texels a side, run on `apron`
-  // texels beyond each edge: cell (apron + i, apron + j) is texel (i, j).
-  GridSpec texelGrid(const TileId& tile, int tile_size, int apron) const;
+  // The texel grid of a tile, run on `apron` texels beyond each edge: cell
+  // (apron + i, apron + j) is texel (i, j).
+  GridSpec texelGrid(const TileId& tile, int apron) const;
+
+ private:
+  int m_tile_size;
 };
 
-// EPSG:3857, one tile at zoom 0, y = 0 at the north edge (XYZ).
-std::unique_ptr<Scheme> makeWebMercator();
-
-// EPSG:4326, two tiles at zoom 0 (west, east), y = 0 at the south edge (TMS).
-std::unique_ptr<Scheme> makeGeodetic();
-
-// The DEM's own CRS and pixel grid: level `levels - 1` is full resolution,
-// level 0 one tile over the whole DEM, each tile starting at the north-west.
-std::unique_ptr<Scheme> makeNative(const GridSpec& dem_grid, int tile_size);
-
-// "{root}/{layer}/{z}/{x}/{y}.{extension}"
-std::string tilePath(const std::string& layer_dir, const TileId& tile, const std::string& extension);
+// The one factory: webmercator is EPSG:3857 with one tile at zoom 0 and y = 0
+// at the north edge (XYZ); geodetic is EPSG:4326 with two tiles at zoom 0
+// (west, east) and y = 0 at the south edge (TMS); native is the DEM's own CRS
+// and pixel grid, level `levels - 1` at full resolution and level 0 one tile
+// over the whole DEM. Native needs `dem_grid`; throws std::invalid_argument
+// without it.
+std::unique_ptr<Scheme> makeScheme(SchemeKind kind, int tile_size, const GridSpec* dem_grid = nullptr);
 
 }  // namespace terrabake::tiling

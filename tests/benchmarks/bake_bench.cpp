@@ -57,12 +57,12 @@ constexpr double kWholeTileMinTimeS = 2.0;
 
 struct BackendCase {
   const char* name;
-  gl::Backend backend;
+  Backend backend;
 };
 constexpr std::array<BackendCase, 3> kBackends = {{
-    {"cpu", gl::Backend::kCpu},
-    {"osmesa", gl::Backend::kOsMesa},
-    {"egl", gl::Backend::kEgl},
+    {"cpu", Backend::kCpu},
+    {"osmesa", Backend::kOsMesa},
+    {"egl", Backend::kEgl},
 }};
 
 // The meshes of one synthetic tile over the analytic terrain, no DEM involved.
@@ -108,7 +108,7 @@ void prepareBenchData() {
   data.dem_path = (data.work_dir / "utm_30m.tif").string();
   ts::writeUtmDem(data.dem_path, kCentreLon, kCentreLat, kDemPixelM, kDemPixels, kDemPixels);
 
-  data.scheme = tiling::makeWebMercator();
+  data.scheme = tiling::makeScheme(SchemeKind::kWebMercator, kTileSize);
   const dem::DemSource dem({data.dem_path});
   Extent inner = dem.boundsIn(data.scheme->crs());
   inner.min_x += kInteriorMarginM, inner.min_y += kInteriorMarginM;
@@ -121,7 +121,7 @@ void prepareBenchData() {
   }
   if (data.tiles.empty()) throw std::runtime_error("the generated DEM holds no interior tile");
   const int apron = mesh::requiredApron(kTileSize, kGrid);
-  data.plan = dem.planFor(data.scheme->texelGrid(data.tiles[data.tiles.size() / 2], kTileSize, apron));
+  data.plan = dem.planFor(data.scheme->texelGrid(data.tiles[data.tiles.size() / 2], apron));
 
   for (int size : {kTileSize, kLargeTileSize}) data.synthetic.emplace(size, makeSyntheticTile(size));
   const SyntheticTile& tile = data.synthetic.at(kTileSize);
@@ -204,7 +204,7 @@ void benchReadWindow(benchmark::State& state) {
   const BenchData& data = benchData();
   const dem::DemSource dem({data.dem_path});
   const TileId& tile = data.tiles[data.tiles.size() / 2];
-  const GridSpec grid = data.scheme->texelGrid(tile, kTileSize, mesh::requiredApron(kTileSize, kGrid));
+  const GridSpec grid = data.scheme->texelGrid(tile, mesh::requiredApron(kTileSize, kGrid));
   for (auto _ : state) {
     benchmark::DoNotOptimize(dem.read(grid, data.plan));
   }
@@ -214,7 +214,7 @@ void benchReadWindow(benchmark::State& state) {
 void benchEncodePng(benchmark::State& state) {
   const bake::NormalMap& map = benchData().normal_map;
   for (auto _ : state) {
-    benchmark::DoNotOptimize(io::encodePng(bake::encodeNormalMap(map, kBits, bake::Green::kUp), kBits));
+    benchmark::DoNotOptimize(io::encodePng(bake::encodeNormalMap(map, kBits, Green::kUp), kBits));
   }
 }
 
@@ -243,16 +243,16 @@ void benchWholeTile(benchmark::State& state, BackendCase backend) {
     job.tile_size = kTileSize;
     job.low_poly_grid = kGrid;
     job.bits = kBits;
-    job.backend = backend.name;
-    const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job, dem::DemSource(job.dems)));
-    return std::make_shared<pipeline::TileMaker>(job.dems, plan);
+    job.backend = backend.backend;
+    const auto plan = std::make_shared<const pipeline::LayerPlan>(pipeline::planLayer(job));
+    return std::make_shared<pipeline::TileMaker>(plan);
   });
   if (!maker) return;
   const std::string layer_dir = (data.work_dir / backend.name).string();
   std::size_t next = 0;
   auto makeAndWrite = [&] {
     const TileId& tile = data.tiles[next++ % data.tiles.size()];
-    const std::optional<pipeline::TileFiles> files = maker->make(tile);
+    const std::optional<io::TileFiles> files = maker->make(tile);
     if (!files) return false;
     pipeline::writeTileFiles(layer_dir, tile, *files);
     return true;

@@ -1,0 +1,27 @@
+#include "app/key_flags.hpp"
+
+#include <algorithm>
+
+namespace terrabake::app {
+
+KeyFlags::KeyFlags(CLI::App* cmd, const std::vector<config::KeyInfo>& keys, const std::vector<std::string>& only)
+    : m_cmd(cmd) {
+  for (const config::KeyInfo& key : keys) {
+    if (key.flag.empty()) continue;
+    if (!only.empty() && std::find(only.begin(), only.end(), key.name) == only.end()) continue;
+    Flag flag{key.name, key.flag, std::make_unique<std::string>()};
+    const std::string help = key.description + " (key " + key.name +
+                             (key.default_value.empty() ? "" : ", default " + key.default_value) + ")";
+    cmd->add_option(key.flag, *flag.text, help);
+    m_flags.push_back(std::move(flag));
+  }
+}
+
+void KeyFlags::forEachGiven(
+    const std::function<void(const std::string& key, const std::string& text, const std::string& flag)>& apply) const {
+  for (const Flag& flag : m_flags) {
+    if (m_cmd->count(flag.flag) > 0) apply(flag.key, *flag.text, flag.flag);
+  }
+}
+
+}  // namespace terrabake::app

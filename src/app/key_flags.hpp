@@ -1,0 +1,37 @@
+#pragma once
+// The flags of a subcommand, made from the rows of a settings table that
+// name one (config/*.cpp): each flag overrides its key, with the key's own
+// description as help, so a key and its flag are declared once.
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include <CLI/CLI.hpp>
+
+#include "config/key_info.hpp"
+
+namespace terrabake::app {
+
+class KeyFlags {
+ public:
+  // Adds a flag to `cmd` for each of `keys` that has one; with `only` not
+  // empty, just for the keys it names.
+  KeyFlags(CLI::App* cmd, const std::vector<config::KeyInfo>& keys, const std::vector<std::string>& only = {});
+
+  // Calls `apply(key, text, flag)` for every flag given on the command line,
+  // in table order.
+  void forEachGiven(
+      const std::function<void(const std::string& key, const std::string& text, const std::string& flag)>& apply) const;
+
+ private:
+  struct Flag {
+    std::string key;
+    std::string flag;
+    std::unique_ptr<std::string> text;  // CLI11 writes here; stable across moves
+  };
+  CLI::App* m_cmd;
+  std::vector<Flag> m_flags;
+};
+
+}  // namespace terrabake::app

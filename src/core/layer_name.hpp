@@ -1,0 +1,17 @@
+#pragma once
+// The one rule for layer names: a layer is a folder (or <name>.mbtiles) and a
+// URL segment, so its name has no separators and nothing that climbs out.
+#include <algorithm>
+#include <cctype>
+#include <string_view>
+
+namespace terrabake {
+
+inline bool isLayerName(std::string_view name) {
+  const bool safe_chars = std::all_of(name.begin(), name.end(), [](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '_' || c == '-';
+  });
+  return !name.empty() && safe_chars && name != "." && name != "..";
+}
+
+}  // namespace terrabake

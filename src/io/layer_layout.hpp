@@ -1,0 +1,54 @@
+#pragma once
+// How a layer lies on disk (docs/CONTRACT.md §1): the one place that spells
+// its file names, extensions and the MBTiles file name. The writers, the
+// sinks and the server all go through it.
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "core/choices.hpp"
+#include "core/types.hpp"
+
+namespace terrabake::io {
+
+// The files of one tile.
+enum class TileFormat { kPng, kGlb, kHighResGlb };
+
+// "png", "glb", "hires.glb": the file name extension of a tile in a layer folder.
+std::string_view extensionOf(TileFormat format);
+// The format whose extension is `extension`; nullopt for any other text.
+std::optional<TileFormat> formatOfExtension(std::string_view extension);
+
+// "z/x/y.png": where a tile's file lies in its layer folder.
+std::string relativeTilePath(const TileId& tile, TileFormat format);
+// "<layer_dir>/z/x/y.png"
+std::string tilePath(const std::string& layer_dir, const TileId& tile, TileFormat format);
+
+// Beside the tiles in a layer folder: the layer's tilejson and the record of
+// the job that made it.
+inline constexpr const char* kTileJsonFile = "tilejson.json";
+inline constexpr const char* kJobFile = "terrabake-job.txt";
+// A layer stored as one file is "<layer>.mbtiles" beside the layer folders.
+inline constexpr const char* kMbtilesExtension = ".mbtiles";
+
+// Where layer `layer` of `output_dir` lives: the folder "<dir>/<layer>", or
+// the file "<dir>/<layer>.mbtiles"; lexically normal.
+std::string layerLocation(const std::string& output_dir, const std::string& layer, OutputFormat format);
+
+// One tile's files, made in memory.
+struct TileFiles {
+  std::vector<std::uint8_t> png;
+  std::vector<std::uint8_t> glb;
+  std::vector<std::uint8_t> high_res_glb;  // empty unless asked for
+};
+
+// Writes a tile's files into the layer folder, each atomically; the image
+// first, so a reader that finds the mesh also finds its texture.
+void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files);
+
+// The file whose presence says a tile was written whole (writeTileFiles writes it last).
+TileFormat lastWrittenFormat(bool high_res_mesh);
+
+}  // namespace terrabake::io
