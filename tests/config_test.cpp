@@ -2,6 +2,7 @@
 // path resolution, and that every error names file (or flag), line and key.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <functional>
@@ -9,6 +10,7 @@
 #include <string>
 #include <vector>
 
+#include "config/serve_config.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
 
@@ -80,6 +82,55 @@ TEST(ConfigSample, ReadmeDocumentsEveryKey) {
   for (const KeyInfo& key : listKeys()) {
     EXPECT_NE(readme.str().find("`" + key.name + "`"), std::string::npos) << key.name;
   }
+}
+
+// The cells of the table row of config/README.md that starts with `first`
+// (backticks removed), or none.
+std::vector<std::string> readmeRow(const std::string& readme, const std::string& first) {
+  const std::size_t start = readme.find("\n| " + first + " |");
+  if (start == std::string::npos) return {};
+  std::istringstream line(readme.substr(start + 3, readme.find('\n', start + 1) - start - 3));
+  std::vector<std::string> cells;
+  for (std::string cell; std::getline(line, cell, '|');) {
+    cell.erase(std::remove(cell.begin(), cell.end(), '`'), cell.end());
+    const std::size_t first_char = cell.find_first_not_of(' ');
+    cells.push_back(first_char == std::string::npos ? "" : cell.substr(first_char, cell.find_last_not_of(' ') - first_char + 1));
+  }
+  return cells;
+}
+
+// Each key's row in the keys table names its type and default as the key
+// table declares them, and its flag, when it has one, is in the flags table.
+void expectReadmeMatches(const std::vector<KeyInfo>& keys) {
+  std::ifstream in(kSourceDir / "config" / "README.md");
+  ASSERT_TRUE(in) << "config/README.md is missing";
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string readme = text.str();
+  for (const KeyInfo& key : keys) {
+    SCOPED_TRACE(key.name);
+    const std::vector<std::string> row = readmeRow(readme, "`" + key.name + "`");
+    ASSERT_GE(row.size(), 3u) << "no row for the key";
+    // A default inside the source tree (viewer.dir) is written relative to it.
+    const std::string source_prefix = kSourceDir.string() + "/";
+    if (key.default_value.empty()) {
+      EXPECT_NE(row[2].find("required"), std::string::npos) << row[2];
+    } else if (key.default_value.rfind(source_prefix, 0) == 0) {
+      EXPECT_NE(row[2].find(key.default_value.substr(source_prefix.size())), std::string::npos) << row[2];
+    } else {
+      EXPECT_EQ(row[2], key.default_value);
+    }
+    if (key.flag.empty()) continue;
+    const std::size_t flag_row = readme.find("\n| `" + key.flag);
+    ASSERT_NE(flag_row, std::string::npos) << key.flag << " is not in the flags table";
+    const std::string line = readme.substr(flag_row + 1, readme.find('\n', flag_row + 1) - flag_row - 1);
+    EXPECT_NE(line.find("| `" + key.name + "` |"), std::string::npos) << line;
+  }
+}
+
+TEST(ConfigSample, ReadmeRowsMatchTheKeyTables) {
+  expectReadmeMatches(listKeys());
+  expectReadmeMatches(listServeKeys());
 }
 
 TEST(ConfigDefaults, OnlyRequiredKeysGiven) {

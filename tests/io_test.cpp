@@ -1,6 +1,7 @@
 // Tests of src/io: atomic writes, PNG encoding, GLB layout, tilejson.
 #include <sys/stat.h>
 
+#include <array>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -483,15 +484,21 @@ TEST(Glb, WritesATileTheValidatorCanCheck) {
 
 // ------------------------------------------------------------------- tilejson
 
-TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
+// A geodetic layer at zooms 3 to 9 of 512-texel tiles.
+io::TileJsonInfo geodeticLayer(const std::array<double, 4>& bounds_deg) {
   io::TileJsonInfo info;
   info.name = "alps";
   info.scheme = SchemeKind::kGeodetic;
   info.tms_rows = true;
   info.min_zoom = 3;
   info.max_zoom = 9;
-  info.bounds_deg = {170.0, -10.0, -170.0, 20.0};  // crosses the antimeridian
+  info.bounds_deg = bounds_deg;
   info.tile_size = 512;
+  return info;
+}
+
+TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
+  io::TileJsonInfo info = geodeticLayer({170.0, -10.0, -170.0, 20.0});  // crosses the antimeridian
   info.bits = 16;
   info.green = Green::kDown;
   info.alpha = true;
@@ -529,14 +536,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
 }
 
 TEST(TileJson, ReadsBackWhatItWrote) {
-  io::TileJsonInfo info;
-  info.name = "alps";
-  info.scheme = SchemeKind::kGeodetic;
-  info.tms_rows = true;
-  info.min_zoom = 3;
-  info.max_zoom = 9;
-  info.bounds_deg = {10.0, 40.0, 12.0, 50.0};
-  info.tile_size = 512;
+  const io::TileJsonInfo info = geodeticLayer({10.0, 40.0, 12.0, 50.0});
   const io::TileJsonSummary summary = io::readTileJson(io::tileJson(info));
   EXPECT_EQ(summary.min_zoom, 3);
   EXPECT_EQ(summary.max_zoom, 9);
