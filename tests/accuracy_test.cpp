@@ -45,8 +45,8 @@ AngleStats summarise(std::vector<double> angles) {
   std::sort(angles.begin(), angles.end());
   double sum = 0;
   for (double a : angles) sum += a;
-  s.mean = sum / angles.size();
-  s.p99 = angles[std::min(angles.size() - 1, std::size_t(angles.size() * 0.99))];
+  s.mean = sum / double(angles.size());
+  s.p99 = angles[std::min(angles.size() - 1, std::size_t(double(angles.size()) * 0.99))];
   s.max = angles.back();
   return s;
 }
@@ -142,7 +142,7 @@ std::vector<Case> allCases() {
 }
 
 INSTANTIATE_TEST_SUITE_P(AnalyticTerrain, Accuracy, ::testing::ValuesIn(allCases()),
-                         [](const auto& info) { return caseName(info.param); });
+                         [](const auto& test_info) { return caseName(test_info.param); });
 
 }  // namespace
 }  // namespace terrabake

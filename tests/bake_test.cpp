@@ -124,14 +124,7 @@ TEST_P(BakerKnownAnswers, NorthFacingSlopeRaisesGreen) {
 
 INSTANTIATE_TEST_SUITE_P(AllBackends, BakerKnownAnswers,
                          ::testing::Values(Backend::kCpu, Backend::kOsMesa, Backend::kEgl),
-                         [](const auto& info) {
-                           switch (info.param) {
-                             case Backend::kCpu: return std::string("cpu");
-                             case Backend::kOsMesa: return std::string("osmesa");
-                             case Backend::kEgl: return std::string("egl");
-                             default: return std::string("auto");
-                           }
-                         });
+                         [](const auto& test_info) { return std::string(wordOf(test_info.param)); });
 
 // Hills with slopes up to about 40 degrees over a coarser low-poly mesh.
 double hills(double e, double n) {
@@ -162,10 +155,10 @@ TEST_P(GlAgreesWithCpu, WithinOneStepAlmostEverywhere) {
     const double texels = double(kSize) * kSize;
     RecordProperty("bits" + std::to_string(bits) + "_max_step", max_step);
     std::printf("%s vs cpu, %d bits: %.3f%% texels differ, %.3f%% by more than one step, max %d\n",
-                gl_baker->description().c_str(), bits, 100.0 * differing / texels, 100.0 * beyond_one / texels,
+                gl_baker->description().c_str(), bits, 100.0 * double(differing) / double(texels), 100.0 * double(beyond_one) / double(texels),
                 max_step);
     if (bits == 8) {
-      EXPECT_LE(beyond_one / texels, kMaxShareBeyondOneStep);
+      EXPECT_LE(double(beyond_one) / double(texels), kMaxShareBeyondOneStep);
     } else {
       // At 16 bits one step is 3e-5: float32 interpolation (~1e-7 relative)
       // stays well inside a few steps.
@@ -176,9 +169,7 @@ TEST_P(GlAgreesWithCpu, WithinOneStepAlmostEverywhere) {
 
 INSTANTIATE_TEST_SUITE_P(GlBackends, GlAgreesWithCpu,
                          ::testing::Values(Backend::kOsMesa, Backend::kEgl),
-                         [](const auto& info) {
-                           return std::string(info.param == Backend::kOsMesa ? "osmesa" : "egl");
-                         });
+                         [](const auto& test_info) { return std::string(wordOf(test_info.param)); });
 
 }  // namespace
 }  // namespace terrabake

@@ -125,7 +125,7 @@ TEST_P(UndeclaredVoids, BecomeHolesWithoutTouchingTheirNeighbours) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Int16AndFloat32, UndeclaredVoids, ::testing::Values(GDT_Int16, GDT_Float32),
-                         [](const auto& info) { return std::string(info.param == GDT_Int16 ? "int16" : "float32"); });
+                         [](const auto& test_info) { return std::string(test_info.param == GDT_Int16 ? "int16" : "float32"); });
 
 }  // namespace
 }  // namespace terrabake

@@ -249,8 +249,8 @@ GridMesh planeMesh(int cols, int rows) {
     for (int c = 0; c < cols; ++c) {
       const float u = float(c) / float(cols - 1);
       const float v = float(r) / float(rows - 1);
-      m.position.emplace_back((u - 0.5f) * 10.0f * (cols - 1), 0.25f * float(c % 3),
-                              (v - 0.5f) * 10.0f * (rows - 1));
+      m.position.emplace_back((u - 0.5f) * 10.0f * float(cols - 1), 0.25f * float(c % 3),
+                              (v - 0.5f) * 10.0f * float(rows - 1));
       m.normal.emplace_back(0, 1, 0);
       m.tangent.emplace_back(1, 0, 0, 1);
       m.uv.emplace_back(u, v);

@@ -316,7 +316,7 @@ TEST_P(MbtilesRows, BlobsAreTheFolderFilesAtTmsRows) {
 INSTANTIATE_TEST_SUITE_P(Schemes, MbtilesRows,
                          ::testing::Values(kWebMercator, SchemeCase{SchemeKind::kGeodetic, 12, 13, false},
                                            SchemeCase{SchemeKind::kNative, 0, 1, true}),
-                         [](const auto& info) { return std::string(wordOf(info.param.scheme)); });
+                         [](const auto& test_info) { return std::string(wordOf(test_info.param.scheme)); });
 
 TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
   const fs::path dir = caseDir();

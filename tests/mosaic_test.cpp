@@ -176,7 +176,7 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
 INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, Mosaic,
                          ::testing::Values(MosaicCase{12, kSameCellsGrid}, MosaicCase{12, kBigGrid},
                                            MosaicCase{11, kSameCellsGrid}, MosaicCase{11, kBigGrid}),
-                         [](const auto& info) { return mosaicName(info.param); });
+                         [](const auto& test_info) { return mosaicName(test_info.param); });
 
 // Tiles that lie partly outside the DEM fill the rest from the DEM around
 // them and from the job's backdrop; their shared edges must still meet

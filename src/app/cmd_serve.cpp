@@ -39,12 +39,8 @@ Action addServeCommand(CLI::App& app) {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     // First, before any thread exists: bake workers and HTTP threads inherit the mask.
     server::blockShutdownSignals();
-    config::ServeConfig config =
-        options->config_path.empty() ? config::ServeConfig{} : config::loadServeConfig(options->config_path);
-    options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
-      config::applyOverride(config, key, text, flag);
-    });
-    config::validate(config, options->config_path.empty() ? "command line" : options->config_path);
+    const config::ServeConfig config =
+        loadSettings(options->config_path, config::loadServeConfig, *options->key_flags);
 
     server::Server server(config, server::openLayers(config));
     // The one line on stdout: scripts and tests read the port from it.

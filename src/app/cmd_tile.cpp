@@ -54,12 +54,7 @@ Action addTileCommand(CLI::App& app) {
   cmd->add_option("--shard", options->shard, "Make shard K of N (K/N): every N-th tile, for job arrays");
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
-    config::TileJob job = options->config_path.empty() ? config::TileJob{}
-                                                       : config::loadTileJob(options->config_path);
-    options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
-      config::applyOverride(job, key, text, flag);
-    });
-    config::validate(job, options->config_path.empty() ? "command line" : options->config_path);
+    const config::TileJob job = loadSettings(options->config_path, config::loadTileJob, *options->key_flags);
     if (!options->shard.empty()) parseShard(options->shard, options->run);
     const pipeline::RunSummary summary = pipeline::runTileJob(job, options->run);
     std::printf("terrabake: wrote %d tiles to %s (%d skipped, %d empty, %d failed) in %.1f s\n", summary.written,

@@ -10,6 +10,8 @@
 #include <CLI/CLI.hpp>
 
 #include "config/key_info.hpp"
+#include "config/serve_config.hpp"
+#include "config/tile_job.hpp"
 
 namespace terrabake::app {
 
@@ -33,5 +35,17 @@ class KeyFlags {
   CLI::App* m_cmd;
   std::vector<Flag> m_flags;
 };
+
+// What a subcommand runs with: the YAML file at `config_path` (the defaults
+// when empty), every given flag over it, then validated as a whole.
+template <class S>
+S loadSettings(const std::string& config_path, S (*load)(const std::string&), const KeyFlags& flags) {
+  S settings = config_path.empty() ? S{} : load(config_path);
+  flags.forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
+    config::applyOverride(settings, key, text, flag);
+  });
+  config::validate(settings, config_path.empty() ? "command line" : config_path);
+  return settings;
+}
 
 }  // namespace terrabake::app

@@ -24,7 +24,7 @@ void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
   std::vector<double> x(points.size()), y(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) x[i] = points[i].x, y[i] = points[i].y;
   std::vector<int> ok(points.size());
-  if (!m_impl->transform->Transform(points.size(), x.data(), y.data(), nullptr, ok.data())) {
+  if (!m_impl->transform->Transform(int(points.size()), x.data(), y.data(), nullptr, ok.data())) {
     throw InputError("dem: cannot transform tile coordinates to longitude/latitude");
   }
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};

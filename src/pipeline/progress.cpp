@@ -50,11 +50,11 @@ void Progress::finish() {
 
 void Progress::report(std::chrono::steady_clock::time_point now) {
   const double elapsed = std::chrono::duration<double>(now - m_start).count();
-  const double rate = elapsed > 0 ? m_done / elapsed : 0.0;
-  const std::string left = rate > 0 ? duration((m_total - m_done) / rate) : "?";
+  const double rate = elapsed > 0 ? double(m_done) / elapsed : 0.0;
+  const std::string left = rate > 0 ? duration(double(m_total - m_done) / rate) : "?";
   char line[160];
   std::snprintf(line, sizeof line, "%zu/%zu tiles (%.0f%%), %.1f tiles/s, %s left", m_done, m_total,
-                100.0 * m_done / m_total, rate, left.c_str());
+                100.0 * double(m_done) / double(m_total), rate, left.c_str());
   if (m_terminal) {
     std::fprintf(stderr, "\r\033[K%s", line);  // clear to end of line, redraw
     std::fflush(stderr);
