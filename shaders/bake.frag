@@ -1,7 +1,8 @@
 #version 330 core
 // Writes the high-res normal in the low-poly mesh's tangent space
 // (docs/CONTRACT.md section 4): the low-poly frame at this texel is interpolated over
-// its triangle exactly as a glTF renderer does, then [T B N] is inverted.
+// its triangle as glTF renderers do (the bitangent made per vertex, then
+// interpolated), then [T B N] is inverted.
 in vec3 v_normal;
 out vec4 o_normal;
 
@@ -12,6 +13,10 @@ uniform float u_tile_size;
 
 vec3 normalAt(ivec2 v) { return texelFetch(u_low_poly, v, 0).xyz; }
 vec4 tangentAt(ivec2 v) { return texelFetch(u_low_poly, ivec2(v.x, u_grid + v.y), 0); }
+vec3 bitangentAt(ivec2 v) {
+  vec4 t = tangentAt(v);
+  return t.w * cross(normalAt(v), t.xyz);
+}
 
 void main() {
   vec2 uv = gl_FragCoord.xy / u_tile_size;  // texel centre, v = 0 north
@@ -31,11 +36,10 @@ void main() {
     w = vec3(1.0 - f.x, f.x - f.y, f.y);
   }
   vec3 n = normalize(w.x * normalAt(nw) + w.y * normalAt(corner) + w.z * normalAt(se));
-  vec4 t4 = w.x * tangentAt(nw) + w.y * tangentAt(corner) + w.z * tangentAt(se);
-  vec3 t = normalize(t4.xyz);
-  vec3 b = t4.w * cross(n, t);
+  vec3 t = normalize(w.x * tangentAt(nw).xyz + w.y * tangentAt(corner).xyz + w.z * tangentAt(se).xyz);
+  vec3 b = normalize(w.x * bitangentAt(nw) + w.y * bitangentAt(corner) + w.z * bitangentAt(se));
 
-  // Interpolated T and N are not orthogonal: invert, do not transpose.
+  // Interpolated T, B and N are not orthogonal: invert, do not transpose.
   vec3 x = inverse(mat3(t, b, n)) * normalize(v_normal);
   o_normal = vec4(normalize(x), 1.0);
 }

@@ -151,17 +151,19 @@ GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
 
 TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv) {
   const GridTriangle tri = gridTriangleAt(uv * double(mesh.grid - 1), mesh.grid, mesh.grid);
-  glm::dvec3 n(0), t(0);
-  double w = 0;
+  glm::dvec3 n(0), t(0), b(0);
   for (int k = 0; k < 3; ++k) {
-    n += glm::dvec3(mesh.normal[tri.vertex[k]]) * tri.weight[k];
-    t += glm::dvec3(mesh.tangent[tri.vertex[k]]) * tri.weight[k];
-    w += double(mesh.tangent[tri.vertex[k]].w) * tri.weight[k];
+    const glm::dvec3 vertex_n(mesh.normal[tri.vertex[k]]);
+    const glm::dvec4 vertex_t(mesh.tangent[tri.vertex[k]]);
+    n += vertex_n * tri.weight[k];
+    t += glm::dvec3(vertex_t) * tri.weight[k];
+    // The bitangent is made per vertex and interpolated, as renderers do.
+    b += vertex_t.w * glm::cross(vertex_n, glm::dvec3(vertex_t)) * tri.weight[k];
   }
   TangentFrame frame;
   frame.n = glm::normalize(n);
   frame.t = glm::normalize(t);
-  frame.b = w * glm::cross(frame.n, frame.t);  // as a renderer does, w interpolated too
+  frame.b = glm::normalize(b);
   return frame;
 }
 

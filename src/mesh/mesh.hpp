@@ -47,9 +47,10 @@ struct GridMesh {
   std::vector<std::uint32_t> indices;
 };
 
-// The tangent frame a glTF renderer reconstructs at a point (docs/CONTRACT.md §4):
-// normal and tangent interpolated over the triangle and normalised, then
-// b = w * cross(n, t). t and b need not be orthogonal to each other.
+// The tangent frame a glTF renderer reconstructs at a point (docs/CONTRACT.md §4),
+// as three.js, CesiumJS and the glTF Sample Renderer build it: normal, tangent
+// and the per-vertex bitangent w * cross(NORMAL, TANGENT) interpolated over
+// the triangle and each normalised. t, b and n need not be orthogonal.
 struct TangentFrame {
   glm::dvec3 t;
   glm::dvec3 b;

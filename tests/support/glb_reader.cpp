@@ -144,7 +144,7 @@ std::vector<Vec> toVectors(const std::vector<double>& flat) {
   return out;
 }
 
-void parseGltf(const Json& gltf, Bytes bin, GlbMesh& mesh) {
+void parseGltf(const Json& gltf, Bytes bin, bool with_normal_texture, GlbMesh& mesh) {
   const Json& meshes = gltf.at("meshes");
   if (meshes.size() != 1)
     throw std::runtime_error("expected one mesh, found " + std::to_string(meshes.size()));
@@ -187,12 +187,16 @@ void parseGltf(const Json& gltf, Bytes bin, GlbMesh& mesh) {
   }
 
   const Json& material = gltf.at("materials").at(primitive.at("material").get<std::size_t>());
-  if (!material.contains("normalTexture"))
-    throw std::runtime_error("material has no normalTexture");
-  const Json& texture =
-      gltf.at("textures").at(material.at("normalTexture").at("index").get<std::size_t>());
-  const Json& image = gltf.at("images").at(texture.at("source").get<std::size_t>());
-  mesh.image_uri = image.value("uri", std::string());
+  if (material.contains("normalTexture") != with_normal_texture) {
+    throw std::runtime_error(with_normal_texture ? "material has no normalTexture"
+                                                 : "material has a normalTexture where none was expected");
+  }
+  if (with_normal_texture) {
+    const Json& texture =
+        gltf.at("textures").at(material.at("normalTexture").at("index").get<std::size_t>());
+    const Json& image = gltf.at("images").at(texture.at("source").get<std::size_t>());
+    mesh.image_uri = image.value("uri", std::string());
+  }
 
   const Json& extras = gltf.at("asset").at("extras").at("terrabake");
   const auto origin = extras.at("origin").get<std::vector<double>>();
@@ -208,7 +212,7 @@ double cross2(glm::dvec2 a, glm::dvec2 b) { return a.x * b.y - a.y * b.x; }
 
 }  // namespace
 
-GlbMesh readGlb(const std::filesystem::path& path) {
+GlbMesh readGlb(const std::filesystem::path& path, bool with_normal_texture) {
   const std::vector<uint8_t> file = readFile(path);
   const std::string where = path.string() + ": ";
   if (file.size() < 12 || readU32(file.data()) != kGlbMagic)
@@ -240,7 +244,7 @@ GlbMesh readGlb(const std::filesystem::path& path) {
   GlbMesh mesh;
   try {
     mesh.json = Json::parse(json_chunk.data, json_chunk.data + json_chunk.size);
-    parseGltf(mesh.json, bin_chunk, mesh);
+    parseGltf(mesh.json, bin_chunk, with_normal_texture, mesh);
   } catch (const nlohmann::json::exception& e) {
     throw std::runtime_error(where + e.what());
   } catch (const std::runtime_error& e) {
@@ -325,16 +329,20 @@ std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
   }
   if (best_inside < -kEdgeTolerance) return std::nullopt;
 
-  glm::dvec3 normal_sum(0.0);
-  glm::dvec4 tangent_sum(0.0);
+  // As three.js, CesiumJS and the glTF Sample Renderer do: the bitangent is
+  // w * cross(NORMAL, TANGENT) per vertex, interpolated like the others, and
+  // each is normalised per pixel.
+  glm::dvec3 normal_sum(0.0), tangent_sum(0.0), bitangent_sum(0.0);
   for (int k = 0; k < 3; ++k) {
     const uint32_t vertex = mesh.indices[3 * best_triangle + k];
+    const glm::dvec3 vertex_tangent(mesh.tangent[vertex]);
     normal_sum += best_weights[k] * mesh.normal[vertex];
-    tangent_sum += best_weights[k] * mesh.tangent[vertex];
+    tangent_sum += best_weights[k] * vertex_tangent;
+    bitangent_sum += best_weights[k] * mesh.tangent[vertex].w * glm::cross(mesh.normal[vertex], vertex_tangent);
   }
   const glm::dvec3 normal = glm::normalize(normal_sum);
-  const glm::dvec3 tangent = glm::normalize(glm::dvec3(tangent_sum));
-  const glm::dvec3 bitangent = tangent_sum.w * glm::cross(normal, tangent);
+  const glm::dvec3 tangent = glm::normalize(tangent_sum);
+  const glm::dvec3 bitangent = glm::normalize(bitangent_sum);
   return glm::normalize(tangent * tangent_xyz.x + bitangent * tangent_xyz.y +
                         normal * tangent_xyz.z);
 }

@@ -40,9 +40,10 @@ struct GlbMesh {
 };
 
 // Parses a .glb with one mesh of one TRIANGLES primitive carrying POSITION,
-// NORMAL, TANGENT and TEXCOORD_0, plus asset.extras.terrabake. Throws
-// std::runtime_error on anything malformed or missing.
-GlbMesh readGlb(const std::filesystem::path& path);
+// NORMAL, TANGENT and TEXCOORD_0, plus asset.extras.terrabake, and a
+// normalTexture exactly when `with_normal_texture` (a {y}.hires.glb has none).
+// Throws std::runtime_error on anything malformed or missing.
+GlbMesh readGlb(const std::filesystem::path& path, bool with_normal_texture = true);
 
 // Rebuilds mesh.uv_grid; needed after changing a mesh's uv or indices.
 void indexUv(GlbMesh& mesh);
