@@ -78,9 +78,7 @@ std::string caseName(const Case& c) {
 
 std::filesystem::path demFor(DemCrs crs) {
   if (crs == DemCrs::kUtm) {
-    return test::sharedFixture("analytic_utm33_512.tif", [](const auto& path) {
-      ts::writeUtmDem(path, kCentreLon, kCentreLat, kPixelM, kDemPixels, kDemPixels);
-    });
+    return test::analyticUtmDem(kDemPixels);
   }
   // About 30 m square pixels at 60 degrees north: a degree of longitude is
   // half as long as a degree of latitude there.

@@ -78,6 +78,18 @@ class ChildProcess {
     return end == std::string::npos ? "" : m_out.substr(0, end + 1);
   }
 
+  // False once the process has exited (it is reaped then; wait() still
+  // collects its output and returns its exit code). For polling loops, which
+  // must not wait on a child that is gone.
+  bool running() {
+    if (m_pid <= 0) return false;
+    int status = 0;
+    if (::waitpid(m_pid, &status, WNOHANG) != m_pid) return true;
+    m_pid = 0;
+    m_exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    return false;
+  }
+
   // Collects both pipes until the process exits. Its exit code, or -1 when it
   // died of a signal or outlived `limit` (then it is killed: timedOut()).
   int wait(std::chrono::milliseconds limit) {
@@ -100,7 +112,7 @@ class ChildProcess {
       }
       ::usleep(5000);
     }
-    return -1;
+    return m_exit_code;
   }
 
   bool timedOut() const { return m_timed_out; }
@@ -138,6 +150,7 @@ class ChildProcess {
   int m_fds[2] = {-1, -1};
   std::string m_out, m_err;
   bool m_timed_out = false;
+  int m_exit_code = -1;  // once running() has reaped the process
 };
 
 }  // namespace terrabake::test

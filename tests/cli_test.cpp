@@ -20,12 +20,13 @@
 #include <vector>
 
 #include "child_process.hpp"
-#include "file_helpers.hpp"
+#include "test_helpers.hpp"
 
 namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+using test::caseDir;
 using test::filesUnder;
 using test::readBytes;
 using test::snapshot;
@@ -71,15 +72,6 @@ RunResult runTerrabake(const std::vector<std::string>& args) {
   result.out = child.out();
   result.err = child.err();
   return result;
-}
-
-// A fresh, empty folder for the running test.
-fs::path caseDir() {
-  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  const fs::path dir = fs::path(TERRABAKE_TEST_OUTPUT) / "cli" / info->name();
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
 }
 
 // A small, smooth DEM; without a CRS when `with_crs` is false.

@@ -332,9 +332,7 @@ TEST(VerticalUnits, ExaggerationTiltsNormalsAsExpected) {
 
 // The 30 m DEM of the other pipeline tests: 256 x 256 pixels at 60 N.
 fs::path dem60North() {
-  return test::sharedFixture("analytic_utm33_256.tif", [](const fs::path& path) {
-    ts::writeUtmDem(path, kCentreLon, kCentreLat, kPixelM, 256, 256);
-  });
+  return test::analyticUtmDem(256);
 }
 
 int autoZoom(SchemeKind scheme, int tile_size) {

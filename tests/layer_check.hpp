@@ -9,8 +9,6 @@
 
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
-#include <unistd.h>
-
 #include <memory>
 
 #include <glm/geometric.hpp>
@@ -19,29 +17,24 @@
 #include "config/tile_job.hpp"
 #include "core/types.hpp"
 #include "pipeline/tile_job_runner.hpp"
+#include "support/analytic_terrain.hpp"
 #include "support/glb_reader.hpp"
 #include "support/image_reader.hpp"
+#include "test_helpers.hpp"
 
 namespace terrabake::test {
 
-inline std::filesystem::path testOutput(const std::string& name) {
-  return std::filesystem::path(TERRABAKE_TEST_OUTPUT) / name;
+// The analytic terrain of tests/support as a DEM: `pixels` x `pixels` pixels
+// of 30 m in UTM zone 33N around 15.3 E, 60 N. The file name holds every
+// setting, so each size is made once per run whichever test asks first.
+inline std::filesystem::path analyticUtmDem(int pixels) {
+  return sharedFixture("analytic_utm33_" + std::to_string(pixels) + ".tif", [pixels](const std::filesystem::path& path) {
+    test_support::writeUtmDem(path, 15.3, 60.0, 30.0, pixels, pixels);
+  });
 }
 
-// A generated input shared by several test cases, made once. Cases may run in
-// parallel processes, so the file appears atomically under its final name.
-inline std::filesystem::path sharedFixture(const std::string& name,
-                                           const std::function<void(const std::filesystem::path&)>& write) {
-  const auto dir = testOutput("fixtures");
-  std::filesystem::create_directories(dir);
-  const auto path = dir / name;
-  if (!std::filesystem::exists(path)) {
-    const auto temp = dir / (name + ".tmp" + std::to_string(::getpid()));
-    write(temp);
-    std::filesystem::rename(temp, path);
-  }
-  return path;
-}
+// The small DEM of the serve and MBTiles tests: 128 x 128 pixels, a few tiles at zooms 11-13.
+inline std::filesystem::path smallDem() { return analyticUtmDem(128); }
 
 inline config::TileJob tileJob(const std::filesystem::path& dem, const std::string& out_name,
                                SchemeKind scheme, int min_zoom, int max_zoom) {

@@ -35,6 +35,7 @@
 #include "server/http_rules.hpp"
 #include "server/layer_catalog.hpp"
 #include "server/server.hpp"
+#include "server_helpers.hpp"
 #include "support/analytic_terrain.hpp"
 #include "support/image_reader.hpp"
 
@@ -44,31 +45,11 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-// What ctest runs in parallel must not share a folder: each case gets its own.
-fs::path caseDir() {
-  const ::testing::TestInfo* info = ::testing::UnitTest::GetInstance()->current_test_info();
-  std::string name = std::string(info->test_suite_name()) + "." + info->name();
-  for (char& c : name) {
-    if (c == '/') c = '_';  // parameterised names
-  }
-  const fs::path dir = test::testOutput("mbtiles") / name;
-  fs::remove_all(dir);
-  fs::create_directories(dir);
-  return dir;
-}
-
-std::string readBytes(const fs::path& path) {
-  std::ifstream in(path, std::ios::binary);
-  return std::string(std::istreambuf_iterator<char>(in), {});
-}
-
-void writeBytes(const fs::path& path, const std::string& bytes) { std::ofstream(path, std::ios::binary) << bytes; }
-
-fs::path smallDem() {
-  return test::sharedFixture("analytic_utm33_128.tif", [](const fs::path& path) {
-    test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 128, 128);
-  });
-}
+using test::caseDir;
+using test::readBytes;
+using test::ServerThread;
+using test::smallDem;
+using test::writeBytes;
 
 struct SchemeCase {
   SchemeKind scheme;
@@ -395,22 +376,6 @@ TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
   }
   expectRefused();
 }
-
-// A server on an ephemeral port, run on a thread of its own until the scope ends.
-class ServerThread {
- public:
-  explicit ServerThread(const config::ServeConfig& config)
-      : m_server(config, server::openLayers(config)), m_thread([this] { m_server.run(); }) {}
-  ~ServerThread() {
-    m_server.stop();
-    m_thread.join();
-  }
-  int port() const { return m_server.port(); }
-
- private:
-  server::Server m_server;
-  std::thread m_thread;
-};
 
 TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   const fs::path dir = caseDir();

@@ -50,9 +50,7 @@ TileId webMercatorTileAt(double lon, double lat, int zoom) {
 // 30 km across: the zoom 11 tile (about 10 km of ground at 60 degrees north)
 // and its apron lie inside the DEM wherever the centre falls in it.
 std::filesystem::path analyticDem() {
-  return test::sharedFixture("analytic_utm33_1024.tif", [](const auto& path) {
-    ts::writeUtmDem(path, kCentreLon, kCentreLat, 30.0, 1024, 1024);
-  });
+  return test::analyticUtmDem(1024);
 }
 
 struct EdgeVertex {

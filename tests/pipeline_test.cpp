@@ -10,8 +10,8 @@
 #include <iterator>
 #include <map>
 
-#include "file_helpers.hpp"
 #include "layer_check.hpp"
+#include "test_helpers.hpp"
 #include "core/error.hpp"
 #include "dem/dem_source.hpp"
 #include "support/analytic_terrain.hpp"

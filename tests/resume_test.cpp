@@ -10,12 +10,13 @@
 #include <iterator>
 #include <map>
 #include <regex>
+#include <string>
 #include <thread>
 
 #include "child_process.hpp"
-#include "file_helpers.hpp"
 #include "layer_check.hpp"
 #include "support/analytic_terrain.hpp"
+#include "test_helpers.hpp"
 
 namespace terrabake {
 namespace {
@@ -29,9 +30,7 @@ constexpr std::size_t kMeshesBeforeCrash = 12;
 
 // About 90 tiles over zooms 11-14: long enough to be killed well before the end.
 fs::path demForRuns() {
-  return test::sharedFixture("analytic_utm33_256.tif", [](const auto& path) {
-    test_support::writeUtmDem(path, 15.3, 60.0, 30.0, 256, 256);
-  });
+  return test::analyticUtmDem(256);
 }
 
 std::vector<std::string> jobArgs(const fs::path& out) {
@@ -72,7 +71,19 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
 
   {
     test::ChildProcess doomed(jobArgs(crash_dir));
-    while (countMeshes(crash_dir) < kMeshesBeforeCrash) std::this_thread::sleep_for(std::chrono::milliseconds(2));
+    // The crash point, with a deadline: a run that dies or stalls before it
+    // fails the test here rather than leaving it to ctest's timeout.
+    test::waitUntil([&] { return countMeshes(crash_dir) >= kMeshesBeforeCrash || !doomed.running(); }, kRunLimit,
+                    std::chrono::milliseconds(2));
+    if (countMeshes(crash_dir) < kMeshesBeforeCrash) {
+      const bool exited = !doomed.running();
+      const int code = doomed.wait(std::chrono::seconds(5));  // collects what it said
+      FAIL() << "the run to be killed wrote " << countMeshes(crash_dir) << " of " << kMeshesBeforeCrash
+             << " meshes, then "
+             << (exited ? "exited with code " + std::to_string(code)
+                        : "was still running after " + std::to_string(kRunLimit.count()) + " min")
+             << "; stderr: " << doomed.err();
+    }
     doomed.signal(SIGKILL);
     EXPECT_EQ(doomed.wait(kRunLimit), -1) << "the run finished before it could be killed";
   }

@@ -23,10 +23,12 @@
 #include "support/analytic_terrain.hpp"
 #include "support/glb_reader.hpp"
 #include "support/image_reader.hpp"
+#include "test_helpers.hpp"
 
 namespace fs = std::filesystem;
 using nlohmann::json;
 using namespace terrabake::test_support;
+using terrabake::test::writeBytes;
 
 namespace {
 
@@ -317,11 +319,6 @@ std::vector<uint8_t> assembleGlb(const json& gltf, std::vector<uint8_t> bin) {
   u32(0x004E4942);
   out.insert(out.end(), bin.begin(), bin.end());
   return out;
-}
-
-void writeBytes(const fs::path& path, const std::vector<uint8_t>& bytes) {
-  std::ofstream out(path, std::ios::binary);
-  out.write(reinterpret_cast<const char*>(bytes.data()), std::streamsize(bytes.size()));
 }
 
 // A flat 2 m x 2 m quad, UV (0, 0) at its north-west corner. The indices come

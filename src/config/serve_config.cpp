@@ -12,7 +12,7 @@ using kt::text;
 constexpr int kMaxPort = 65535;
 constexpr int kYearS = 365 * 24 * 3600;  // the longest max-age caches are asked to honour
 
-// The one table of keys of a serve file; server_test checks config/README.md against it.
+// The one table of keys of a serve file; config_test checks config/README.md against it.
 const kt::KeyTable<ServeConfig>& table() {
   static const kt::KeyTable<ServeConfig> kTable({
       {"tiles", "--tiles", "path", "folder whose subfolders are layers (each with a tilejson.json)",

@@ -34,7 +34,10 @@ std::uint64_t BakeQueue::finishedCount() const {
 BakeQueue::Ticket BakeQueue::request(const TileId& tile, std::uint64_t finished_seen) {
   std::lock_guard<std::mutex> lock(m_mutex);
   const auto found = m_in_flight.find(tile);
-  if (found != m_in_flight.end()) return {Ticket::Kind::kWait, found->second.outcome};
+  if (found != m_in_flight.end()) {
+    ++m_counters.joined;
+    return {Ticket::Kind::kWait, found->second.outcome};
+  }
   if (m_finished != finished_seen) return {Ticket::Kind::kLookAgain, {}};
   if (m_stopping || m_waiting.size() >= m_capacity) {
     ++m_counters.rejected;

@@ -27,6 +27,7 @@ struct TileAnswer {
 // On-demand bakes since start; all zero for layers that never bake.
 struct BakeCounters {
   std::uint64_t started = 0;
+  std::uint64_t joined = 0;    // requests that attached to a bake already queued or running
   std::uint64_t written = 0;   // baked and written to the layer
   std::uint64_t empty = 0;     // no valid DEM sample: nothing to write
   std::uint64_t failed = 0;

@@ -165,6 +165,7 @@ HttpReply RequestHandler::health() const {
   for (const auto& [name, layer] : m_layers) {
     const BakeCounters c = layer->bakeCounters();
     total.started += c.started;
+    total.joined += c.joined;
     total.written += c.written;
     total.empty += c.empty;
     total.failed += c.failed;
@@ -176,6 +177,7 @@ HttpReply RequestHandler::health() const {
   reply.body = Json{{"status", "ok"},
                     {"layers", m_layers.size()},
                     {"bakes_started", total.started},
+                    {"bakes_joined", total.joined},
                     {"bakes_written", total.written},
                     {"bakes_empty", total.empty},
                     {"bakes_failed", total.failed},

@@ -1,24 +1,32 @@
 #!/usr/bin/env bash
-# Runs terrabake_bench (it builds nothing: build the terrabake_bench target
-# first) and prints milliseconds per tile, each bake backend against the CPU
-# reference baker, and whole tiles per second.
+# Builds terrabake_bench with the `bench` preset (Release, benchmarks on, in
+# build-bench/) and prints milliseconds per tile, each bake backend against
+# the CPU reference baker, and whole tiles per second.
 #
 #   tests/benchmarks/run_benchmarks.sh [build_dir] [benchmark options...]
 #
-# build_dir defaults to "build"; options go to terrabake_bench, for example
-# --benchmark_filter=BM_Bake or --benchmark_repetitions=5 (the table then
-# shows medians). Timings on a shared machine are noisy: compare rows of one
-# run, not runs on different days.
+# Without build_dir it runs `cmake --workflow --preset bench` first, which
+# brings build-bench/ up to date (the first build takes several minutes on 2
+# cores). A build_dir given is used as it is: configure it with
+# -DTERRABAKE_BUILD_BENCHMARKS=ON and build the terrabake_bench target first.
+# Options go to terrabake_bench, for example --benchmark_filter=BM_Bake or
+# --benchmark_repetitions=5 (the table then shows medians). Timings on a
+# shared machine are noisy: compare rows of one run, not runs on different days.
 set -euo pipefail
 
-build_dir=build
+repo=$(cd "$(dirname "$0")/../.." && pwd)
 if [[ $# -gt 0 && $1 != -* ]]; then
   build_dir=$1
   shift
+else
+  build_dir=$repo/build-bench
+  echo "building terrabake_bench: cmake --workflow --preset bench" >&2
+  (cd "$repo" && cmake --workflow --preset bench) >&2
 fi
 bench=$build_dir/tests/benchmarks/terrabake_bench
 if [[ ! -x $bench ]]; then
-  echo "run_benchmarks.sh: $bench not found; build it: cmake --build $build_dir --target terrabake_bench" >&2
+  echo "run_benchmarks.sh: $bench not found; build it: cmake --workflow --preset bench" \
+    "(or configure $build_dir with -DTERRABAKE_BUILD_BENCHMARKS=ON and build its terrabake_bench target)" >&2
   exit 1
 fi
 

@@ -1,0 +1,99 @@
+// The terrabake executable's `serve` subcommand as a child process: the start
+// line with the port it took, answers, SIGTERM and SIGINT stop it cleanly,
+// bad flags and missing folders are one-line errors.
+#include <gtest/gtest.h>
+
+#include <signal.h>
+
+#include <algorithm>
+#include <chrono>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "child_process.hpp"
+#include "server_helpers.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace test;
+
+// SIGTERM to exit: the keep-alive timeout (2 s) plus room for a loaded machine.
+constexpr auto kStopLimit = std::chrono::seconds(10);
+
+// `terrabake serve` as a child process.
+std::vector<std::string> serveArgs(std::vector<std::string> args) {
+  args.insert(args.begin(), "serve");
+  return args;
+}
+
+// Sends `signal` and waits for the exit; the exit code (-1: no clean exit in
+// time) and how long it took.
+int stopWith(test::ChildProcess& process, int signal, std::chrono::milliseconds* took) {
+  const auto start = std::chrono::steady_clock::now();
+  process.signal(signal);
+  const int code = process.wait(kStopLimit);
+  *took = std::chrono::duration_cast<std::chrono::milliseconds>(std::chrono::steady_clock::now() - start);
+  return code;
+}
+
+TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
+  const Case c = makeCase();
+  const fs::path config = c.dir / "serve.yaml";
+  writeText(config, "viewer:\n  dir: viewer\nlayers: [live.yaml]\nhttp:\n  port: 8080\n");
+  test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
+
+  const std::string line = process.firstLine(kWaitLimit);
+  const std::string start = "terrabake: serving " + c.tiles.string() + " on http://127.0.0.1:";
+  ASSERT_TRUE(startsWith(line, start)) << "stdout: " << line << "\nstderr: " << process.err();
+  ASSERT_EQ(line.substr(line.size() - 2), "/\n") << line;
+  const int port = std::stoi(line.substr(start.size()));
+  ASSERT_GT(port, 0);
+
+  const auto reply = get(port, "/health");
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->status, 200);
+  const auto tile = get(port, tileUrl("live", c.someTile(), "png"));
+  ASSERT_TRUE(tile);
+  EXPECT_EQ(tile->status, 200);
+
+  std::chrono::milliseconds took{};
+  EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
+  EXPECT_LT(took, kStopLimit);
+  EXPECT_EQ(process.out(), line) << "exactly one line on stdout";
+  EXPECT_EQ(process.err().find("error"), std::string::npos) << process.err();
+}
+
+TEST(ServeCli, SigintStopsItToo) {
+  const Case c = makeCase();
+  test::ChildProcess process(serveArgs({"--tiles", c.tiles.string(), "--port", "0"}));
+  ASSERT_FALSE(process.firstLine(kWaitLimit).empty()) << process.err();
+  std::chrono::milliseconds took{};
+  EXPECT_EQ(stopWith(process, SIGINT, &took), 0) << process.err();
+}
+
+TEST(ServeCli, BadFlagsAndMissingFoldersAreOneLineErrors) {
+  const fs::path dir = caseDir();
+  const struct {
+    std::vector<std::string> args;
+    int exit_code;
+    std::string culprit;
+  } cases[] = {
+      {{"--tiles", dir.string(), "--port", "70000"}, 2, "--port"},
+      {{"--tiles", dir.string(), "--bind", "not a host"}, 2, "--bind"},
+      {{"--tiles", (dir / "missing").string(), "--port", "0"}, 3, (dir / "missing").string()},
+      {{"--config", (dir / "missing.yaml").string()}, 3, "missing.yaml"},
+  };
+  for (const auto& bad : cases) {
+    test::ChildProcess process(serveArgs(bad.args));
+    EXPECT_EQ(process.wait(kStopLimit), bad.exit_code) << process.err();
+    EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
+    EXPECT_NE(process.err().find(bad.culprit), std::string::npos) << process.err();
+    EXPECT_EQ(process.out(), "");
+  }
+}
+
+}  // namespace
+}  // namespace terrabake

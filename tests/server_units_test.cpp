@@ -1,0 +1,167 @@
+// Tests of `terrabake serve` that need no server: the serve config (file,
+// defaults, errors), the router (routes, malformed and unknown paths) and the
+// HTTP rules (If-None-Match, content types, hosts).
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "config/serve_config.hpp"
+#include "core/error.hpp"
+#include "core/types.hpp"
+#include "server/http_rules.hpp"
+#include "server/route.hpp"
+#include "test_helpers.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using server::Route;
+using io::TileFormat;
+using test::caseDir;
+using test::readBytes;
+using test::startsWith;
+using test::writeText;
+
+const fs::path kSourceDir = fs::path(TERRABAKE_SOURCE_DIR).lexically_normal();
+
+// --- The serve config --------------------------------------------------------
+
+TEST(ServeConfig, LoadsTheSampleServeFile) {
+  const std::string path = (kSourceDir / "config" / "serve.yaml").string();
+  const config::ServeConfig config = config::loadServeConfig(path);
+  EXPECT_EQ(config.tiles_dir, (kSourceDir / "tiles").string());
+  EXPECT_EQ(config.layer_jobs, std::vector<std::string>{(kSourceDir / "config" / "sample.yaml").string()});
+  EXPECT_EQ(config.bind, "127.0.0.1");
+  EXPECT_EQ(config.port, 8080);
+  EXPECT_EQ(config.tile_max_age_s, 3600);
+  EXPECT_NO_THROW(config::validate(config, path));
+}
+
+TEST(ServeConfig, DefaultsBindToThisMachineAndServeTheBuiltInViewer) {
+  const config::ServeConfig config;
+  EXPECT_EQ(config.bind, "127.0.0.1");
+  EXPECT_TRUE(config.layer_jobs.empty());
+  EXPECT_EQ(fs::path(config.viewer_dir), kSourceDir / "src" / "server" / "viewer");
+  EXPECT_NO_THROW(config::validate(config, "defaults"));
+}
+
+TEST(ServeConfig, ReadmeDocumentsEveryKey) {
+  const std::string readme = readBytes(kSourceDir / "config" / "README.md");
+  ASSERT_FALSE(readme.empty()) << "config/README.md is missing";
+  for (const config::KeyInfo& key : config::listServeKeys()) {
+    EXPECT_NE(readme.find("`" + key.name + "`"), std::string::npos) << key.name << " is not in config/README.md";
+  }
+}
+
+TEST(ServeConfig, ErrorsNameFileLineAndKey) {
+  const fs::path dir = caseDir();
+  const fs::path path = dir / "serve.yaml";
+  writeText(path, "tiles: t\nhttp:\n  port: 70000\n");
+  try {
+    config::loadServeConfig(path.string());
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_EQ(std::string(e.what()), path.string() + ":3: http.port: must be between 0 and 65535, got 70000");
+  }
+  writeText(path, "htp:\n  port: 1\n");
+  try {
+    config::loadServeConfig(path.string());
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_EQ(std::string(e.what()), path.string() + ":1: htp: unknown key (did you mean 'http'?)");
+  }
+  config::ServeConfig config;
+  try {
+    config::applyOverride(config, "http.bind", "a host", "--bind");
+    ADD_FAILURE() << "no error";
+  } catch (const UsageError& e) {
+    EXPECT_EQ(std::string(e.what()), "--bind: http.bind: must be an IP address or a host name, got 'a host'");
+  }
+}
+
+TEST(ServeConfig, EmptyFileMeansDefaultsAndLayersMayBeAnEmptyList) {
+  const fs::path dir = caseDir();
+  writeText(dir / "empty.yaml", "");
+  EXPECT_EQ(config::loadServeConfig((dir / "empty.yaml").string()).port, 8080);
+  writeText(dir / "none.yaml", "layers: []\n");
+  EXPECT_TRUE(config::loadServeConfig((dir / "none.yaml").string()).layer_jobs.empty());
+}
+
+// --- Routes and HTTP rules, without a server ----------------------------------
+
+TEST(ServeRoutes, KnownRoutes) {
+  EXPECT_EQ(server::parseRoute("/").kind, Route::Kind::kViewerPage);
+  EXPECT_EQ(server::parseRoute("/health").kind, Route::Kind::kHealth);
+  EXPECT_EQ(server::parseRoute("/layers.json").kind, Route::Kind::kLayerList);
+  const Route viewer = server::parseRoute("/viewer/lib/viewer.js");
+  EXPECT_EQ(viewer.kind, Route::Kind::kViewerFile);
+  EXPECT_EQ(viewer.file, "lib/viewer.js");
+  const Route three = server::parseRoute("/vendor/three/examples/jsm/controls/OrbitControls.js");
+  EXPECT_EQ(three.kind, Route::Kind::kVendorFile);
+  EXPECT_EQ(three.file, "examples/jsm/controls/OrbitControls.js");
+  const Route tilejson = server::parseRoute("/sample/tilejson.json");
+  EXPECT_EQ(tilejson.kind, Route::Kind::kTileJson);
+  EXPECT_EQ(tilejson.layer, "sample");
+  const Route tile = server::parseRoute("/sample/12/2161/1448.hires.glb");
+  ASSERT_EQ(tile.kind, Route::Kind::kTile);
+  EXPECT_EQ(tile.layer, "sample");
+  EXPECT_EQ(tile.tile, (TileId{12, 2161, 1448}));
+  EXPECT_EQ(tile.format, io::TileFormat::kHighResGlb);
+  EXPECT_EQ(server::parseRoute("/sample/0/0/0.png").format, io::TileFormat::kPng);
+  EXPECT_EQ(server::parseRoute("/sample/0/0/0.glb").format, io::TileFormat::kGlb);
+}
+
+TEST(ServeRoutes, MalformedPathsAreBadRequests) {
+  for (const char* path :
+       {"/sample/a/b/c.png", "/sample/-1/0/0.png", "/sample/12/-5/3.png", "/sample/12/1/99999999999.png",
+        "/sample/25/0/0.png", "/sample/12/1/1.jpg", "/sample/12/1/1", "/sample/12/1/1.", "/sample/012/1/1.png",
+        "/sample/+3/1/1.png", "/sample/12/1/2/3.png", "/sample/12/1", "/sample/../etc/passwd", "/viewer/../x",
+        "/viewer/./x", "//etc/passwd", "/viewer//etc/passwd", "/vendor/three/../../x", "/viewer/a\\b",
+        "/sample/12/1/1.png/", "relative/path", "/a b/tilejson.json"}) {
+    EXPECT_EQ(server::parseRoute(path).kind, Route::Kind::kBadRequest) << path;
+  }
+  EXPECT_EQ(server::parseRoute(std::string("/viewer/a\0b", 11)).kind, Route::Kind::kBadRequest);
+  EXPECT_EQ(server::parseRoute("/viewer/a\nb").kind, Route::Kind::kBadRequest);
+}
+
+TEST(ServeRoutes, UnknownPathsAreNotFound) {
+  for (const char* path : {"/favicon.ico", "/sample", "/sample/other.json", "/vendor/other/x.js", "/viewer"}) {
+    EXPECT_EQ(server::parseRoute(path).kind, Route::Kind::kNotFound) << path;
+  }
+}
+
+TEST(ServeHttpRules, IfNoneMatchComparesWeakly) {
+  const std::string etag = "\"abc-12\"";
+  EXPECT_TRUE(server::noneMatchHits("\"abc-12\"", etag));
+  EXPECT_TRUE(server::noneMatchHits("W/\"abc-12\"", etag));
+  EXPECT_TRUE(server::noneMatchHits("\"x\", \"abc-12\"", etag));
+  EXPECT_TRUE(server::noneMatchHits("*", etag));
+  EXPECT_FALSE(server::noneMatchHits("", etag));
+  EXPECT_FALSE(server::noneMatchHits("\"abc-13\"", etag));
+  EXPECT_FALSE(server::noneMatchHits("abc-12", etag));
+}
+
+TEST(ServeHttpRules, ContentTypes) {
+  EXPECT_EQ(server::contentTypeFor("a/b.png"), "image/png");
+  EXPECT_EQ(server::contentTypeFor("1.hires.glb"), "model/gltf-binary");
+  EXPECT_EQ(server::contentTypeFor("tilejson.json"), "application/json");
+  EXPECT_TRUE(startsWith(server::contentTypeFor("index.html"), "text/html"));
+  EXPECT_TRUE(startsWith(server::contentTypeFor("three.module.js"), "text/javascript"));
+  EXPECT_TRUE(startsWith(server::contentTypeFor("x.mjs"), "text/javascript"));
+  EXPECT_EQ(server::contentTypeFor("x.bin"), "application/octet-stream");
+}
+
+TEST(ServeHttpRules, OnlyPlausibleHostsBuildUrls) {
+  for (const char* host : {"127.0.0.1:8080", "example.org", "[::1]:80", "tiles.example.org:443"}) {
+    EXPECT_TRUE(server::isPlausibleHost(host)) << host;
+  }
+  for (const char* host : {"", "a b", "evil\"host", "x/y", "h:port", "[::1"}) {
+    EXPECT_FALSE(server::isPlausibleHost(host)) << host;
+  }
+}
+
+}  // namespace
+}  // namespace terrabake
