@@ -110,6 +110,13 @@ inline Case makeCase(const std::string& live_backend = "cpu") {
   return c;
 }
 
+// A server's layer list holding just `layer`.
+inline std::vector<std::unique_ptr<server::LayerSource>> onlyLayer(std::unique_ptr<server::LayerSource> layer) {
+  std::vector<std::unique_ptr<server::LayerSource>> layers;
+  layers.push_back(std::move(layer));
+  return layers;
+}
+
 // A server on an ephemeral port, run on a thread of its own; the destructor is
 // the scope guard that stops and joins it, whatever the test did.
 class ServerThread {

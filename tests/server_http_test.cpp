@@ -466,11 +466,7 @@ TEST(ServeOnDemand, RequestsWaitingOnOneHeldBakeShareIt) {
     return std::optional<io::TileFiles>(fakeFiles());
   });
   server::LayerSource* fake = layer.get();
-  ServerThread running(fakeConfig(dir), [&] {
-    std::vector<std::unique_ptr<server::LayerSource>> layers;
-    layers.push_back(std::move(layer));
-    return layers;
-  }());
+  ServerThread running(fakeConfig(dir), onlyLayer(std::move(layer)));
   std::vector<std::thread> clients;
   std::vector<int> statuses(4);
   for (int i = 0; i < 4; ++i) {
@@ -503,11 +499,7 @@ TEST(ServeOnDemand, AFullQueueAnswers503WithRetryAfter) {
   server::LayerSource* fake = layer.get();
   config::ServeConfig config = fakeConfig(dir);
   config.retry_after_s = 7;
-  ServerThread running(config, [&] {
-    std::vector<std::unique_ptr<server::LayerSource>> layers;
-    layers.push_back(std::move(layer));
-    return layers;
-  }());
+  ServerThread running(config, onlyLayer(std::move(layer)));
 
   int baking_status = 0, waiting_status = 0;
   std::thread baking([&] { baking_status = statusOf(running.port(), "/fake/5/0/0.png"); });
@@ -553,11 +545,7 @@ TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
   auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) -> std::optional<io::TileFiles> {
     throw std::runtime_error("injected failure");
   });
-  ServerThread running(fakeConfig(dir), [&] {
-    std::vector<std::unique_ptr<server::LayerSource>> layers;
-    layers.push_back(std::move(layer));
-    return layers;
-  }());
+  ServerThread running(fakeConfig(dir), onlyLayer(std::move(layer)));
   const auto reply = get(running.port(), "/fake/4/2/3.glb");
   ASSERT_TRUE(reply);
   EXPECT_EQ(reply->status, 500);
@@ -568,11 +556,7 @@ TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
 TEST(ServeOnDemand, ATileWithoutDemSamplesIs404) {
   const fs::path dir = caseDir();
   auto layer = fakeLayer(dir / "tiles", 1, 4, [](const TileId&) { return std::optional<io::TileFiles>(); });
-  ServerThread running(fakeConfig(dir), [&] {
-    std::vector<std::unique_ptr<server::LayerSource>> layers;
-    layers.push_back(std::move(layer));
-    return layers;
-  }());
+  ServerThread running(fakeConfig(dir), onlyLayer(std::move(layer)));
   const auto reply = get(running.port(), "/fake/4/2/3.png");
   ASSERT_TRUE(reply);
   EXPECT_EQ(reply->status, 404);
@@ -605,11 +589,7 @@ TEST(ServeOnDemand, StopFinishesTheRunningBakeAndAbandonsQueuedOnes) {
     return std::optional<io::TileFiles>(fakeFiles());
   });
   server::LayerSource* fake = layer.get();
-  ServerThread running(fakeConfig(dir), [&] {
-    std::vector<std::unique_ptr<server::LayerSource>> layers;
-    layers.push_back(std::move(layer));
-    return layers;
-  }());
+  ServerThread running(fakeConfig(dir), onlyLayer(std::move(layer)));
   int running_status = 0, queued_status = 0;
   std::thread running_client([&] { running_status = statusOf(running.port(), "/fake/6/1/1.png"); });
   ASSERT_TRUE(gate.waitEntered(1));
