@@ -3,10 +3,9 @@
 #include <iterator>
 
 #include "core/error.hpp"
-#include "io/tile_files.hpp"
-#include "pipeline/mbtiles_sink.hpp"
-#include "pipeline/tile_sink.hpp"
 #include "io/layer_layout.hpp"
+#include "io/tile_files.hpp"
+#include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
 namespace {
@@ -55,7 +54,8 @@ class FolderSink : public TileSink {
   void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
 
   void finish(const std::string& tilejson) override {
-    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(), std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
+    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
+                            std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
   }
 
  private:
@@ -67,14 +67,6 @@ class FolderSink : public TileSink {
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh) {
   return std::make_unique<FolderSink>(layer_dir, high_res_mesh);
-}
-
-std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
-  const bool high_res_mesh = plan.settings.high_res_mesh;
-  if (plan.format == OutputFormat::kMbtiles) {
-    return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
-  }
-  return openFolderSink(plan.location, high_res_mesh);
 }
 
 }  // namespace terrabake::pipeline

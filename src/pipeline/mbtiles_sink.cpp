@@ -1,4 +1,4 @@
-#include "pipeline/mbtiles_sink.hpp"
+#include "pipeline/sink_kinds.hpp"
 
 #include <filesystem>
 #include <mutex>

@@ -1,6 +1,7 @@
 #pragma once
-// The two kinds of sink: a layer folder, or one MBTiles file
-// (config/README.md, "MBTiles").
+// The two kinds of sink openSink() chooses between: a layer folder
+// (folder_sink.cpp), or one MBTiles file (mbtiles_sink.cpp; config/README.md,
+// "MBTiles"). Internal to the pipeline module.
 #include <memory>
 #include <string>
 
@@ -8,9 +9,8 @@
 
 namespace terrabake::pipeline {
 
-// The sinks openSink() chooses between. `tms_rows`: the scheme's y counts
-// from the south already (geodetic) and is stored as it is; otherwise MBTiles
-// rows are flipped.
+// `tms_rows`: the scheme's y counts from the south already (geodetic) and is
+// stored as it is; otherwise MBTiles rows are flipped.
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
 

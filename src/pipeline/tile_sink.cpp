@@ -1,0 +1,15 @@
+#include "pipeline/tile_sink.hpp"
+
+#include "pipeline/sink_kinds.hpp"
+
+namespace terrabake::pipeline {
+
+std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
+  const bool high_res_mesh = plan.settings.high_res_mesh;
+  if (plan.format == OutputFormat::kMbtiles) {
+    return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
+  }
+  return openFolderSink(plan.location, high_res_mesh);
+}
+
+}  // namespace terrabake::pipeline
