@@ -20,17 +20,11 @@
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core;
 // `cd tests && npm ci` installs the latter). CHROMIUM=<path> picks another browser.
-import { spawn } from 'node:child_process';
 import { existsSync } from 'node:fs';
-import { mkdir, mkdtemp, rm, writeFile } from 'node:fs/promises';
-import os from 'node:os';
+import { mkdir, rm, writeFile } from 'node:fs/promises';
 import path from 'node:path';
-import { fileURLToPath } from 'node:url';
-import zlib from 'node:zlib';
 
-const kRepo = path.resolve(path.dirname(fileURLToPath(import.meta.url)), '../..');
-const kChromium = process.env.CHROMIUM || '/usr/bin/chromium';
-const kSkip = 77;
+import { createBrowserTest, decodePng, encodePngRgb, kRepo } from './browser_test_support.mjs';
 
 // Limits. The whole test takes about 30 s on the 2-core development machine.
 const kTileTimeoutMs = 180_000;
@@ -66,203 +60,11 @@ const kMinTerrainShare = 0.25;
 // terrain is lit neutral grey, the background is light blue (170, 200, 230).
 const kGreyTolerance = 4;
 
-const failures = [];
-function fail(message) {
-  failures.push(message);
-  console.error(`viewer_test: FAIL: ${message}`);
-}
-function log(message) {
-  console.log(`viewer_test: ${message}`);
-}
+const t = createBrowserTest('viewer_test', { watchdogMs: kWatchdogMs });
+const { fail, log } = t;
 
 // ---------------------------------------------------------------------------
-// Processes
-
-const children = new Set();
-let browserContext = null;
-let profileDir = null;
-
-function runToEnd(command, args, timeoutMs) {
-  return new Promise((resolve) => {
-    const child = spawn(command, args, { stdio: ['ignore', 'pipe', 'pipe'] });
-    children.add(child);
-    let output = '';
-    child.stdout.on('data', (d) => { output += d; });
-    child.stderr.on('data', (d) => { output += d; });
-    const timer = setTimeout(() => child.kill('SIGKILL'), timeoutMs);
-    child.on('error', (error) => { output += `${error.message}\n`; });
-    child.on('close', (code, signal) => {
-      clearTimeout(timer);
-      children.delete(child);
-      resolve({ code, signal, output });
-    });
-  });
-}
-
-// Starts `terrabake serve` and resolves to {child, url} once it prints its line.
-function startServer(terrabake, tilesDir) {
-  return new Promise((resolve, reject) => {
-    const child = spawn(terrabake, ['serve', '--tiles', tilesDir, '--port', '0'], { stdio: ['ignore', 'pipe', 'pipe'] });
-    children.add(child);
-    let stdout = '';
-    let stderr = '';
-    let settled = false;
-    const settle = (fn, value) => {
-      if (settled) return;
-      settled = true;
-      clearTimeout(timer);
-      fn(value);
-    };
-    const timer = setTimeout(() => settle(reject, new Error(
-      `terrabake serve printed no 'serving ... on http://127.0.0.1:<port>/' line within ${kServeStartTimeoutMs / 1000} s; stdout: ${JSON.stringify(stdout)} stderr: ${JSON.stringify(stderr)}`)), kServeStartTimeoutMs);
-    child.stdout.on('data', (d) => {
-      stdout += d;
-      const match = stdout.match(/^terrabake: serving .+ on (http:\/\/127\.0\.0\.1:(\d+)\/)\r?$/m);
-      if (match && Number(match[2]) > 0) settle(resolve, { child, url: match[1] });
-    });
-    child.stderr.on('data', (d) => { stderr += d; });
-    child.on('error', (error) => settle(reject, new Error(`cannot start terrabake serve: ${error.message}`)));
-    child.on('exit', (code, signal) => {
-      children.delete(child);
-      settle(reject, new Error(`terrabake serve exited (code ${code}, signal ${signal}) before announcing its port: ${stderr.trim() || stdout.trim()}`));
-    });
-  });
-}
-
-// SIGTERM, then waits for the exit; SIGKILL if it does not come. Resolves to
-// a description of how it ended.
-function stopProcess(child, timeoutMs) {
-  return new Promise((resolve) => {
-    if (child.exitCode !== null || child.signalCode !== null) {
-      resolve({ code: child.exitCode, signal: child.signalCode, already: true });
-      return;
-    }
-    const timer = setTimeout(() => {
-      child.kill('SIGKILL');
-      resolve({ code: null, signal: 'SIGKILL', timedOut: true });
-    }, timeoutMs);
-    child.once('exit', (code, signal) => {
-      clearTimeout(timer);
-      children.delete(child);
-      resolve({ code, signal });
-    });
-    child.kill('SIGTERM');
-  });
-}
-
-let cleanedUp = false;
-async function cleanup() {
-  if (cleanedUp) return;
-  cleanedUp = true;
-  if (browserContext) {
-    await Promise.race([browserContext.close().catch(() => {}), new Promise((r) => setTimeout(r, 10_000))]);
-    browserContext = null;
-  }
-  for (const child of children) child.kill('SIGKILL');
-  if (profileDir) await rm(profileDir, { recursive: true, force: true }).catch(() => {});
-}
-
-async function abort(message, code = 1) {
-  console.error(`viewer_test: ${code === kSkip ? 'SKIP' : 'FAIL'}: ${message}`);
-  await cleanup();
-  process.exit(code);
-}
-
-const watchdog = setTimeout(() => abort(`did not finish within ${kWatchdogMs / 1000} s`), kWatchdogMs);
-for (const signal of ['SIGINT', 'SIGTERM']) {
-  process.on(signal, () => abort(`interrupted by ${signal}`));
-}
-
-// ---------------------------------------------------------------------------
-// PNG (8-bit RGB/RGBA, not interlaced: what Chromium writes) and image metrics
-
-function crc32(bytes) {
-  let crc = ~0;
-  for (const byte of bytes) {
-    crc ^= byte;
-    for (let k = 0; k < 8; ++k) crc = (crc >>> 1) ^ (0xedb88320 & -(crc & 1));
-  }
-  return ~crc >>> 0;
-}
-
-function decodePng(buffer) {
-  if (buffer.readUInt32BE(0) !== 0x89504e47) throw new Error('not a PNG');
-  let offset = 8;
-  let width = 0;
-  let height = 0;
-  let channels = 0;
-  const idat = [];
-  while (offset < buffer.length) {
-    const length = buffer.readUInt32BE(offset);
-    const type = buffer.toString('latin1', offset + 4, offset + 8);
-    const data = buffer.subarray(offset + 8, offset + 8 + length);
-    if (type === 'IHDR') {
-      width = data.readUInt32BE(0);
-      height = data.readUInt32BE(4);
-      const [depth, colour, , , interlace] = data.subarray(8);
-      channels = { 2: 3, 6: 4 }[colour];
-      if (depth !== 8 || !channels || interlace !== 0) {
-        throw new Error(`unsupported PNG: depth ${depth}, colour type ${colour}, interlace ${interlace}`);
-      }
-    } else if (type === 'IDAT') {
-      idat.push(data);
-    }
-    offset += 12 + length;
-  }
-  const raw = zlib.inflateSync(Buffer.concat(idat));
-  const stride = width * channels;
-  const pixels = Buffer.alloc(height * stride);
-  for (let y = 0; y < height; ++y) {
-    const filter = raw[y * (stride + 1)];
-    const line = raw.subarray(y * (stride + 1) + 1, (y + 1) * (stride + 1));
-    const out = y * stride;
-    for (let i = 0; i < stride; ++i) {
-      const a = i >= channels ? pixels[out + i - channels] : 0;
-      const b = y > 0 ? pixels[out - stride + i] : 0;
-      const c = i >= channels && y > 0 ? pixels[out - stride + i - channels] : 0;
-      let predictor;
-      switch (filter) {
-        case 0: predictor = 0; break;
-        case 1: predictor = a; break;
-        case 2: predictor = b; break;
-        case 3: predictor = (a + b) >> 1; break;
-        case 4: {
-          const p = a + b - c;
-          const pa = Math.abs(p - a);
-          const pb = Math.abs(p - b);
-          const pc = Math.abs(p - c);
-          predictor = pa <= pb && pa <= pc ? a : pb <= pc ? b : c;
-          break;
-        }
-        default: throw new Error(`bad PNG filter ${filter}`);
-      }
-      pixels[out + i] = (line[i] + predictor) & 0xff;
-    }
-  }
-  // Always hand back RGB.
-  const rgb = Buffer.alloc(width * height * 3);
-  for (let p = 0; p < width * height; ++p) pixels.copy(rgb, p * 3, p * channels, p * channels + 3);
-  return { width, height, rgb };
-}
-
-function encodePngRgb(width, height, rgb) {
-  const raw = Buffer.alloc(height * (width * 3 + 1));
-  for (let y = 0; y < height; ++y) rgb.copy(raw, y * (width * 3 + 1) + 1, y * width * 3, (y + 1) * width * 3);
-  const chunk = (type, data) => {
-    const body = Buffer.concat([Buffer.from(type, 'latin1'), data]);
-    const head = Buffer.alloc(4);
-    head.writeUInt32BE(data.length);
-    const tail = Buffer.alloc(4);
-    tail.writeUInt32BE(crc32(body));
-    return Buffer.concat([head, body, tail]);
-  };
-  const ihdr = Buffer.alloc(13);
-  ihdr.writeUInt32BE(width, 0);
-  ihdr.writeUInt32BE(height, 4);
-  ihdr.set([8, 2, 0, 0, 0], 8);
-  return Buffer.concat([Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]),
-    chunk('IHDR', ihdr), chunk('IDAT', zlib.deflateSync(raw)), chunk('IEND', Buffer.alloc(0))]);
-}
+// Image metrics
 
 // Rec. 709 luma of the 8-bit sRGB values on screen, 0..255.
 function luma(rgb, p) {
@@ -303,31 +105,18 @@ function diffImage(a, b, mask) {
 // ---------------------------------------------------------------------------
 // Browser
 
-// Opens url in a new page; fails the test on console errors, page errors,
-// failed requests and HTTP errors; resolves to {page, stats, ms}.
+// Opens the viewer at url (failures as t.openPage says); resolves to
+// {page, stats, ms, ok} with the viewer's window.terrabakeStats.
 async function openViewer(url, name) {
-  const page = await browserContext.newPage();
-  const problems = [];
-  page.on('console', (message) => {
-    if (message.type() === 'error') problems.push(`console error: ${message.text()}`);
+  const opened = await t.openPage(url, name, {
+    timeoutMs: kPageTimeoutMs,
+    notReadyDetail: async (page) => {
+      const status = await page.locator('#status').textContent({ timeout: 1000 }).catch(() => '');
+      return status ? `viewer status: ${status}` : '';
+    },
   });
-  page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
-  page.on('requestfailed', (request) => problems.push(`request failed: ${request.url()} (${request.failure()?.errorText})`));
-  page.on('response', (response) => {
-    if (response.status() >= 400) problems.push(`HTTP ${response.status()}: ${response.url()}`);
-  });
-  const started = Date.now();
-  let stats = null;
-  try {
-    await page.goto(url, { waitUntil: 'load', timeout: kPageTimeoutMs });
-    await page.waitForFunction(() => window.terrabakeReady === true, null, { timeout: kPageTimeoutMs, polling: 100 });
-    stats = await page.evaluate(() => window.terrabakeStats);
-  } catch (error) {
-    const status = await page.locator('#status').textContent({ timeout: 1000 }).catch(() => '');
-    problems.push(`not ready: ${error.message.split('\n')[0]}${status ? ` (viewer status: ${status})` : ''}`);
-  }
-  for (const problem of problems) fail(`${name}: ${problem}`);
-  return { page, stats, ms: Date.now() - started, ok: problems.length === 0 };
+  const stats = opened.ok ? await opened.page.evaluate(() => window.terrabakeStats).catch(() => null) : null;
+  return { ...opened, stats };
 }
 
 // ---------------------------------------------------------------------------
@@ -335,57 +124,34 @@ async function openViewer(url, name) {
 async function main() {
   const [terrabakeArg, outArg] = process.argv.slice(2);
   if (!terrabakeArg || !outArg) {
-    await abort('usage: node tests/browser/viewer_test.mjs <terrabake executable> <output folder>', 2);
+    await t.abort('usage: node tests/browser/viewer_test.mjs <terrabake executable> <output folder>', 2);
   }
   const terrabake = path.resolve(terrabakeArg);
   const out = path.resolve(outArg);
-
-  let chromium;
-  try {
-    ({ chromium } = await import('playwright-core'));
-  } catch (error) {
-    await abort(`playwright-core is not installed (cd tests && npm ci): ${error.message}`, kSkip);
-  }
-  if (!existsSync(kChromium)) await abort(`no Chromium at ${kChromium} (set CHROMIUM=<path>)`, kSkip);
-  if (!existsSync(terrabake)) await abort(`no terrabake executable at ${terrabake}`);
+  await t.requireChromium();
+  if (!existsSync(terrabake)) await t.abort(`no terrabake executable at ${terrabake}`);
 
   // 1. A small layer.
   const tilesDir = path.join(out, 'tiles');
   await rm(tilesDir, { recursive: true, force: true });
   await mkdir(out, { recursive: true });
-  const tileArgs = ['tile', '--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', kView.z,
-    '--high-res-mesh', 'true', '--out', tilesDir, '--layer', kView.layer];
-  log(`${terrabake} ${tileArgs.join(' ')}`);
-  const tiled = await runToEnd(terrabake, tileArgs, kTileTimeoutMs);
-  if (tiled.code !== 0) await abort(`terrabake tile ended with code ${tiled.code} (signal ${tiled.signal}):\n${tiled.output}`);
+  await t.tile(terrabake, ['--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', kView.z,
+    '--high-res-mesh', 'true', '--out', tilesDir, '--layer', kView.layer], kTileTimeoutMs);
 
   // 2. The server.
   let server;
   try {
-    server = await startServer(terrabake, tilesDir);
+    server = await t.startServer(terrabake, tilesDir, kServeStartTimeoutMs);
   } catch (error) {
-    await abort(error.message);
+    await t.abort(error.message);
   }
   log(`server at ${server.url}`);
 
   // 3. The browser, with a fresh profile and nothing from the network.
-  profileDir = await mkdtemp(path.join(os.tmpdir(), 'terrabake-chromium-'));
-  try {
-    browserContext = await chromium.launchPersistentContext(profileDir, {
-      executablePath: kChromium,
-      headless: true,
-      // Room for the panel (220 px) beside the fixed-size canvas.
-      viewport: { width: Number(kView.width) + 280, height: Math.max(700, Number(kView.height) + 40) },
-      deviceScaleFactor: 1,
-      timeout: 60_000,
-      args: ['--headless=new', '--no-sandbox', '--disable-gpu', '--use-angle=swiftshader',
-        '--enable-unsafe-swiftshader', '--ignore-gpu-blocklist', '--disable-quic', '--no-first-run',
-        '--disable-background-networking', '--disable-component-update', '--disable-sync',
-        '--disable-extensions', '--disable-default-apps', '--no-default-browser-check'],
-    });
-  } catch (error) {
-    await abort(`cannot start Chromium (${kChromium}): ${error.message}`);
-  }
+  // Room for the panel (220 px) beside the fixed-size canvas.
+  await t.launchChromium({
+    viewport: { width: Number(kView.width) + 280, height: Math.max(700, Number(kView.height) + 40) },
+  });
 
   // As a user opens it: default layer and zoom, canvas filling the window.
   {
@@ -394,7 +160,7 @@ async function main() {
     await page.screenshot({ path: file }).catch((error) => fail(`screenshot ${file}: ${error.message}`));
     log(`viewer (no parameters): ${stats ? `${stats.tiles} tiles, ${stats.triangles} triangles` : 'not ready'}, ${ms} ms -> ${file}`);
     if (stats && !(stats.tiles > 0 && stats.triangles > 0)) fail(`viewer (no parameters) shows nothing: ${JSON.stringify(stats)}`);
-    await page.close();
+    await t.closePage(page);
   }
 
   // 4. One camera and sun, three kinds of mesh.
@@ -411,7 +177,7 @@ async function main() {
     } catch (error) {
       fail(`mode=${mode}: screenshot: ${error.message}`);
     }
-    await page.close();
+    await t.closePage(page);
     rows.push({ mode, stats, ms, file });
     if (!ok || !stats) continue;
     const expectedTiles = Number(kView.maxTiles);
@@ -489,28 +255,8 @@ async function main() {
   }
 
   // 6. Stop the server.
-  await browserContext.close().catch((error) => fail(`closing Chromium: ${error.message}`));
-  browserContext = null;
-  const stopped = await stopProcess(server.child, kServeStopTimeoutMs);
-  if (stopped.timedOut) {
-    fail(`terrabake serve did not exit within ${kServeStopTimeoutMs / 1000} s of SIGTERM (killed)`);
-  } else if (stopped.already) {
-    fail(`terrabake serve had already exited (code ${stopped.code}, signal ${stopped.signal}) before SIGTERM`);
-  } else {
-    log(`server stopped by SIGTERM (exit code ${stopped.code}, signal ${stopped.signal})`);
-  }
+  await t.closeChromium();
+  await t.stopServer(server, kServeStopTimeoutMs);
 }
 
-try {
-  await main();
-} catch (error) {
-  fail(`unexpected: ${error.stack || error}`);
-}
-await cleanup();
-clearTimeout(watchdog);
-if (failures.length) {
-  console.error(`viewer_test: ${failures.length} failure(s)`);
-  process.exit(1);
-}
-log('passed');
-process.exit(0);
+await t.run(main);
