@@ -83,7 +83,7 @@ const kSun = { azimuthDeg: 315, elevationDeg: 35, intensity: Math.PI };
 //   green flipped vs highres     mean 41.1,  p99 147
 //   lambert vs expected          mean  0.08, max  1.6
 //   where the two frames' maps differ (229 texels): normalmap mean 0.76,
-//   the earlier frame's map 2.7
+//   the per-pixel frame's map 2.7
 //
 // Normal-mapped against high-res. Both interpolate the same texel-centre
 // normals, but the texture bilinearly (tangent-space values, then the frame)
@@ -101,10 +101,10 @@ const kMinImprovement = 20;
 // Without its normal map the low-poly mesh must differ clearly (measured
 // 27.7), or the comparison says nothing.
 const kMinMeanBare = 10;
-// On the pixels of the texels where a map for the earlier frame (bitangent
+// On the pixels of the texels where a map for the per-pixel frame (bitangent
 // w * cross(N, T) per pixel) differs from one for three's frame by more than
 // one 8-bit step, the PNG must be at least this much closer to the high-res
-// render than the earlier frame's map (measured 3.6x), so a bake that went back
+// render than the per-pixel frame's map (measured 3.6x), so a bake that switched
 // to that frame fails. There must be enough such texels for a mean to mean
 // something (measured 229, fixed by the tile's meshes).
 const kMinFrameImprovement = 2;
@@ -300,11 +300,11 @@ async function main() {
   row('lowpoly (no normal map)', 'highres', bare);
   row('perVertexJs (map for three\'s frame)', 'highres', perVertex);
   row('perVertexFloat (the same, not rounded)', 'highres', perVertexFloat);
-  row('perPixelJs (map for the earlier frame)', 'highres', perPixel);
+  row('perPixelJs (map for the per-pixel frame)', 'highres', perPixel);
   row('greenFlipped (normalScale.y = -1)', 'highres', flipped);
   console.log(`  over the ${nmWhereFramesDiffer.n} pixels of the ${result.differing.length} texels where the two frames' maps differ by more than one step:`);
   row('  normalmap (the PNG)', 'highres', nmWhereFramesDiffer);
-  row('  perPixelJs (map for the earlier frame)', 'highres', perPixelWhereFramesDiffer);
+  row('  perPixelJs (map for the per-pixel frame)', 'highres', perPixelWhereFramesDiffer);
   row('highres (standard) - lambert: specular', 'lambert', specular);
   row('lambert (MeshLambertMaterial)', 'expected', lambert);
   row('normalmap (the PNG)', 'expected', nmExpected);
@@ -334,7 +334,7 @@ async function main() {
     fail(`the two frames' maps differ at only ${result.differing.length} texels (expected at least ${kMinDifferingTexels}): the frame check says nothing`);
   } else if (!(nmWhereFramesDiffer.mean * kMinFrameImprovement <= perPixelWhereFramesDiffer.mean)) {
     fail(`where the frames' maps differ, the PNG is within a mean of ${nmWhereFramesDiffer.mean.toFixed(2)} of the high-res render, ` +
-      `the earlier frame's map ${perPixelWhereFramesDiffer.mean.toFixed(2)}: not ${kMinFrameImprovement} times closer`);
+      `the per-pixel frame's map ${perPixelWhereFramesDiffer.mean.toFixed(2)}: not ${kMinFrameImprovement} times closer`);
   }
   if (!(nm.mean * kMinImprovement <= bare.mean)) {
     fail(`the normal map brings the low-poly mesh only ${(bare.mean / nm.mean).toFixed(1)} times closer to the high-res one (required ${kMinImprovement})`);
