@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdlib>
+#include <memory>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -120,6 +122,58 @@ TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   args.push_back("--force");
   test::ChildProcess forced(args);
   EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();
+}
+
+TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {
+  const fs::path dir = freshDir("foreign");
+  const fs::path layer = dir / "layer";
+  test::writeText(layer / "tilejson.json", "{\"tilejson\": \"3.0.0\", \"tiles\": [\"./{z}/{x}/{y}.png\"]}\n");
+  test::writeText(layer / "14" / "8848" / "4758.png", "not terrabake's image");
+  const auto before = test::snapshot(layer);
+  std::vector<std::string> args = jobArgs(dir);
+  args[4] = "14";
+  test::ChildProcess refused(args);
+  EXPECT_EQ(refused.wait(kRunLimit), 2);
+  EXPECT_NE(refused.err().find("no terrabake job made"), std::string::npos) << refused.err();
+  EXPECT_TRUE(test::snapshot(layer) == before) << "the refused run changed the foreign layer";
+  args.push_back("--force");
+  test::ChildProcess forced(args);
+  EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();
+}
+
+// Two different jobs started at the same moment into one new layer, each
+// with every write of the job record slowed down (slow_job_record.cpp) so
+// that their claims overlap: the claim is atomic, so exactly one of them gets
+// the layer and the other is refused, however their steps interleave.
+constexpr int kRaceTries = 20;
+
+// Sets LD_PRELOAD for the children started in its lifetime.
+class PreloadedChildren {
+ public:
+  explicit PreloadedChildren(const char* library) { ::setenv("LD_PRELOAD", library, 1); }
+  ~PreloadedChildren() { ::unsetenv("LD_PRELOAD"); }
+  PreloadedChildren(const PreloadedChildren&) = delete;
+  PreloadedChildren& operator=(const PreloadedChildren&) = delete;
+};
+
+TEST(Resume, OfTwoDifferentJobsStartedTogetherExactlyOneProceeds) {
+  for (int attempt = 0; attempt < kRaceTries; ++attempt) {
+    SCOPED_TRACE("attempt " + std::to_string(attempt));
+    const fs::path dir = freshDir("race");
+    std::vector<std::string> eight = jobArgs(dir);
+    eight[4] = "11";
+    std::vector<std::string> sixteen = eight;
+    sixteen.insert(sixteen.end(), {"--bits", "16"});
+    std::unique_ptr<test::ChildProcess> first, second;
+    {
+      const PreloadedChildren slow_claims(SLOW_JOB_RECORD_LIB);
+      first = std::make_unique<test::ChildProcess>(eight);
+      second = std::make_unique<test::ChildProcess>(sixteen);
+    }
+    const int first_code = first->wait(kRunLimit), second_code = second->wait(kRunLimit);
+    EXPECT_EQ((first_code == 0) + (second_code == 0), 1) << first->err() << second->err();
+    EXPECT_EQ((first_code == 2) + (second_code == 2), 1) << first->err() << second->err();
+  }
 }
 
 TEST(Shards, ThreeShardsWriteTheSingleRunsLayerOnce) {

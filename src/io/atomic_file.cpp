@@ -68,6 +68,39 @@ void writeAll(int fd, const std::vector<std::uint8_t>& bytes) {
   }
 }
 
+// Writes `bytes` to a new hidden temporary file beside `path` and returns its
+// name; the caller gives it its final name. The writer's host and process in
+// the name let a later run tell an abandoned one from a live one.
+std::string writeTempFile(const std::string& path, const std::vector<std::uint8_t>& bytes) {
+  const fs::path target(path);
+  const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
+  std::error_code ec;
+  fs::create_directories(folder, ec);
+  if (ec) throwWriteError(path, ec.value());
+
+  // Hidden, and never equal to a final name, so a half-written file is never
+  // mistaken for a tile.
+  std::string temp =
+      (folder / ("." + target.filename().string() + kTempMarker + writerTag() + "-XXXXXX")).string();
+  const int fd = ::mkstemp(temp.data());
+  if (fd < 0) throwWriteError(path, errno);
+
+  try {
+    if (::fchmod(fd, kFileMode) != 0) throw std::system_error(errno, std::generic_category());
+    writeAll(fd, bytes);
+  } catch (const std::system_error& e) {
+    ::close(fd);
+    ::unlink(temp.c_str());
+    throwWriteError(path, e.code().value());
+  }
+  if (::close(fd) != 0) {
+    const int error = errno;
+    ::unlink(temp.c_str());
+    throwWriteError(path, error);
+  }
+  return temp;
+}
+
 }  // namespace
 
 bool isAbandonedTempFile(const std::string& path) {
@@ -90,33 +123,22 @@ bool isAbandonedTempFile(const std::string& path) {
 // the system runs. Only a power cut could leave an empty tile behind, and
 // re-running that batch is cheaper than syncing each of thousands of tiles.
 void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t>& bytes) {
-  const fs::path target(path);
-  const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
-  std::error_code ec;
-  fs::create_directories(folder, ec);
-  if (ec) throwWriteError(path, ec.value());
-
-  // Hidden, and never equal to a final name, so a half-written file is never
-  // mistaken for a tile; the writer's host and process let a later run tell
-  // an abandoned one from a live one.
-  std::string temp =
-      (folder / ("." + target.filename().string() + kTempMarker + writerTag() + "-XXXXXX")).string();
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) throwWriteError(path, errno);
-
-  try {
-    if (::fchmod(fd, kFileMode) != 0) throw std::system_error(errno, std::generic_category());
-    writeAll(fd, bytes);
-  } catch (const std::system_error& e) {
-    ::close(fd);
-    ::unlink(temp.c_str());
-    throwWriteError(path, e.code().value());
-  }
-  if (::close(fd) != 0 || ::rename(temp.c_str(), path.c_str()) != 0) {
+  const std::string temp = writeTempFile(path, bytes);
+  if (::rename(temp.c_str(), path.c_str()) != 0) {
     const int error = errno;
     ::unlink(temp.c_str());
     throwWriteError(path, error);
   }
+}
+
+bool writeFileExclusively(const std::string& path, const std::vector<std::uint8_t>& bytes) {
+  const std::string temp = writeTempFile(path, bytes);
+  const int linked = ::link(temp.c_str(), path.c_str());
+  const int error = errno;
+  ::unlink(temp.c_str());
+  if (linked == 0) return true;
+  if (error == EEXIST) return false;
+  throwWriteError(path, error);
 }
 
 }  // namespace terrabake::io

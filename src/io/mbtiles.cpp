@@ -282,6 +282,22 @@ void MbtilesFile::setMetadata(const MetadataRows& rows) {
   transaction.commit();
 }
 
+std::string MbtilesFile::claimJob(const std::string& fingerprint) {
+  // In the file's journal mode as it is: a refused claim leaves every byte alone.
+  Impl::Transaction transaction(*m_impl);  // read and write under one lock: one claimant wins
+  const std::string recorded = metadata(kMbtilesJobRow).value_or("");
+  if (recorded.empty()) {
+    sqlite3_stmt* statement =
+        m_impl->prepared(m_impl->upsert_metadata, "INSERT OR REPLACE INTO metadata (name, value) VALUES (?1, ?2)");
+    const ResetOnExit reset{statement};
+    sqlite3_bind_text(statement, 1, kMbtilesJobRow, -1, SQLITE_STATIC);
+    sqlite3_bind_text64(statement, 2, fingerprint.c_str(), fingerprint.size(), SQLITE_STATIC, SQLITE_UTF8);
+    if (sqlite3_step(statement) != SQLITE_DONE) m_impl->fail("cannot write metadata");
+  }
+  transaction.commit();
+  return recorded;
+}
+
 bool MbtilesFile::hasTile(MbtilesTable table, const MbtilesKey& key) const {
   if (!m_impl->has_table[std::size_t(table)]) return false;
   sqlite3_stmt* statement = m_impl->keyed(m_impl->tile_exists, table, "SELECT 1 FROM ",

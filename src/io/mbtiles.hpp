@@ -66,6 +66,10 @@ class MbtilesFile {
   std::optional<std::string> metadata(const std::string& name) const;
   // Inserts or replaces the rows, in one transaction.
   void setMetadata(const MetadataRows& rows);
+  // Records `fingerprint` as the job that makes the layer if none is recorded
+  // yet, atomically across processes; returns what was recorded before (empty
+  // when this call claimed the file).
+  std::string claimJob(const std::string& fingerprint);
 
   bool hasTile(MbtilesTable table, const MbtilesKey& key) const;
   // nullopt when the table or the row is missing.

@@ -17,6 +17,12 @@ namespace terrabake::io {
 // rename, creating missing parent folders. Throws InputError naming the path.
 void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t>& bytes);
 
+// As writeFileAtomically, but only when `path` does not exist yet: of several
+// writers racing for one path exactly one creates it (a hard link, which
+// fails on an existing name). Returns false, writing nothing, when the path
+// exists.
+bool writeFileExclusively(const std::string& path, const std::vector<std::uint8_t>& bytes);
+
 // True for a temporary file of writeFileAtomically whose writer is gone: a
 // process of this host that no longer runs, or any writer over a minute ago.
 bool isAbandonedTempFile(const std::string& path);

@@ -1,6 +1,7 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <optional>
 
 #include "core/error.hpp"
 #include "io/layer_layout.hpp"
@@ -36,14 +37,24 @@ class FolderSink : public TileSink {
 
   std::string location() const override { return m_dir; }
 
-  std::string recordedJob() const override {
-    std::ifstream in(fs::path(m_dir) / io::kJobFile);
-    return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
-  }
-
-  void recordJob(const std::string& fingerprint) override {
-    io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
-                            std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+  void claim(const std::string& fingerprint, bool force) override {
+    const std::string record = (fs::path(m_dir) / io::kJobFile).string();
+    const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
+    std::error_code ec;
+    if (!fs::exists(record, ec)) {
+      // No job recorded: a new layer, or one another tool made.
+      if (const std::optional<std::string> found = foreignFile(); found && !force) {
+        throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
+                         "', which no terrabake job made; use another output.layer, or --force to write into it");
+      }
+      if (io::writeFileExclusively(record, bytes)) return;
+    }
+    // Recorded already, maybe by a run that started at the same moment.
+    std::ifstream in(record);
+    const std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    if (recorded == fingerprint) return;
+    if (!force) refuseDifferentJob(m_dir);
+    io::writeFileAtomically(record, bytes);
   }
 
   bool hasTile(const TileId& tile) const override {
@@ -59,6 +70,17 @@ class FolderSink : public TileSink {
   }
 
  private:
+  // A visible entry of the folder, which a layer without a job record should
+  // not have; hidden files are temporary files of writers.
+  std::optional<std::string> foreignFile() const {
+    std::error_code ec;
+    for (fs::directory_iterator it(m_dir, ec), end; !ec && it != end; it.increment(ec)) {
+      const std::string name = it->path().filename().string();
+      if (name.front() != '.') return name;
+    }
+    return std::nullopt;
+  }
+
   std::string m_dir;
   bool m_high_res_mesh;
 };

@@ -32,13 +32,11 @@ class MbtilesSink : public TileSink {
 
   std::string location() const override { return m_file->path(); }
 
-  std::string recordedJob() const override {
+  void claim(const std::string& fingerprint, bool force) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
-    return m_file->metadata(io::kMbtilesJobRow).value_or("");
-  }
-
-  void recordJob(const std::string& fingerprint) override {
-    const std::lock_guard<std::mutex> lock(m_mutex);
+    const std::string recorded = m_file->claimJob(fingerprint);
+    if (recorded.empty() || recorded == fingerprint) return;
+    if (!force) refuseDifferentJob(m_file->path());
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
   }
 

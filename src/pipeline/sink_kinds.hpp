@@ -11,6 +11,9 @@ namespace terrabake::pipeline {
 
 // `tms_rows`: the scheme's y counts from the south already (geodetic) and is
 // stored as it is; otherwise MBTiles rows are flipped.
+// The claim() error for a layer another job made.
+[[noreturn]] void refuseDifferentJob(const std::string& location);
+
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
 

@@ -19,17 +19,6 @@
 namespace terrabake::pipeline {
 namespace {
 
-// A layer holds one job's tiles: a run into a layer another job made would
-// mix them, so it needs --force.
-void claimLayer(TileSink& sink, const std::string& fingerprint, bool force) {
-  const std::string recorded = sink.recordedJob();
-  if (!recorded.empty() && recorded != fingerprint && !force) {
-    throw UsageError("output: layer '" + sink.location() +
-                     "' was made by a different job; use another output.layer, or --force to overwrite it");
-  }
-  if (recorded != fingerprint) sink.recordJob(fingerprint);
-}
-
 }  // namespace
 
 std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count) {
@@ -45,7 +34,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   // Everything that can fail for the whole run fails here, before any tile.
   const auto plan = std::make_shared<const LayerPlan>(planLayer(job));
   const std::unique_ptr<TileSink> sink = openSink(*plan);
-  claimLayer(*sink, plan->fingerprint, options.force);
+  sink->claim(plan->fingerprint, options.force);
   RunSummary summary;
   summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.

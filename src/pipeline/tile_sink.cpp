@@ -1,8 +1,14 @@
 #include "pipeline/tile_sink.hpp"
 
+#include "core/error.hpp"
 #include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
+
+void refuseDifferentJob(const std::string& location) {
+  throw UsageError("output: layer '" + location +
+                   "' was made by a different job; use another output.layer, or --force to overwrite it");
+}
 
 std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
   const bool high_res_mesh = plan.settings.high_res_mesh;

@@ -16,10 +16,11 @@ class TileSink {
   virtual ~TileSink() = default;
   // For messages: the folder or the file.
   virtual std::string location() const = 0;
-  // The job fingerprint the layer records; empty for a new layer.
-  virtual std::string recordedJob() const = 0;
-  // Records the job fingerprint before any tile is written.
-  virtual void recordJob(const std::string& fingerprint) = 0;
+  // Claims the layer for the job with `fingerprint` before any tile is
+  // written, atomically: of two different jobs started together into one new
+  // layer exactly one gets it. Throws UsageError when the layer was made by a
+  // different job, or holds files no terrabake job recorded, unless `force`.
+  virtual void claim(const std::string& fingerprint, bool force) = 0;
   // True when every file of the tile is there (what --resume skips).
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
