@@ -4,6 +4,10 @@
 #include <gdal_priv.h>
 
 #include <cmath>
+#include <cstdio>
+#include <map>
+#include <memory>
+#include <vector>
 
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
@@ -97,16 +101,22 @@ std::filesystem::path demWithUndeclaredVoids(GDALDataType type) {
   });
 }
 
-class UndeclaredVoids : public ::testing::TestWithParam<GDALDataType> {};
+struct VoidCase {
+  GDALDataType type;
+  int zoom;
+};
+
+class UndeclaredVoids : public ::testing::TestWithParam<VoidCase> {};
 
 TEST_P(UndeclaredVoids, BecomeHolesWithoutTouchingTheirNeighbours) {
-  const dem::DemSource dem({demWithUndeclaredVoids(GetParam()).string()});
+  const dem::DemSource dem({demWithUndeclaredVoids(GetParam().type).string()});
   EXPECT_FALSE(dem.info().nodata.has_value());
   // Web Mercator at 60 degrees north: every texel is interpolated from
-  // several DEM pixels, so a void marker mixed in would show as a spike.
+  // several DEM pixels (zoom 14, 19 m texels) or averages several (zoom 11,
+  // 153 m texels), so a void marker mixed in would show as a spike.
   const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 64);
   const Extent area = dem.boundsIn(scheme->crs());
-  const auto tiles = scheme->tilesCovering(area, 14);
+  const auto tiles = scheme->tilesCovering(area, GetParam().zoom);
   int holes = 0;
   for (const TileId& tile : tiles) {
     const GridSpec grid = scheme->texelGrid(tile, 2);
@@ -124,8 +134,158 @@ TEST_P(UndeclaredVoids, BecomeHolesWithoutTouchingTheirNeighbours) {
   EXPECT_GT(holes, 0);
 }
 
-INSTANTIATE_TEST_SUITE_P(Int16AndFloat32, UndeclaredVoids, ::testing::Values(GDT_Int16, GDT_Float32),
-                         [](const auto& test_info) { return std::string(test_info.param == GDT_Int16 ? "int16" : "float32"); });
+INSTANTIATE_TEST_SUITE_P(Int16AndFloat32, UndeclaredVoids,
+                         ::testing::Values(VoidCase{GDT_Int16, 14}, VoidCase{GDT_Float32, 14}, VoidCase{GDT_Int16, 11},
+                                           VoidCase{GDT_Float32, 11}),
+                         [](const auto& test_info) {
+                           return std::string(test_info.param.type == GDT_Int16 ? "int16" : "float32") + "_zoom" +
+                                  std::to_string(test_info.param.zoom);
+                         });
+
+}  // namespace
+}  // namespace terrabake
+
+namespace terrabake {
+namespace {
+
+namespace ts = test_support;
+
+// A 10 m UTM DEM (2 degrees off its zone's central meridian, so its grid
+// turns against Web Mercator's) whose heights are a plane in its own
+// coordinates.
+constexpr double kPlaneLon = 17.5, kPlaneLat = 55.0, kPlanePixelM = 10.0;
+constexpr int kPlanePixels = 256;
+constexpr double kPlaneBaseM = 1000, kPlaneSlopeEast = 0.3, kPlaneSlopeNorth = -0.2;
+
+double planeHeight(const glm::dvec2& utm, const glm::dvec2& centre) {
+  return kPlaneBaseM + kPlaneSlopeEast * (utm.x - centre.x) + kPlaneSlopeNorth * (utm.y - centre.y);
+}
+
+std::filesystem::path planeDem() {
+  return test::sharedFixture("plane_utm33_256.tif", [](const std::filesystem::path& path) {
+    const glm::dvec2 centre = ts::utm33(kPlaneLon, kPlaneLat);
+    const double west = centre.x - kPlanePixels / 2 * kPlanePixelM, north = centre.y + kPlanePixels / 2 * kPlanePixelM;
+    GDALAllRegister();
+    std::unique_ptr<GDALDataset> ds(GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        path.c_str(), kPlanePixels, kPlanePixels, 1, GDT_Float32, nullptr));
+    const double gt[6] = {west, kPlanePixelM, 0, north, 0, -kPlanePixelM};
+    ds->SetGeoTransform(const_cast<double*>(gt));
+    OGRSpatialReference utm;
+    utm.importFromEPSG(32633);
+    ds->SetSpatialRef(&utm);
+    std::vector<float> h(std::size_t(kPlanePixels) * kPlanePixels);
+    for (int r = 0; r < kPlanePixels; ++r) {
+      for (int c = 0; c < kPlanePixels; ++c) {
+        h[std::size_t(r) * kPlanePixels + c] =
+            float(planeHeight({west + (c + 0.5) * kPlanePixelM, north - (r + 0.5) * kPlanePixelM}, centre));
+      }
+    }
+    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPlanePixels, kPlanePixels, h.data(), kPlanePixels,
+                                             kPlanePixels, GDT_Float32, 0, 0),
+              CE_None);
+  });
+}
+
+// The lattice transformer places a texel within a thousandth of a pixel at
+// these sizes (1 cm, 3 mm of height on this plane), and float32 stores
+// heights near 1000 m to 6e-5 m. GDAL's area mean misses by up to 0.2 m.
+constexpr double kMaxPlaneErrorM = 5e-3;
+
+class PlaneRead : public ::testing::TestWithParam<double> {};
+
+// A texel coarser than the DEM averages the DEM over its footprint, and the
+// mean of a plane over any footprint is the plane at its centre: whatever
+// the ratio, and wherever the footprint falls on the pixel grid. (An area
+// mean of the pixels as squares, GDAL's "average", is off by up to 0.06
+// pixels, 0.2 m here, in a pattern that beats with the grid.)
+TEST_P(PlaneRead, AveragesAPlaneToItsValueAtEveryTexelCentre) {
+  const double pixels_per_texel = GetParam();
+  const dem::DemSource dem({planeDem().string()});
+  const glm::dvec2 centre = ts::utm33(kPlaneLon, kPlaneLat);
+  // A Web Mercator grid of 24 x 24 texels around the DEM's centre; Web
+  // Mercator stretches ground by 1 / cos(latitude).
+  constexpr int kTexels = 24;
+  GridSpec grid;
+  grid.crs = "EPSG:3857";
+  grid.cell_w = grid.cell_h = pixels_per_texel * kPlanePixelM / std::cos(kPlaneLat * M_PI / 180);
+  grid.width = grid.height = kTexels;
+  OGRSpatialReference mercator, utm;
+  mercator.importFromEPSG(3857);
+  utm.importFromEPSG(32633);
+  mercator.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  std::unique_ptr<OGRCoordinateTransformation> to_mercator(OGRCreateCoordinateTransformation(&utm, &mercator)),
+      to_utm(OGRCreateCoordinateTransformation(&mercator, &utm));
+  double cx = centre.x, cy = centre.y;
+  ASSERT_TRUE(to_mercator->Transform(1, &cx, &cy));
+  // Off any round position, so texels fall on the pixel grid at all phases.
+  grid.origin_x = cx - 0.4321 * kTexels * grid.cell_w;
+  grid.origin_y = cy + 0.5678 * kTexels * grid.cell_h;
+
+  const dem::ReadPlan plan = dem.planFor(grid);
+  ASSERT_TRUE(plan.files.front().average);
+  const Raster<float> h = dem.read(grid, plan);
+  double worst = 0;
+  for (int r = 0; r < kTexels; ++r) {
+    for (int c = 0; c < kTexels; ++c) {
+      double x = grid.centreX(c), y = grid.centreY(r);
+      ASSERT_TRUE(to_utm->Transform(1, &x, &y));
+      worst = std::max(worst, std::abs(double(h.at(c, r)) - planeHeight({x, y}, centre)));
+    }
+  }
+  std::printf("%.3f DEM pixels per texel: worst height error %.2g m\n", pixels_per_texel, worst);
+  EXPECT_LE(worst, kMaxPlaneErrorM);
+}
+
+INSTANTIATE_TEST_SUITE_P(FractionalRatios, PlaneRead, ::testing::Values(1.03, 1.37, 2.61, 5.3),
+                         [](const auto& test_info) {
+                           return "ratio_" + std::to_string(int(std::lround(test_info.param * 100)));
+                         });
+
+// Float32 heights near 1000 m are stored to 6e-5 m: two windows whose grids
+// differ in the last bit of their cell size may round a texel one step
+// apart, never more.
+constexpr double kMaxOverlapDifferenceM = 1.3e-4;
+
+// Neighbouring tiles read their aprons over each other's texels: those
+// heights must agree, or edge normals would differ between the tiles.
+TEST(DemSource, NeighbouringWindowsReadTheSameHeightsWhereTheyOverlap) {
+  const auto path = test::sharedFixture("analytic_utm33_1024.tif", [](const auto& p) {
+    ts::writeUtmDem(p, 15.3, 60.0, 30.0, 1024, 1024);
+  });
+  const dem::DemSource dem({path.string()});
+  constexpr int kTileSize = 64, kApron = 3;
+  const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, kTileSize);
+  // 76 and 38 m texels average the 30 m DEM; 19 m texels interpolate it.
+  for (int zoom : {12, 13, 14}) {
+    const std::vector<TileId> tiles = scheme->tilesCovering(dem.boundsIn(scheme->crs()), zoom);
+    const dem::ReadPlan plan = dem.planFor(scheme->texelGrid(tiles[tiles.size() / 2], kApron));
+    std::map<std::pair<int, int>, Raster<float>> heights;
+    for (const TileId& t : tiles) heights[{t.x, t.y}] = dem.read(scheme->texelGrid(t, kApron), plan);
+    std::size_t compared = 0;
+    double worst = 0;
+    for (const auto& [xy, a] : heights) {
+      for (const auto& [dx, dy] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}}) {
+        const auto neighbour = heights.find({xy.first + dx, xy.second + dy});
+        if (neighbour == heights.end()) continue;
+        const Raster<float>& b = neighbour->second;
+        for (int r = dy * kTileSize; r < a.height; ++r) {
+          for (int c = dx * kTileSize; c < a.width; ++c) {
+            const float va = a.at(c, r), vb = b.at(c - dx * kTileSize, r - dy * kTileSize);
+            ASSERT_EQ(std::isnan(va), std::isnan(vb)) << "zoom " << zoom << " texel " << c << "," << r;
+            if (std::isnan(va)) continue;
+            ++compared;
+            worst = std::max(worst, double(std::abs(va - vb)));
+          }
+        }
+      }
+    }
+    std::printf("zoom %d (%s): %zu overlapping texels, worst difference %.2g m\n", zoom,
+                plan.files.front().average ? "averaged" : "interpolated", compared, worst);
+    EXPECT_GT(compared, 1000u) << "zoom " << zoom;
+    EXPECT_LE(worst, kMaxOverlapDifferenceM) << "zoom " << zoom;
+  }
+}
 
 }  // namespace
 }  // namespace terrabake

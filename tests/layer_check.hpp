@@ -91,6 +91,12 @@ inline glm::dvec2 webMercatorTexelLonLat(const TileId& tile, int tile_size, doub
   return {x / kRadius * 180 / M_PI, std::atan(std::sinh(y / kRadius)) * 180 / M_PI};
 }
 
+// Geodetic (EPSG:4326, TMS rows) texel centre to longitude / latitude.
+inline glm::dvec2 geodeticTexelLonLat(const TileId& tile, int tile_size, double i, double j) {
+  const double tile_deg = 180.0 / (1 << tile.z);
+  return {-180 + (tile.x + (i + 0.5) / tile_size) * tile_deg, -90 + (tile.y + 1 - (j + 0.5) / tile_size) * tile_deg};
+}
+
 // The DEM's pixel grid, for locating texels with GDAL, not with terrabake.
 class DemGeometry {
  public:

@@ -35,6 +35,12 @@ constexpr double kMaxEdgeGapM = 1e-3;
 // stored as float32 unit vectors in each tile's own frame: 1e-3 degrees is
 // about a hundred float32 roundings.
 constexpr double kMaxEdgeFrameAngleDeg = 1e-3;
+// A column step is a mean over the rows of angles between two 8-bit normals,
+// each rounded by up to 0.37 degrees, so it wanders by a few hundredths of a
+// degree from one column pair to the next. Where the terrain happens to step
+// most at the seam, the seam pair may top every interior pair by that much;
+// a seam defect (a clamped apron, reads that disagree) costs degrees.
+constexpr double kMaxSeamExcessDeg = 0.1;
 
 constexpr double kCentreLon = 15.3, kCentreLat = 60.0;
 constexpr int kBigSize = 256;
@@ -159,14 +165,16 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   expectSharedEdge(block[0][1].glb, block[1][1].glb, false);
 
   // Across the seam the normal field changes no more than between two
-  // neighbouring columns inside a tile.
+  // neighbouring columns inside the tiles it joins.
   const double seam = meanColumnStepDeg(block[0][0], kSmallSize - 1, block[0][1], 0);
   double interior_worst = 0;
-  for (int c = 0; c + 1 < kSmallSize; ++c) {
-    interior_worst = std::max(interior_worst, meanColumnStepDeg(block[0][0], c, block[0][0], c + 1));
+  for (const test::DecodedTile* tile : {&block[0][0], &block[0][1]}) {
+    for (int c = 0; c + 1 < kSmallSize; ++c) {
+      interior_worst = std::max(interior_worst, meanColumnStepDeg(*tile, c, *tile, c + 1));
+    }
   }
   std::printf("seam step %.4f deg, largest interior column step %.4f deg\n", seam, interior_worst);
-  EXPECT_LE(seam, interior_worst);
+  EXPECT_LE(seam, interior_worst + kMaxSeamExcessDeg);
 }
 
 // Zoom 12 reads the DEM by interpolation (19 m texels from 30 m pixels at 60

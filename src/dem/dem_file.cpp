@@ -13,8 +13,10 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "dem/footprint_average.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
 namespace {
@@ -36,14 +38,6 @@ struct GdalDatasetCloser {
   void operator()(GDALDataset* ds) const { GDALClose(ds); }
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
-
-// Heights at or below this are void markers, declared or not: SRTM writes
-// -32768 and some products -32767; nothing on Earth lies below -11 km.
-constexpr double kVoidMarkerMax = -32767.0;
-
-bool isVoid(float value, const std::optional<double>& declared_nodata) {
-  return !std::isfinite(value) || value <= kVoidMarkerMax || (declared_nodata && value == *declared_nodata);
-}
 
 // Runs on each chunk the warper has loaded, before it resamples: clears the
 // validity bit of every void source pixel, so no kernel mixes a void marker
@@ -81,6 +75,54 @@ struct LevelReader {
   std::string target_wkt;
   std::unique_ptr<LatticeTransformer> transformer;
 };
+
+namespace {
+
+// GDAL's warper with cubic interpolation onto `grid` (the reader's
+// transformer prepared for it), for texels as fine as the level's pixels or
+// finer. Nullopt when GDAL fails (its last error says why).
+std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const GridSpec& grid,
+                                              const std::optional<double>& nodata) {
+  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
+  DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
+  double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
+  target->SetGeoTransform(gt);
+  target->SetProjection(reader.target_wkt.c_str());
+
+  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
+  options->hSrcDS = GDALDataset::ToHandle(reader.dataset.get());
+  options->hDstDS = GDALDataset::ToHandle(target.get());
+  options->nBandCount = 1;
+  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
+  options->panSrcBands[0] = options->panDstBands[0] = 1;
+  options->eResampleAlg = GRA_Cubic;
+  options->eWorkingDataType = GDT_Float32;
+  options->pfnTransformer = LatticeTransformer::transform;
+  options->pTransformerArg = reader.transformer.get();
+  options->pfnPreWarpChunkProcessor = maskVoids;
+  options->pPreWarpProcessorArg = const_cast<std::optional<double>*>(&nodata);
+  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
+  options->padfDstNoDataReal[0] = NAN;
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
+  // A window this file does not reach is no error: it just fills nothing.
+  options->papszWarpOptions =
+      CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
+
+  GDALWarpOperation warp;
+  if (warp.Initialize(options.get()) != CE_None ||
+      warp.ChunkAndWarpImage(0, 0, grid.width, grid.height) != CE_None) {
+    return std::nullopt;
+  }
+  Raster<float> warped(grid.width, grid.height);
+  if (target->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, grid.width, grid.height, warped.data.data(),
+                                         grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
+    return std::nullopt;
+  }
+  return warped;
+}
+
+}  // namespace
 
 struct DemFile::Impl {
   DatasetPtr dataset;
@@ -205,47 +247,17 @@ FilePlan DemFile::planFor(const GridSpec& grid) const {
 
 void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) const {
   LevelReader& reader = m_impl->readerFor(m_info.path, plan.overview, grid.crs);
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
-  double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
-  target->SetGeoTransform(gt);
-  target->SetProjection(reader.target_wkt.c_str());
   reader.transformer->prepare(grid);
-
-  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
-  options->hSrcDS = GDALDataset::ToHandle(reader.dataset.get());
-  options->hDstDS = GDALDataset::ToHandle(target.get());
-  options->nBandCount = 1;
-  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
-  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
-  options->panSrcBands[0] = options->panDstBands[0] = 1;
-  options->eResampleAlg = plan.average ? GRA_Average : GRA_Cubic;
-  options->eWorkingDataType = GDT_Float32;
-  options->pfnTransformer = LatticeTransformer::transform;
-  options->pTransformerArg = reader.transformer.get();
-  options->pfnPreWarpChunkProcessor = maskVoids;
-  options->pPreWarpProcessorArg = const_cast<std::optional<double>*>(&m_info.nodata);
-  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
-  options->padfDstNoDataReal[0] = NAN;
-  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
-  // A window this file does not reach is no error: it just fills nothing.
-  options->papszWarpOptions =
-      CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
-
-  GDALWarpOperation warp;
   CPLErrorReset();
-  if (warp.Initialize(options.get()) != CE_None ||
-      warp.ChunkAndWarpImage(0, 0, grid.width, grid.height) != CE_None) {
-    throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
-  }
-
-  Raster<float> warped(grid.width, grid.height);
-  if (target->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, grid.width, grid.height, warped.data.data(),
-                                         grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
+  const std::optional<Raster<float>> resampled =
+      plan.average ? averageOverFootprints(GDALRasterBand::ToHandle(reader.dataset->GetRasterBand(1)),
+                                           *reader.transformer, grid, m_info.nodata)
+                   : interpolateCubic(reader, grid, m_info.nodata);
+  if (!resampled) {
     throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
   }
   for (std::size_t k = 0; k < heights.data.size(); ++k) {
-    if (std::isnan(heights.data[k])) heights.data[k] = warped.data[k];
+    if (std::isnan(heights.data[k])) heights.data[k] = resampled->data[k];
   }
 }
 

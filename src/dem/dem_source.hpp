@@ -22,10 +22,11 @@ struct DemInfo {
   std::string crs_unit;          // of the grid's axes: "metre", "degree", ...
 };
 
-// How a zoom level reads one file: interpolate where texels are as fine as
-// its pixels or finer, average where they are coarser (from an overview when
-// the file has one no finer than needed). Decided once per zoom so every tile
-// of a level reads the same way and neighbours match at their edges.
+// How a zoom level reads one file: interpolate (cubic) where texels are as
+// fine as its pixels or finer; where they are coarser, average over each
+// texel's footprint (footprint_average.hpp), from an overview when the file
+// has one no finer than needed. Decided once per zoom so every tile of a
+// level reads the same way and neighbours match at their edges.
 struct FilePlan {
   bool average = false;
   int overview = -1;  // -1: full resolution, else GDAL overview index

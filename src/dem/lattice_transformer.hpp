@@ -17,8 +17,10 @@ namespace terrabake::dem {
 // of the exact reprojections.
 class LatticeTransformer {
  public:
-  // Exact interpolation error over 8 cells is far below a thousandth of a
-  // pixel for any smooth projection at tile scales.
+  // Interpolating over 8 cells misplaces a point smoothly, by an amount that
+  // grows with the square of the cell: from a UTM DEM onto Web Mercator at
+  // 55 degrees north, 2e-5 of a 10 m pixel at 11 m texels and 1.4e-3 at
+  // 88 m texels, under 2e-4 of a texel either way.
   static constexpr int kNodeSpacingCells = 8;
 
   LatticeTransformer(GDALDatasetH source, const std::string& target_wkt);  // throws InputError
@@ -32,8 +34,12 @@ class LatticeTransformer {
   // GDALTransformerFunc: `self` is a LatticeTransformer.
   static int transform(void* self, int dst_to_src, int count, double* x, double* y, double* z, int* ok);
 
- private:
+  // In place: a point of the prepared grid, in its pixels ((0, 0) is its
+  // north-west corner), becomes the source raster's pixel position there.
+  // False where the CRS transform fails.
   bool targetToSource(double& x, double& y) const;
+
+ private:
   bool sourceToTarget(double& x, double& y) const;
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates

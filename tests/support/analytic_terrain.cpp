@@ -199,19 +199,20 @@ glm::dvec2 utm33(double lon_deg, double lat_deg) {
   return {x + kUtmFalseEasting, y};
 }
 
-double heightUtm(double easting, double northing) {
+double heightUtm(double easting, double northing, const Relief& relief) {
   double h = kBaseHeight;
   for (const Wave& wave : kWaves) {
     const double azimuth = wave.azimuth_deg * kPi / 180.0;
     const double along = easting * std::cos(azimuth) + northing * std::sin(azimuth);
-    h += wave.amplitude_m * std::sin(2.0 * kPi * along / wave.wavelength_m + wave.phase);
+    h += relief.lift * wave.amplitude_m *
+         std::sin(2.0 * kPi * along / (relief.stretch * wave.wavelength_m) + wave.phase);
   }
   return h;
 }
 
-double heightLonLat(double lon_deg, double lat_deg) {
+double heightLonLat(double lon_deg, double lat_deg, const Relief& relief) {
   const glm::dvec2 p = utm33(lon_deg, lat_deg);
-  return heightUtm(p.x, p.y);
+  return heightUtm(p.x, p.y, relief);
 }
 
 glm::dvec3 ellipsoidUpEcef(double lon_deg, double lat_deg) {
@@ -220,12 +221,12 @@ glm::dvec3 ellipsoidUpEcef(double lon_deg, double lat_deg) {
   return {std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon), std::sin(lat)};
 }
 
-glm::dvec3 normalEcef(double lon_deg, double lat_deg) {
+glm::dvec3 normalEcef(double lon_deg, double lat_deg, const Relief& relief) {
   // About 11 cm on the ground: far below the 3 km wavelengths, far above rounding.
   constexpr double kStepDeg = 1e-6;
-  auto surface = [](double lon, double lat) {
+  auto surface = [&relief](double lon, double lat) {
     glm::dvec3 p;
-    GeographicLib::Geocentric::WGS84().Forward(lat, lon, heightLonLat(lon, lat), p.x, p.y, p.z);
+    GeographicLib::Geocentric::WGS84().Forward(lat, lon, heightLonLat(lon, lat, relief), p.x, p.y, p.z);
     return p;
   };
   const glm::dvec3 d_lon =
@@ -238,19 +239,22 @@ glm::dvec3 normalEcef(double lon_deg, double lat_deg) {
 }
 
 void writeUtmDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
-                 double pixel_m, int width, int height) {
+                 double pixel_m, int width, int height, const Relief& relief) {
   const glm::dvec2 centre = utm33(centre_lon, centre_lat);
   const std::array<double, 6> gt = {centre.x - 0.5 * width * pixel_m,  pixel_m, 0.0,
                                     centre.y + 0.5 * height * pixel_m, 0.0,     -pixel_m};
-  writeFloatDem(path, 32633, gt, width, height, heightUtm);
+  writeFloatDem(path, 32633, gt, width, height,
+                [&relief](double e, double n) { return heightUtm(e, n, relief); });
 }
 
 void writeGeographicDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
-                        double pixel_lon_deg, double pixel_lat_deg, int width, int height) {
+                        double pixel_lon_deg, double pixel_lat_deg, int width, int height,
+                        const Relief& relief) {
   const std::array<double, 6> gt = {
       centre_lon - 0.5 * width * pixel_lon_deg,  pixel_lon_deg, 0.0,
       centre_lat + 0.5 * height * pixel_lat_deg, 0.0,           -pixel_lat_deg};
-  writeFloatDem(path, 4326, gt, width, height, heightLonLat);
+  writeFloatDem(path, 4326, gt, width, height,
+                [&relief](double lon, double lat) { return heightLonLat(lon, lat, relief); });
 }
 
 void writeSampleDem(const std::filesystem::path& path) {
