@@ -11,7 +11,7 @@
 // picks another browser.
 import { spawn } from 'node:child_process';
 import { existsSync } from 'node:fs';
-import { mkdtemp, rm } from 'node:fs/promises';
+import { mkdir, mkdtemp, rm } from 'node:fs/promises';
 import os from 'node:os';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -166,6 +166,24 @@ export function createBrowserTest(name, { watchdogMs }) {
     return chromium;
   }
 
+  // The command line every browser test takes, `<terrabake executable>
+  // <output folder>`, checked (Chromium too); the output folder made and its
+  // tiles/ emptied. Resolves to { terrabake, out, tilesDir }.
+  async function setUp(script) {
+    const [terrabakeArg, outArg] = process.argv.slice(2);
+    if (!terrabakeArg || !outArg) {
+      await abort(`usage: node tests/browser/${script} <terrabake executable> <output folder>`, 2);
+    }
+    const terrabake = path.resolve(terrabakeArg);
+    const out = path.resolve(outArg);
+    await requireChromium();
+    if (!existsSync(terrabake)) await abort(`no terrabake executable at ${terrabake}`);
+    const tilesDir = path.join(out, 'tiles');
+    await rm(tilesDir, { recursive: true, force: true });
+    await mkdir(out, { recursive: true });
+    return { terrabake, out, tilesDir };
+  }
+
   // Headless Chromium with a fresh profile (skips as requireChromium does).
   // Resolves to the browser context.
   async function launchChromium({ viewport }) {
@@ -253,7 +271,7 @@ export function createBrowserTest(name, { watchdogMs }) {
 
   return {
     log, fail, abort, failures, runToEnd, tile, startServer, stopProcess, stopServer,
-    requireChromium, launchChromium, closeChromium, openPage, closePage, run,
+    requireChromium, setUp, launchChromium, closeChromium, openPage, closePage, run,
   };
 }
 

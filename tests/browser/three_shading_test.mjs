@@ -44,7 +44,7 @@
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core).
 import { existsSync } from 'node:fs';
-import { mkdir, readFile, rm, writeFile } from 'node:fs/promises';
+import { readFile, writeFile } from 'node:fs/promises';
 import path from 'node:path';
 import { fileURLToPath } from 'node:url';
 
@@ -174,19 +174,9 @@ function diffPng(width, height, a, b, mask) {
 }
 
 async function main() {
-  const [terrabakeArg, outArg] = process.argv.slice(2);
-  if (!terrabakeArg || !outArg) {
-    await t.abort('usage: node tests/browser/three_shading_test.mjs <terrabake executable> <output folder>', 2);
-  }
-  const terrabake = path.resolve(terrabakeArg);
-  const out = path.resolve(outArg);
-  await t.requireChromium();
-  if (!existsSync(terrabake)) await t.abort(`no terrabake executable at ${terrabake}`);
+  const { terrabake, out, tilesDir } = await t.setUp('three_shading_test.mjs');
 
   // 1. One tile.
-  const tilesDir = path.join(out, 'tiles');
-  await rm(tilesDir, { recursive: true, force: true });
-  await mkdir(out, { recursive: true });
   const [lon, lat] = tileCentreLonLat(kTile);
   const bbox = [lon - 0.001, lat - 0.001, lon + 0.001, lat + 0.001].map((v) => v.toFixed(6)).join(',');
   await t.tile(terrabake, ['--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', String(kTile.z),

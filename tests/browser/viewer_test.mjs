@@ -20,8 +20,7 @@
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core;
 // `cd tests && npm ci` installs the latter). CHROMIUM=<path> picks another browser.
-import { existsSync } from 'node:fs';
-import { mkdir, rm, writeFile } from 'node:fs/promises';
+import { writeFile } from 'node:fs/promises';
 import path from 'node:path';
 
 import { createBrowserTest, decodePng, encodePngRgb, kRepo } from './browser_test_support.mjs';
@@ -122,19 +121,9 @@ async function openViewer(url, name) {
 // ---------------------------------------------------------------------------
 
 async function main() {
-  const [terrabakeArg, outArg] = process.argv.slice(2);
-  if (!terrabakeArg || !outArg) {
-    await t.abort('usage: node tests/browser/viewer_test.mjs <terrabake executable> <output folder>', 2);
-  }
-  const terrabake = path.resolve(terrabakeArg);
-  const out = path.resolve(outArg);
-  await t.requireChromium();
-  if (!existsSync(terrabake)) await t.abort(`no terrabake executable at ${terrabake}`);
+  const { terrabake, out, tilesDir } = await t.setUp('viewer_test.mjs');
 
   // 1. A small layer.
-  const tilesDir = path.join(out, 'tiles');
-  await rm(tilesDir, { recursive: true, force: true });
-  await mkdir(out, { recursive: true });
   await t.tile(terrabake, ['--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', kView.z,
     '--high-res-mesh', 'true', '--out', tilesDir, '--layer', kView.layer], kTileTimeoutMs);
 
