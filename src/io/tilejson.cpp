@@ -11,7 +11,8 @@ namespace {
 
 using Json = nlohmann::ordered_json;  // keeps the key order the file was written in
 
-constexpr const char* kFormatVersion = "1";
+// The version of docs/CONTRACT.md the layer follows.
+constexpr const char* kFormatVersion = "2";
 
 // Middle longitude of [west, east], also when the bounds cross the antimeridian
 // (west > east).
