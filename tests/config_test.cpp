@@ -152,7 +152,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 18u);
+  ASSERT_EQ(keys.size(), 19u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {
@@ -170,6 +170,15 @@ TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   EXPECT_EQ(defaultOf("output.layer"), "default");
   EXPECT_EQ(defaultOf("tiling.zoom"), "");
   EXPECT_EQ(defaultOf("output.high_res_mesh"), "false");
+  EXPECT_EQ(defaultOf("nodata.surface"), "continue");
+}
+
+TEST(ConfigOverrides, NodataSurfaceTakesContinueOrCut) {
+  TileJob job;
+  EXPECT_EQ(job.nodata_surface, NodataSurface::kContinue);
+  applyOverride(job, "nodata.surface", "cut", "--nodata-surface");
+  EXPECT_EQ(job.nodata_surface, NodataSurface::kCut);
+  EXPECT_THROW(applyOverride(job, "nodata.surface", "hide", "--nodata-surface"), UsageError);
 }
 
 TEST(ConfigOverrides, BooleanKeysTakeTrueOrFalse) {

@@ -27,6 +27,7 @@ using terrabake::InputError;
 using terrabake::mesh::GridMesh;
 namespace io = terrabake::io;
 using terrabake::Green;
+using terrabake::NodataSurface;
 using terrabake::OutputFormat;
 using terrabake::SchemeKind;
 
@@ -502,6 +503,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   info.bits = 16;
   info.green = Green::kDown;
   info.alpha = true;
+  info.nodata_surface = NodataSurface::kCut;
   info.z_scale = 0.3048;
   info.exaggeration = 2;
   info.low_poly_grid = 33;
@@ -522,7 +524,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(j["center"], json::array({-180.0, 5.0, 9}));
   EXPECT_EQ(j["terrabake"], json::parse(R"({
       "version": "2", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
-      "alpha": true, "z_scale": 0.3048, "exaggeration": 2.0,
+      "alpha": true, "nodata_surface": "cut", "z_scale": 0.3048, "exaggeration": 2.0,
       "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"grid": 33},
       "sources": ["dem/a.tif", "dem/b.tif"]})"));
 

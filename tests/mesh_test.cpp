@@ -101,8 +101,65 @@ TEST(LowPolyFrame, InterpolatesLikeARenderer) {
 
 TEST(Apron, CoversTheLowPolyNeighbourCell) {
   EXPECT_EQ(mesh::requiredApron(256, 17), 17);  // 16-texel cells
-  EXPECT_EQ(mesh::requiredApron(256, 257), 2);  // the high-res normals' own need
+  EXPECT_EQ(mesh::requiredApron(256, 257), 3);  // the high-res normals' own need
   EXPECT_EQ(mesh::requiredApron(128, 2), 129);
+}
+
+// Samples of a surface whose data stops at texel column `last_data_column`:
+// the filled heights beyond it follow a different surface, as a fill does.
+mesh::SampleGrid dataThenFill(const test::HeightField& data, const test::HeightField& fill, int last_data_column) {
+  auto samples = test::sampleHeightField(data, 32, 5, 10.0);
+  const auto filled = test::sampleHeightField(fill, 32, 5, 10.0);
+  samples.from_dem = Raster<std::uint8_t>(samples.position.width, samples.position.height, 1);
+  for (int r = 0; r < samples.position.height; ++r) {
+    for (int c = samples.apron + last_data_column + 1; c < samples.position.width; ++c) {
+      samples.position.at(c, r) = filled.position.at(c, r);
+      samples.from_dem.at(c, r) = 0;
+    }
+  }
+  return samples;
+}
+
+// At the edge of the data the normal comes from data samples only: on a
+// curved surface, one-sided second-order differences are as accurate as the
+// central ones inside, whatever the filled heights next to them.
+TEST(HighResMesh, NormalsAtTheDataEdgeIgnoreTheFill) {
+  auto bowl = [](double e, double n) { return 0.002 * e * e + 0.001 * n * n + 0.3 * e; };
+  auto wall = [](double, double) { return 500.0; };
+  constexpr int kLastData = 20;
+  const auto samples = dataThenFill(bowl, wall, kLastData);
+  const auto mesh = mesh::buildHighResMesh(samples);
+  auto exactNormal = [&](const glm::vec3& p) {
+    const double e = p.x, n = -p.z;  // glTF axes
+    return glm::normalize(glm::dvec3(-(0.004 * e + 0.3), 1, 0.002 * n));  // y = h(x, -z)
+  };
+  // Second-order differences over 10 m samples miss this bowl's normal by a
+  // hundredth of a degree, one-sided or central.
+  constexpr double kMaxDeg = 0.02;
+  for (int j = 0; j < 32; ++j) {
+    for (int i = kLastData - 2; i <= kLastData; ++i) {
+      const std::size_t k = std::size_t(j + 1) * std::size_t(mesh.cols) + std::size_t(i + 1);  // vertices start at texel -1
+      EXPECT_LT(test::angleDeg(glm::dvec3(mesh.normal[k]), exactNormal(mesh.position[k])), kMaxDeg) << "texel " << i << ", " << j;
+    }
+  }
+}
+
+// A cut keeps exactly the triangles that hold a texel centre with data.
+TEST(GridMesh, CutKeepsTheTrianglesOverData) {
+  auto flat = [](double, double) { return 0.0; };
+  constexpr int kLastData = 9;  // texel columns 0..9 hold data
+  const auto samples = dataThenFill(flat, flat, kLastData);
+  auto low = mesh::buildLowPolyMesh(samples, 5);  // cells of 8 texels
+  mesh::dropTrianglesWithoutData(low, samples);
+  // Cell columns 0 (texels 0..7) and 1 (8..15, which holds 8 and 9) stay.
+  EXPECT_EQ(low.indices.size(), std::size_t(4 * 2 * 2 * 3));
+  for (std::uint32_t v : low.indices) EXPECT_LE(low.uv[v].x, 0.5f);
+
+  auto display = mesh::buildHighResDisplayMesh(samples);
+  mesh::dropTrianglesWithoutData(display, samples);
+  // Vertex columns 0..9 hold data: the cells up to column 9 to 10 stay, with
+  // both of their triangles.
+  EXPECT_EQ(display.indices.size(), std::size_t(32 * 10 * 2 * 3));
 }
 
 }  // namespace

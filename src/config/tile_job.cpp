@@ -79,9 +79,12 @@ const kt::KeyTable<TileJob>& table() {
        "vertical exaggeration of the normal maps and meshes, above 0 and at most 100",
        number(&TileJob::exaggeration, 0.0, 100.0, {}, true)},
       {"nodata.max_fill_px", "--max-fill", "integer",
-       "holes are filled this many texels in from their edge, the rest takes the coarse backdrop; "
-       "0..512",
+       "texels over which the surface carried on into a hole fades into the coarse backdrop; 0..512",
        number(&TileJob::max_fill_px, 0, 512)},
+      {"nodata.surface", "--nodata-surface", "string",
+       "where the DEM has no sample: continue (the surface runs on from the data without a step) or cut "
+       "(alpha 0 and no triangles there, so nothing is drawn)",
+       choice(&TileJob::nodata_surface)},
       {"low_poly.grid", "--low-poly-grid", "integer", "vertices a side of each tile's low-poly mesh, 2..257",
        number(&TileJob::low_poly_grid, 2, 257)},
       {"bake.backend", "--backend", "string",

@@ -29,6 +29,7 @@ struct TileJob {
   double z_scale = 1;                             // heights.z_scale: metres per DEM height unit
   double exaggeration = 1;                        // heights.exaggeration: vertical exaggeration
   int max_fill_px = 64;                           // nodata.max_fill_px: texels filled from a hole's edge
+  NodataSurface nodata_surface = NodataSurface::kContinue;  // nodata.surface
   int low_poly_grid = 17;                         // low_poly.grid: vertices a side
   Backend backend = Backend::kAuto;               // bake.backend
   int workers = 0;                                // bake.workers: 0 = one per core

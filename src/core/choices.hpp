@@ -14,6 +14,11 @@ namespace terrabake {
 enum class SchemeKind { kWebMercator, kGeodetic, kNative };
 enum class Green { kUp, kDown };  // +Y of tangent space north (OpenGL, glTF) or south (DirectX)
 enum class OutputFormat { kFiles, kMbtiles };
+// What a tile shows where the DEM has no sample (voids, beyond its edge).
+enum class NodataSurface {
+  kContinue,  // the surface runs on from the data, fading into a coarse backdrop
+  kCut,       // nothing: alpha 0 and no triangle there
+};
 enum class Backend {
   kAuto,    // a hardware GPU through EGL when there is one, else OSMesa
   kOsMesa,  // Mesa's offscreen llvmpipe renderer
@@ -37,6 +42,11 @@ template <>
 struct Words<OutputFormat> {
   static constexpr std::array<std::pair<OutputFormat, std::string_view>, 2> table{
       {{OutputFormat::kFiles, "files"}, {OutputFormat::kMbtiles, "mbtiles"}}};
+};
+template <>
+struct Words<NodataSurface> {
+  static constexpr std::array<std::pair<NodataSurface, std::string_view>, 2> table{
+      {{NodataSurface::kContinue, "continue"}, {NodataSurface::kCut, "cut"}}};
 };
 template <>
 struct Words<Backend> {

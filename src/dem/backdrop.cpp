@@ -1,6 +1,7 @@
 #include "dem/backdrop.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 #include "dem/fill_holes.hpp"
@@ -13,6 +14,13 @@ namespace {
 constexpr int kCells = 256;
 // Margin around the DEM, as a share of its size, before the edge value holds.
 constexpr double kMargin = 0.5;
+// Catmull-Rom weights of the four cells around a point a fraction t past the
+// second: the backdrop is smooth in slope too (bilinear would crease it at
+// every cell line).
+std::array<double, 4> cubicWeights(double t) {
+  const double t2 = t * t, t3 = t2 * t;
+  return {(-t3 + 2 * t2 - t) / 2, (3 * t3 - 5 * t2 + 2) / 2, (-3 * t3 + 4 * t2 + t) / 2, (t3 - t2) / 2};
+}
 
 }  // namespace
 
@@ -37,11 +45,13 @@ float Backdrop::heightAt(double x, double y) const {
   const double row = std::clamp((m_grid.origin_y - y) / m_grid.cell_h - 0.5, 0.0, double(m_grid.height - 1));
   // The margin makes the grid hundreds of cells wide, so cells c0 + 1 and r0 + 1 exist.
   const int c0 = std::min(int(col), m_grid.width - 2), r0 = std::min(int(row), m_grid.height - 2);
-  const int c1 = c0 + 1, r1 = r0 + 1;
-  const double fc = col - c0, fr = row - r0;
-  const double top = m_heights.at(c0, r0) * (1 - fc) + m_heights.at(c1, r0) * fc;
-  const double bottom = m_heights.at(c0, r1) * (1 - fc) + m_heights.at(c1, r1) * fc;
-  return float(top * (1 - fr) + bottom * fr);
+  const std::array<double, 4> wc = cubicWeights(col - c0), wr = cubicWeights(row - r0);
+  double sum = 0;
+  for (int j = 0; j < 4; ++j) {
+    const int r = std::clamp(r0 - 1 + j, 0, m_grid.height - 1);
+    for (int i = 0; i < 4; ++i) sum += wr[j] * wc[i] * m_heights.at(std::clamp(c0 - 1 + i, 0, m_grid.width - 1), r);
+  }
+  return float(sum);
 }
 
 }  // namespace terrabake::dem

@@ -13,6 +13,7 @@
 #include <optional>
 
 #include "core/error.hpp"
+#include "dem/edge_extension.hpp"
 #include "dem/footprint_average.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
@@ -62,6 +63,23 @@ CPLErr maskVoids(void* kernel, void* declared_nodata) {
   return CE_None;
 }
 
+// What the warp hooks of one read share: void pixels are masked, then the
+// edge of the data extended, before the kernel runs; coverage is restored after.
+struct WarpHooks {
+  const std::optional<double>* declared_nodata;
+  EdgeExtension edge;
+};
+
+CPLErr beforeWarp(void* kernel, void* hooks) {
+  auto& h = *static_cast<WarpHooks*>(hooks);
+  const CPLErr masked = maskVoids(kernel, const_cast<std::optional<double>*>(h.declared_nodata));
+  return masked != CE_None ? masked : h.edge.extend(*static_cast<GDALWarpKernel*>(kernel));
+}
+
+CPLErr afterWarp(void* kernel, void* hooks) {
+  return static_cast<WarpHooks*>(hooks)->edge.restoreCoverage(*static_cast<GDALWarpKernel*>(kernel));
+}
+
 struct WarpOptionsDeleter {
   void operator()(GDALWarpOptions* o) const { GDALDestroyWarpOptions(o); }
 };
@@ -71,7 +89,8 @@ struct WarpOptionsDeleter {
 // What reads a DEM level onto grids of one CRS: the level's own handle (an
 // overview opens as a dataset of its own) and the transformer to the grids.
 struct LevelReader {
-  DatasetPtr dataset;
+  DatasetPtr file;
+  DatasetPtr dataset;  // the file with EdgeExtension's void border
   std::string target_wkt;
   std::unique_ptr<LatticeTransformer> transformer;
 };
@@ -100,14 +119,18 @@ std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const G
   options->eWorkingDataType = GDT_Float32;
   options->pfnTransformer = LatticeTransformer::transform;
   options->pTransformerArg = reader.transformer.get();
-  options->pfnPreWarpChunkProcessor = maskVoids;
-  options->pPreWarpProcessorArg = const_cast<std::optional<double>*>(&nodata);
+  WarpHooks hooks{&nodata, {}};
+  options->pfnPreWarpChunkProcessor = beforeWarp;
+  options->pfnPostWarpChunkProcessor = afterWarp;
+  options->pPreWarpProcessorArg = options->pPostWarpProcessorArg = &hooks;
   options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
   options->padfDstNoDataReal[0] = NAN;
   options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
   // A window this file does not reach is no error: it just fills nothing.
   options->papszWarpOptions =
       CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "SOURCE_EXTRA",
+                                              std::to_string(EdgeExtension::kSourceExtra).c_str());
 
   GDALWarpOperation warp;
   if (warp.Initialize(options.get()) != CE_None ||
@@ -135,15 +158,17 @@ struct DemFile::Impl {
     if (it != readers.end()) return it->second;
     LevelReader reader;
     if (overview < 0) {
-      reader.dataset.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
-                                                              nullptr, nullptr, nullptr)));
+      reader.file.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
+                                                           nullptr, nullptr, nullptr)));
     } else {
       const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
       const char* options[] = {level.c_str(), nullptr};
-      reader.dataset.reset(GDALDataset::FromHandle(
+      reader.file.reset(GDALDataset::FromHandle(
           GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
     }
-    if (!reader.dataset) throw InputError("dem: cannot reopen '" + path + "' (" + lastGdalError() + ")");
+    if (!reader.file) throw InputError("dem: cannot reopen '" + path + "' (" + lastGdalError() + ")");
+    reader.dataset.reset(EdgeExtension::withVoidBorder(*reader.file));
+    if (!reader.dataset) throw InputError("dem: cannot read '" + path + "' (" + lastGdalError() + ")");
     reader.target_wkt = toWkt(spatialReference(crs));
     reader.transformer =
         std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);

@@ -41,8 +41,99 @@ float upsampled(const Raster<float>& coarse, int c, int r) {
   return float(top * (1 - fy) + bottom * fy);
 }
 
+// Sweeps of over-relaxation per pyramid level, and their factor. Each level
+// starts from the coarser level's membrane, so only the detail of its own
+// scale is left to smooth: a few dozen sweeps take the blocks and creases of
+// the upsampling out.
+constexpr int kSweepsPerLevel = 32;
+constexpr double kOverRelaxation = 1.5;
+
+// Moves the `hole` samples of a complete raster towards the membrane over
+// the others (each the mean of its four neighbours, the raster's border
+// free): smooth, with no blocks or creases, and near the data as high as it.
+void relaxToMembrane(Raster<float>& heights, const std::vector<std::uint8_t>& hole) {
+  const int w = heights.width, h = heights.height;
+  for (int sweep = 0; sweep < kSweepsPerLevel; ++sweep) {
+    for (int r = 0; r < h; ++r) {
+      for (int c = 0; c < w; ++c) {
+        if (!hole[std::size_t(r) * w + c]) continue;
+        double sum = 0;
+        int count = 0;
+        if (c > 0) sum += heights.at(c - 1, r), ++count;
+        if (c + 1 < w) sum += heights.at(c + 1, r), ++count;
+        if (r > 0) sum += heights.at(c, r - 1), ++count;
+        if (r + 1 < h) sum += heights.at(c, r + 1), ++count;
+        float& v = heights.at(c, r);
+        v = float(v + kOverRelaxation * (sum / count - v));
+      }
+    }
+  }
+}
+
 bool hasHoles(const Raster<float>& r) {
   return std::any_of(r.data.begin(), r.data.end(), [](float v) { return std::isnan(v); });
+}
+
+bool isData(const Raster<float>& heights, int c, int r) {
+  return c >= 0 && r >= 0 && c < heights.width && r < heights.height && !std::isnan(heights.at(c, r));
+}
+
+bool touchesHole(const Raster<float>& heights, int c, int r) {
+  for (int dr = -1; dr <= 1; ++dr) {
+    for (int dc = -1; dc <= 1; ++dc) {
+      const int cc = c + dc, rr = r + dr;
+      if (cc >= 0 && rr >= 0 && cc < heights.width && rr < heights.height && std::isnan(heights.at(cc, rr))) return true;
+    }
+  }
+  return false;
+}
+
+// Slope per sample along (dc, dr) at data sample (c, r), from data samples
+// only: central where both neighbours hold data, else one-sided (second order
+// with two samples), so the slope carried into a hole is the data's own.
+double dataSlope(const Raster<float>& heights, int c, int r, int dc, int dr) {
+  auto data = [&](int k) { return isData(heights, c + k * dc, r + k * dr); };
+  auto at = [&](int k) { return double(heights.at(c + k * dc, r + k * dr)); };
+  if (data(1) == data(-1)) return data(1) ? (at(1) - at(-1)) / 2 : 0.0;
+  const int side = data(1) ? 1 : -1;
+  const double one_sided = data(2 * side) ? (-3 * at(0) + 4 * at(side) - at(2 * side)) / 2 : at(side) - at(0);
+  return side * one_sided;
+}
+
+// A data sample next to a hole, with the plane that touches the surface there.
+struct EdgePlane {
+  int c = 0, r = 0;
+  double height = 0, slope_c = 0, slope_r = 0;
+  double at(int cc, int rr) const { return height + slope_c * (cc - c) + slope_r * (rr - r); }
+};
+
+// The edge samples in row-major order, with where each row's run starts, so
+// a hole sample visits those within reach in the same order from any window.
+struct EdgePlanes {
+  std::vector<EdgePlane> planes;
+  std::vector<std::size_t> row_start;  // height + 1 entries
+};
+
+EdgePlanes edgePlanes(const Raster<float>& heights) {
+  EdgePlanes edge;
+  edge.row_start.reserve(std::size_t(heights.height) + 1);
+  for (int r = 0; r < heights.height; ++r) {
+    edge.row_start.push_back(edge.planes.size());
+    for (int c = 0; c < heights.width; ++c) {
+      if (!isData(heights, c, r) || !touchesHole(heights, c, r)) continue;
+      edge.planes.push_back({c, r, heights.at(c, r), dataSlope(heights, c, r, 1, 0), dataSlope(heights, c, r, 0, 1)});
+    }
+  }
+  edge.row_start.push_back(edge.planes.size());
+  return edge;
+}
+
+// 1 at t = 0, 0 from t = 1 on, flat at both ends (smoothstep), so the fade
+// adds no kink where it starts or ends. (Smootherstep, flat in curvature too,
+// is a quarter steeper halfway: steeper than the terrain it continues.)
+double fadeOut(double t) {
+  if (t >= 1) return 0;
+  return 1 - t * t * (3 - 2 * t);
 }
 
 }  // namespace
@@ -54,84 +145,54 @@ bool fillHoles(Raster<float>& heights) {
   std::vector<Raster<float>> levels;
   levels.push_back(std::move(heights));
   while (hasHoles(levels.back())) levels.push_back(pull(levels.back()));
+  std::vector<std::uint8_t> hole;
   for (std::size_t k = levels.size() - 1; k-- > 0;) {
     Raster<float>& fine = levels[k];
+    hole.assign(fine.data.size(), 0);
     for (int r = 0; r < fine.height; ++r) {
       for (int c = 0; c < fine.width; ++c) {
-        if (std::isnan(fine.at(c, r))) fine.at(c, r) = upsampled(levels[k + 1], c, r);
+        if (!std::isnan(fine.at(c, r))) continue;
+        fine.at(c, r) = upsampled(levels[k + 1], c, r);
+        hole[std::size_t(r) * fine.width + c] = 1;
       }
     }
+    relaxToMembrane(fine, hole);
   }
   heights = std::move(levels.front());
   return true;
 }
 
-
-void extendIntoHoles(Raster<float>& heights, int max_texels) {
-  const int w = heights.width, h = heights.height;
-  auto isHole = [&](int c, int r) { return std::isnan(heights.at(c, r)); };
-  // Hole samples that touch a valid one (8-neighbourhood), each listed once.
-  std::vector<std::uint8_t> queued(heights.data.size(), 0);
-  std::vector<int> front;
-  auto enqueueHoleNeighbours = [&](int c, int r) {
-    for (int dr = -1; dr <= 1; ++dr) {
-      for (int dc = -1; dc <= 1; ++dc) {
-        const int cc = c + dc, rr = r + dr;
-        if (cc < 0 || rr < 0 || cc >= w || rr >= h || !isHole(cc, rr)) continue;
-        const std::size_t k = std::size_t(rr) * w + cc;
-        if (!queued[k]) queued[k] = 1, front.push_back(int(k));
+Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
+  const EdgePlanes edge = edgePlanes(around);
+  const double reach_sq = double(reach) * reach;
+  Raster<float> filled(around.width - 2 * margin, around.height - 2 * margin);
+  for (int r = margin; r < around.height - margin; ++r) {
+    const std::size_t first = edge.row_start[std::size_t(std::max(0, r - reach))];
+    const std::size_t last = edge.row_start[std::size_t(std::min(around.height, r + reach + 1))];
+    for (int c = margin; c < around.width - margin; ++c) {
+      float& out = filled.at(c - margin, r - margin);
+      out = around.at(c, r);
+      if (!std::isnan(out)) continue;
+      // Inverse-distance weighted mean of the edge samples' planes within
+      // reach, each weight tapered to zero at reach, and the same mean of
+      // their distances: a smooth distance to the edge.
+      double weight_sum = 0, height_sum = 0, distance_sum = 0;
+      for (std::size_t k = first; k < last; ++k) {
+        const EdgePlane& e = edge.planes[k];
+        const double dc = c - e.c, dr = r - e.r, d_sq = dc * dc + dr * dr;
+        if (d_sq >= reach_sq) continue;
+        const double taper = (1 - d_sq / reach_sq) * (1 - d_sq / reach_sq);
+        const double weight = taper / (d_sq * d_sq * d_sq);
+        weight_sum += weight;
+        height_sum += weight * e.at(c, r);
+        distance_sum += weight * std::sqrt(d_sq);
       }
-    }
-  };
-  for (int r = 0; r < h; ++r) {
-    for (int c = 0; c < w; ++c) {
-      if (!isHole(c, r)) enqueueHoleNeighbours(c, r);
+      const double far = backdrop.at(c - margin, r - margin);
+      const double blend = weight_sum > 0 ? fadeOut(distance_sum / weight_sum / reach) : 0.0;
+      out = float(blend > 0 ? blend * height_sum / weight_sum + (1 - blend) * far : far);
     }
   }
-
-  // Grow: one ring of each hole per pass, computed from the previous pass's
-  // values only, so the result does not depend on the order of the list.
-  std::vector<int> filled;
-  std::vector<float> values;
-  for (int pass = 0; pass < max_texels && !front.empty(); ++pass) {
-    values.clear();
-    for (int k : front) {
-      const int c = k % w, r = k / w;
-      double sum = 0;
-      int count = 0;
-      for (int dr = -1; dr <= 1; ++dr) {
-        for (int dc = -1; dc <= 1; ++dc) {
-          const int cc = c + dc, rr = r + dr;
-          if (cc < 0 || rr < 0 || cc >= w || rr >= h || isHole(cc, rr)) continue;
-          sum += heights.at(cc, rr), ++count;
-        }
-      }
-      values.push_back(float(sum / count));
-    }
-    for (std::size_t i = 0; i < front.size(); ++i) heights.data[front[i]] = values[i];
-    filled.insert(filled.end(), front.begin(), front.end());
-    const std::vector<int> ring = std::move(front);
-    front.clear();
-    for (int k : ring) enqueueHoleNeighbours(k % w, k / w);
-  }
-
-  // Relax: filled samples move to the mean of their four neighbours, which
-  // smooths the creases where growth fronts met; data samples stay fixed.
-  for (int pass = 0; pass < max_texels && !filled.empty(); ++pass) {
-    values.clear();
-    for (int k : filled) {
-      const int c = k % w, r = k / w;
-      double sum = 0;
-      int count = 0;
-      const int neighbours[4][2] = {{c - 1, r}, {c + 1, r}, {c, r - 1}, {c, r + 1}};
-      for (const auto& n : neighbours) {
-        if (n[0] < 0 || n[1] < 0 || n[0] >= w || n[1] >= h || isHole(n[0], n[1])) continue;
-        sum += heights.at(n[0], n[1]), ++count;
-      }
-      values.push_back(count ? float(sum / count) : heights.data[k]);
-    }
-    for (std::size_t i = 0; i < filled.size(); ++i) heights.data[filled[i]] = values[i];
-  }
+  return filled;
 }
 
 }  // namespace terrabake::dem

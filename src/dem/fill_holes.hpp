@@ -4,19 +4,30 @@
 
 namespace terrabake::dem {
 
-// Pull-push fill: valid samples are averaged down a pyramid until every cell
-// has a value, then holes take smoothly interpolated values on the way back
-// up. Holes get no spikes and no walls at their edges. Returns false, leaving
-// the raster untouched, when it holds no valid sample at all.
+// Pull-push fill relaxed into a membrane: valid samples are averaged down a
+// pyramid until every cell has a value; on the way back up each level's holes
+// take the coarser level's values and then relax towards the membrane over
+// the valid samples (each hole sample the mean of its neighbours). Holes get
+// no blocks, spikes or walls, and next to data they are as high as it.
+// Returns false, leaving the raster untouched, when it holds no valid sample.
 bool fillHoles(Raster<float>& heights);
 
+// Continues the surface of a window into its NaN holes and fades it into
+// `backdrop` (heights of the window, no holes). `around` is the window with
+// `margin` more samples each side, at least continuationReach(reach), so that
+// a sample's value depends only on where it is, not on the window. A hole
+// sample takes the tangent planes of the data samples along the hole's edge
+// within `reach`, carried on to it and averaged with weights that fall as the
+// sixth power of distance: next to the edge the nearest sample's plane all
+// but decides, so height and slope run on across the edge without a step,
+// and further out the planes of many samples average out the staircase in
+// which a DEM's edge crosses the texel grid. The result fades into the
+// backdrop as the sample lies further from the edge, all of the way at
+// `reach`, again without a step; further samples take the backdrop's height.
+Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach);
 
-// Fills holes near valid samples by local operations only: holes grow inwards
-// from their edges (each pass gives a hole sample next to valid ones the mean
-// of those), then the filled samples relax towards a smooth membrane. After
-// it, samples within `max_texels` of a valid one have values; the rest stay
-// NaN. A sample's value depends only on the samples within 2 * max_texels of
-// it, so two windows that both reach that far around it fill it identically.
-void extendIntoHoles(Raster<float>& heights, int max_texels);
+// Edge samples within `reach`, the samples next to them that make them edge
+// samples, and the two beyond those that their slopes read.
+constexpr int continuationReach(int reach) { return reach + 3; }
 
 }  // namespace terrabake::dem

@@ -56,6 +56,7 @@ struct TileJsonInfo {
   int bits = 0;
   Green green{};
   bool alpha = false;                  // RGBA images, alpha 0 where the DEM had no sample
+  NodataSurface nodata_surface{};      // what tiles show where the DEM had no sample
   double z_scale = 0;                  // metres per DEM height unit
   double exaggeration = 0;             // vertical exaggeration of normals and meshes
   int low_poly_grid = 0;

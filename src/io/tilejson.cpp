@@ -64,6 +64,7 @@ std::string tileJson(const TileJsonInfo& info) {
         {"bits", info.bits},
         {"green", std::string(wordOf(info.green))},
         {"alpha", info.alpha},
+        {"nodata_surface", std::string(wordOf(info.nodata_surface))},
         {"z_scale", info.z_scale},
         {"exaggeration", info.exaggeration},
         {"mesh", "./{z}/{x}/{y}.glb"},

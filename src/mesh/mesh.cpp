@@ -38,9 +38,31 @@ Frame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
   return {n, glm::dvec4(t, w)};
 }
 
-// The frame at sample (c, r) of a position raster, from its four neighbours.
-Frame sampleFrame(const Raster<glm::dvec3>& p, int c, int r) {
-  return frameFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+bool isDemSample(const SampleGrid& samples, int c, int r) {
+  const Raster<glm::dvec3>& p = samples.position;
+  if (c < 0 || r < 0 || c >= p.width || r >= p.height) return false;
+  return samples.from_dem.data.empty() || samples.from_dem.at(c, r) != 0;
+}
+
+// The difference across sample (c, r) along (dc, dr), on the scale of the
+// central difference p[+1] - p[-1]. At a DEM sample whose neighbour on one
+// side was filled in, it is one-sided, from DEM samples only (second order
+// when two are there, as accurate as the central difference), so a normal at
+// the DEM's edge does not lean on invented heights.
+glm::dvec3 differenceAt(const SampleGrid& samples, int c, int r, int dc, int dr) {
+  const Raster<glm::dvec3>& p = samples.position;
+  auto at = [&](int k) { return p.at(c + k * dc, r + k * dr); };
+  auto dem = [&](int k) { return isDemSample(samples, c + k * dc, r + k * dr); };
+  if (!dem(0) || dem(1) == dem(-1)) return at(1) - at(-1);
+  const int side = dem(1) ? 1 : -1;
+  const glm::dvec3 one_sided = dem(2 * side) ? -3.0 * at(0) + 4.0 * at(side) - at(2 * side)
+                                             : 2.0 * (at(side) - at(0));
+  return double(side) * one_sided;
+}
+
+// The frame at sample (c, r), from the differences across it east and south.
+Frame sampleFrame(const SampleGrid& samples, int c, int r) {
+  return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
 }  // namespace
@@ -72,7 +94,8 @@ int requiredApron(int tile_size, int grid) {
   // The low-poly neighbour one cell out lies at texel-centre coordinate
   // -(cell + 0.5); bilinear interpolation needs the sample below that.
   const int low_poly_apron = int(std::ceil(cell_texels + 0.5));
-  return std::max(2, low_poly_apron);
+  constexpr int kHighResApron = 3;
+  return std::max(kHighResApron, low_poly_apron);
 }
 
 HighResMesh buildHighResMesh(const SampleGrid& samples) {
@@ -92,7 +115,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
       const int c = a + i, r = a + j;
       mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
       mesh.position.emplace_back(p.at(c, r));
-      mesh.normal.emplace_back(sampleFrame(p, c, r).normal);
+      mesh.normal.emplace_back(sampleFrame(samples, c, r).normal);
     }
   }
   return mesh;
@@ -138,7 +161,7 @@ GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
   for (int j = 0; j <= s; ++j) {
     for (int i = 0; i <= s; ++i) {
       const int c = a + i, r = a + j;
-      const Frame frame = sampleFrame(p, c, r);
+      const Frame frame = sampleFrame(samples, c, r);
       mesh.position.emplace_back(p.at(c, r));
       mesh.normal.emplace_back(frame.normal);
       mesh.tangent.emplace_back(frame.tangent);
@@ -147,6 +170,36 @@ GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
   }
   mesh.indices = gridIndices(mesh.grid, mesh.grid);
   return mesh;
+}
+
+void dropTrianglesWithoutData(GridMesh& mesh, const SampleGrid& samples) {
+  if (samples.from_dem.data.empty()) return;
+  // Texel (i, j)'s centre is at texel coordinate (i, j); a centre on an edge
+  // of the triangle, up to float32 UVs, counts as inside.
+  constexpr double kOnEdge = 1e-4;
+  const int s = samples.tile_size;
+  auto texelCoordinate = [&](std::uint32_t vertex) { return glm::dvec2(mesh.uv[vertex]) * double(s) - 0.5; };
+  auto cross2 = [](glm::dvec2 a, glm::dvec2 b) { return a.x * b.y - a.y * b.x; };
+  auto holdsData = [&](const glm::dvec2 (&v)[3]) {
+    const glm::dvec2 lo = glm::min(v[0], glm::min(v[1], v[2])), hi = glm::max(v[0], glm::max(v[1], v[2]));
+    const double area = cross2(v[1] - v[0], v[2] - v[0]);
+    for (int j = int(std::ceil(lo.y - kOnEdge)); j <= int(std::floor(hi.y + kOnEdge)); ++j) {
+      for (int i = int(std::ceil(lo.x - kOnEdge)); i <= int(std::floor(hi.x + kOnEdge)); ++i) {
+        const glm::dvec2 p(i, j);
+        const double l1 = cross2(p - v[0], v[2] - v[0]) / area, l2 = cross2(v[1] - v[0], p - v[0]) / area;
+        const bool inside = l1 >= -kOnEdge && l2 >= -kOnEdge && 1 - l1 - l2 >= -kOnEdge;
+        if (inside && isDemSample(samples, samples.apron + i, samples.apron + j)) return true;
+      }
+    }
+    return false;
+  };
+  std::vector<std::uint32_t> kept;
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    const glm::dvec2 v[3] = {texelCoordinate(mesh.indices[t]), texelCoordinate(mesh.indices[t + 1]),
+                             texelCoordinate(mesh.indices[t + 2])};
+    if (holdsData(v)) kept.insert(kept.end(), mesh.indices.begin() + std::ptrdiff_t(t), mesh.indices.begin() + std::ptrdiff_t(t) + 3);
+  }
+  mesh.indices = std::move(kept);
 }
 
 TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv) {

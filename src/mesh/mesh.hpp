@@ -20,6 +20,10 @@ struct SampleGrid {
   int tile_size = 0;
   int apron = 0;
   Raster<glm::dvec3> position;
+  // Non-zero where the height is the DEM's, zero where it was filled in;
+  // empty when every sample is the DEM's. Normals at DEM samples are made
+  // from DEM samples only.
+  Raster<std::uint8_t> from_dem;
 };
 
 // One vertex per height sample, as a row-major grid (row 0 north). Each grid
@@ -32,7 +36,7 @@ struct HighResMesh {
   int rows = 0;
   std::vector<glm::vec2> uv;
   std::vector<glm::vec3> position;
-  std::vector<glm::vec3> normal;  // unit, smooth (central differences)
+  std::vector<glm::vec3> normal;  // unit, smooth: central differences, one-sided at the DEM's edge
 };
 
 // A regular grid of `grid` x `grid` vertices, split into triangles like
@@ -70,8 +74,9 @@ struct GridTriangle {
 GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows);
 
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
-// two for the high-res normals at the edge, and one low-poly cell (plus one
-// sample to interpolate in) for the low-poly normals at the edge.
+// three for the high-res normals up to the first sample beyond the edge (a
+// one-sided difference there reaches two samples further), and one low-poly
+// cell (plus one sample to interpolate in) for the low-poly normals at the edge.
 int requiredApron(int tile_size, int grid);
 
 HighResMesh buildHighResMesh(const SampleGrid& samples);
@@ -83,5 +88,10 @@ GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
 GridMesh buildHighResDisplayMesh(const SampleGrid& samples);
 
 TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv);
+
+// Leaves out of `mesh` (over the UV space of `samples`' tile) the triangles
+// that hold no texel centre with a DEM sample, edges and corners included,
+// so the mesh stops within a triangle of where the data stops. Vertices stay.
+void dropTrianglesWithoutData(GridMesh& mesh, const SampleGrid& samples);
 
 }  // namespace terrabake::mesh

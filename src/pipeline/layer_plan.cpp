@@ -73,7 +73,8 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan,
   info.tile_size = plan.scheme->tileSize();
   info.bits = job.bits;
   info.green = job.green;
-  info.alpha = job.alpha;
+  info.alpha = plan.settings.alpha;
+  info.nodata_surface = job.nodata_surface;
   info.z_scale = job.z_scale;
   info.exaggeration = job.exaggeration;
   info.low_poly_grid = job.low_poly_grid;
@@ -88,9 +89,11 @@ TileSettings tileSettings(const config::TileJob& job) {
   settings.bits = job.bits;
   settings.green = job.green;
   settings.high_res_mesh = job.high_res_mesh;
-  settings.alpha = job.alpha;
+  // A cut needs alpha: it is what tells a renderer where nothing is.
+  settings.alpha = job.alpha || job.nodata_surface == NodataSurface::kCut;
   settings.height_scale = job.z_scale * job.exaggeration;
   settings.max_fill_px = job.max_fill_px;
+  settings.nodata_surface = job.nodata_surface;
   return settings;
 }
 

@@ -28,7 +28,8 @@ struct TileSettings {
   bool high_res_mesh = false;  // also make the high-res display mesh
   bool alpha = false;          // RGBA: alpha 0 on texels the DEM had no sample for
   double height_scale = 0;     // metres of output height per DEM unit (z_scale * exaggeration)
-  int max_fill_px = 0;         // holes are filled this far in; beyond, the backdrop
+  int max_fill_px = 0;         // the surface carried into holes fades into the backdrop over this
+  NodataSurface nodata_surface{};  // cut: no triangles where the DEM has no sample (alpha implied)
 };
 
 struct LayerPlan {

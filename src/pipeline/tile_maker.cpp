@@ -27,13 +27,20 @@ bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
   return false;
 }
 
-// Non-zero on the texels (apron excluded) that hold a valid DEM sample.
-Raster<std::uint8_t> coverage(const Raster<float>& heights, int apron, int tile_size) {
-  Raster<std::uint8_t> covered(tile_size, tile_size);
+// Non-zero on the samples that hold a valid DEM height, before any fill.
+Raster<std::uint8_t> demSamples(const Raster<float>& heights) {
+  Raster<std::uint8_t> from_dem(heights.width, heights.height);
+  for (std::size_t k = 0; k < heights.data.size(); ++k) from_dem.data[k] = !std::isnan(heights.data[k]);
+  return from_dem;
+}
+
+// The tile's texels of a sample mask (the apron cut off).
+Raster<std::uint8_t> texelsOf(const Raster<std::uint8_t>& samples, int apron, int tile_size) {
+  Raster<std::uint8_t> texels(tile_size, tile_size);
   for (int j = 0; j < tile_size; ++j) {
-    for (int i = 0; i < tile_size; ++i) covered.at(i, j) = !std::isnan(heights.at(apron + i, apron + j));
+    for (int i = 0; i < tile_size; ++i) texels.at(i, j) = samples.at(apron + i, apron + j);
   }
-  return covered;
+  return texels;
 }
 
 void scaleHeights(Raster<float>& heights, double scale) {
@@ -59,32 +66,22 @@ struct TileMaker::Impl {
         baker(gl::createBaker(plan->backend)) {}
 
   // `heights` of `grid` with every hole filled so that the result depends
-  // only on where a texel is, not on which tile asks: holes are filled up to
-  // max_fill_px in from their edge, reading a margin around the window, and
-  // what the fill does not reach comes from the backdrop.
-  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan, Raster<float> heights) const {
+  // only on where a texel is, not on which tile asks: the surface is carried
+  // on into holes from their edges over max_fill_px, reading the samples it
+  // depends on around the window, and fades into the backdrop there.
+  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan) const {
     const int reach = settings.max_fill_px;
-    if (reach > 0) {
-      // A filled texel depends on the samples within 2 * reach of it.
-      const int margin = 2 * reach;
-      GridSpec wide = grid;
-      wide.origin_x -= margin * grid.cell_w;
-      wide.origin_y += margin * grid.cell_h;
-      wide.width += 2 * margin;
-      wide.height += 2 * margin;
-      Raster<float> around = dem.read(wide, read_plan);
-      dem::extendIntoHoles(around, reach);
-      for (int r = 0; r < grid.height; ++r) {
-        for (int c = 0; c < grid.width; ++c) heights.at(c, r) = around.at(c + margin, r + margin);
-      }
-    }
+    const int margin = dem::continuationReach(reach);
+    GridSpec wide = grid;
+    wide.origin_x -= margin * grid.cell_w;
+    wide.origin_y += margin * grid.cell_h;
+    wide.width += 2 * margin;
+    wide.height += 2 * margin;
+    Raster<float> backdrop(grid.width, grid.height);
     for (int r = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c) {
-        float& h = heights.at(c, r);
-        if (std::isnan(h)) h = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
-      }
+      for (int c = 0; c < grid.width; ++c) backdrop.at(c, r) = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
     }
-    return heights;
+    return dem::continueIntoHoles(dem.read(wide, read_plan), margin, backdrop, reach);
   }
 
   // Positions of every sample in the frame of the tile's centre.
@@ -129,15 +126,21 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   Raster<float> heights = s.dem.read(grid, read_plan);
   if (!hasValidSample(heights, apron, size)) return std::nullopt;
   // Coverage is what the DEM itself gives, before any fill.
-  const Raster<std::uint8_t> covered = s.settings.alpha ? coverage(heights, apron, size) : Raster<std::uint8_t>();
-  if (hasHoles(heights)) heights = s.filledHeights(grid, read_plan, std::move(heights));
+  Raster<std::uint8_t> from_dem;
+  if (hasHoles(heights)) {
+    from_dem = demSamples(heights);
+    heights = s.filledHeights(grid, read_plan);
+  }
   scaleHeights(heights, s.settings.height_scale);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
-  const mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
+  mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
+  samples.from_dem = from_dem;
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
-  const mesh::GridMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
+  mesh::GridMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
   const bake::NormalMap map = s.baker->bake(high, low, size);
+  const bool cut = s.settings.nodata_surface == NodataSurface::kCut;
+  if (cut) mesh::dropTrianglesWithoutData(low, samples);
 
   io::GlbInfo glb_info;
   glb_info.normal_texture_uri = std::to_string(tile.y) + ".png";
@@ -146,12 +149,18 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.enu_to_ecef = frame.localToEcef();
   io::TileFiles files;
   Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
-  if (s.settings.alpha) image = bake::addAlpha(image, covered, s.settings.bits);
+  if (s.settings.alpha) {
+    const Raster<std::uint8_t> covered = from_dem.data.empty() ? Raster<std::uint8_t>(size, size, 1)
+                                                               : texelsOf(from_dem, apron, size);
+    image = bake::addAlpha(image, covered, s.settings.bits);
+  }
   files.png = io::encodePng(image, s.settings.bits);
   files.glb = io::encodeGlb(low, glb_info);
   if (s.settings.high_res_mesh) {
     glb_info.normal_texture_uri.clear();
-    files.high_res_glb = io::encodeGlb(mesh::buildHighResDisplayMesh(samples), glb_info);
+    mesh::GridMesh display = mesh::buildHighResDisplayMesh(samples);
+    if (cut) mesh::dropTrianglesWithoutData(display, samples);
+    files.high_res_glb = io::encodeGlb(display, glb_info);
   }
   return files;
 }

@@ -15,7 +15,14 @@
 //    difference of luma (0..255). RMSE is printed too; it weighs the few pixels
 //    on sunlit/shaded ridge crests that parallax shifts by a pixel (the low-poly
 //    surface is not at the high-res height) far more than the shading itself.
-// 5. Keeps the screenshots and difference images in <out>/ and stops the server
+// 5. A view across the DEM's west edge, from above, of the layer and of a
+//    second one made with --nodata-surface cut. The cut view draws nothing
+//    beyond the data (alpha cuts at texels, so its terrain ends along a smooth
+//    line, not in mesh cells) and the data as the default view does; that line
+//    locates the edge in the default view, where the luma profile across it,
+//    averaged along it, must dip no deeper than profiles across lines inside
+//    the terrain do: no dark line where the data stops.
+// 6. Keeps the screenshots and difference images in <out>/ and stops the server
 //    with SIGTERM.
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core;
@@ -45,6 +52,29 @@ const kView = {
   ...Object.fromEntries(new URLSearchParams(process.env.TERRABAKE_VIEWER_TEST_VIEW || '')),
 };
 const kModes = ['normalmap', 'lowpoly', 'highres'];
+// The edge view: the four tiles nearest the middle of the DEM's west edge,
+// seen from straight above (89 degrees: the orbit controls need a horizon),
+// close enough for about two pixels a texel.
+const kEdgeView = { ...kView, maxTiles: '4', camAz: '180', camEl: '89', camDist: '0.55', mode: 'normalmap' };
+const kCutLayer = 'sample_cut';
+// Luma profiles across the edge (and across the control lines) run this many
+// pixels either side; the dip is the darkest pixel within kDipHalfWidthPx of
+// the line against the mean of the flanks beyond kFlankStartPx.
+const kProfileHalfWidthPx = 14;
+const kDipHalfWidthPx = 3;
+const kFlankStartPx = 5;
+// Control lines: parallel to the edge, this far inside the terrain.
+const kControlOffsetsPx = [24, 40, 56, 72, 88, 104, 120];
+// The cut view's terrain starts along the edge, which parallax bends smoothly:
+// from one row to the next by at most this many pixels (two texels). Cut at
+// mesh cells, it would jump by 16 texels where it crosses one.
+const kMaxCutEdgeJumpPx = 4;
+// Where the cut view draws, it draws what the default view does: the mean
+// luma difference there, a few pixels clear of the edge's antialiasing.
+const kMaxCutDifference = 0.5;
+const kCutEdgeClearancePx = 3;
+// Rows whose edge was found must make up this share of the edge view.
+const kMinEdgeRowShare = 0.5;
 const kLowPolyTrianglesPerTile = 2 * 16 * 16;     // low_poly.grid 17
 const kHighResTrianglesPerTile = 2 * 256 * 256;   // tile_size 256
 // The normal map must bring the low-poly tiles at least this much closer to the
@@ -119,6 +149,117 @@ async function openViewer(url, name) {
 }
 
 // ---------------------------------------------------------------------------
+// The view across the DEM's edge
+
+// Opens the edge view of `layer`; resolves to its decoded screenshot (saved
+// as <out>/<name>.png) or null.
+async function edgeScreenshot(serverUrl, layer, centre, out, name) {
+  const query = new URLSearchParams({ ...kEdgeView, layer, center: `${centre[0]},${centre[1]}`, wireframe: '0' });
+  const { page, stats, ok } = await openViewer(`${serverUrl}?${query}`, name);
+  const file = path.join(out, `${name}.png`);
+  let image = null;
+  try {
+    image = decodePng(await page.locator('#view canvas').screenshot({ path: file, timeout: 30_000 }));
+  } catch (error) {
+    fail(`${name}: screenshot: ${error.message}`);
+  }
+  await page.close();
+  if (ok && stats && stats.tiles !== Number(kEdgeView.maxTiles)) fail(`${name}: ${stats.tiles} tiles shown, expected ${kEdgeView.maxTiles}`);
+  log(`${name}: ${stats ? `${stats.tiles} tiles, ${stats.triangles} triangles` : 'not ready'} -> ${file}`);
+  return ok ? image : null;
+}
+
+// Mean luma of `image` along the rows, at x = edge[y] + offset + k for k in
+// -kProfileHalfWidthPx..kProfileHalfWidthPx; null where a row leaves the image.
+function meanProfile(image, edge, offset) {
+  const sum = new Array(2 * kProfileHalfWidthPx + 1).fill(0);
+  let rows = 0;
+  for (const [y, x] of edge) {
+    const x0 = Math.round(x + offset) - kProfileHalfWidthPx;
+    if (x0 < 0 || x0 + 2 * kProfileHalfWidthPx >= image.width) return null;
+    for (let k = 0; k < sum.length; ++k) sum[k] += luma(image.rgb, y * image.width + x0 + k);
+    ++rows;
+  }
+  return sum.map((s) => s / rows);
+}
+
+// How much darker the profile's middle is than the darker of its flanks
+// (0 when it is not).
+function dipDepth(profile) {
+  const c = kProfileHalfWidthPx;
+  const mean = (ks) => ks.reduce((s, k) => s + profile[c + k], 0) / ks.length;
+  const range = (a, b) => Array.from({ length: b - a + 1 }, (_, i) => a + i);
+  const flank = Math.min(mean(range(-kProfileHalfWidthPx, -kFlankStartPx)), mean(range(kFlankStartPx, kProfileHalfWidthPx)));
+  const middle = Math.min(...range(-kDipHalfWidthPx, kDipHalfWidthPx).map((k) => profile[c + k]));
+  return Math.max(0, flank - middle);
+}
+
+async function checkEdgeView(serverUrl, out) {
+  let tilejson;
+  try {
+    tilejson = await (await fetch(`${serverUrl}${kView.layer}/tilejson.json`)).json();
+  } catch (error) {
+    fail(`edge view: cannot read the tilejson: ${error.message}`);
+    return;
+  }
+  const [west, south, , north] = tilejson.bounds;
+  const centre = [west, (south + north) / 2];
+  const continued = await edgeScreenshot(serverUrl, kView.layer, centre, out, 'viewer_edge');
+  const cut = await edgeScreenshot(serverUrl, kCutLayer, centre, out, 'viewer_edge_cut');
+  if (!continued || !cut) return;
+
+  // The edge, row by row: where the cut view's terrain starts.
+  const edge = [];
+  for (let y = 0; y < cut.height; ++y) {
+    for (let x = 0; x < cut.width; ++x) {
+      if (isGrey(cut.rgb, y * cut.width + x)) {
+        if (x > 0) edge.push([y, x]);
+        break;
+      }
+    }
+  }
+  if (edge.length < kMinEdgeRowShare * cut.height) {
+    fail(`edge view: the cut view shows the DEM's edge on ${edge.length} of ${cut.height} rows`);
+    return;
+  }
+  let jump = 0;
+  for (let k = 1; k < edge.length; ++k) {
+    if (edge[k][0] === edge[k - 1][0] + 1) jump = Math.max(jump, Math.abs(edge[k][1] - edge[k - 1][1]));
+  }
+  let difference = 0;
+  let drawn = 0;
+  for (const [y, x] of edge) {
+    for (let xx = x + kCutEdgeClearancePx; xx < cut.width; ++xx) {
+      const p = y * cut.width + xx;
+      if (!isGrey(cut.rgb, p)) continue;
+      difference += Math.abs(luma(cut.rgb, p) - luma(continued.rgb, p));
+      ++drawn;
+    }
+  }
+  difference /= drawn;
+
+  const profile = meanProfile(continued, edge, 0);
+  const controls = kControlOffsetsPx.map((offset) => meanProfile(continued, edge, offset)).filter(Boolean);
+  const dip = profile ? dipDepth(profile) : NaN;
+  const controlDips = controls.map(dipDepth);
+  const worstControl = Math.max(...controlDips);
+  console.log('');
+  console.log(`  Edge view: the DEM's west edge on ${edge.length} rows of the cut view, moving at most ${jump} px from row to row;` +
+    ` mean luma difference to the default view where the cut view draws ${difference.toFixed(3)}.`);
+  console.log(`  Mean luma across the edge (${-kProfileHalfWidthPx}..${kProfileHalfWidthPx} px): ${profile ? profile.map((v) => v.toFixed(0)).join(' ') : '-'}`);
+  console.log(`  Dip at the edge ${dip.toFixed(2)}; across lines ${kControlOffsetsPx.join(', ')} px inside the terrain ` +
+    `${controlDips.map((d) => d.toFixed(2)).join(', ')} (largest ${worstControl.toFixed(2)})`);
+  console.log('');
+  if (jump > kMaxCutEdgeJumpPx) fail(`edge view: the cut view's terrain edge jumps ${jump} px between rows (at most ${kMaxCutEdgeJumpPx})`);
+  if (!(difference <= kMaxCutDifference)) fail(`edge view: where the cut view draws, it differs from the default view by ${difference.toFixed(3)} (at most ${kMaxCutDifference})`);
+  if (!profile || controls.length < 3) {
+    fail('edge view: the profiles across the edge do not fit in the view');
+  } else if (!(dip <= worstControl)) {
+    fail(`edge view: a dark line along the DEM's edge: the luma dips ${dip.toFixed(2)} there, at most ${worstControl.toFixed(2)} across lines inside the terrain`);
+  }
+}
+
+// ---------------------------------------------------------------------------
 
 async function main() {
   const { terrabake, out, tilesDir } = await t.setUp('viewer_test.mjs');
@@ -126,6 +267,8 @@ async function main() {
   // 1. A small layer.
   await t.tile(terrabake, ['--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', kView.z,
     '--high-res-mesh', 'true', '--out', tilesDir, '--layer', kView.layer], kTileTimeoutMs);
+  await t.tile(terrabake, ['--config', path.join(kRepo, 'config/sample.yaml'), '--zoom', kView.z,
+    '--nodata-surface', 'cut', '--out', tilesDir, '--layer', kCutLayer], kTileTimeoutMs);
 
   // 2. The server.
   let server;
@@ -242,6 +385,9 @@ async function main() {
   } else {
     fail('not every mode gave a screenshot; nothing to compare');
   }
+
+  // 5. Across the DEM's edge.
+  await checkEdgeView(server.url, out);
 
   // 6. Stop the server.
   await t.closeChromium();

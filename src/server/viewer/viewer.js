@@ -19,11 +19,17 @@
 //   fov=DEG               vertical field of view (35)
 //   width=PX, height=PX   fixed canvas size in CSS pixels at pixel ratio 1 (default: fill the window)
 //   maxTiles=N            most tiles loaded, those nearest the layer centre (64)
+//   center=LON,LAT        load the tiles nearest this point instead (degrees)
 //
 // The page renders only when something changes (no animation loop). Once every
 // tile of the current view has loaded and a frame has been drawn it sets
-// window.terrabakeReady = true and window.terrabakeStats = {triangles, tiles}.
+// window.terrabakeReady = true and window.terrabakeStats = {triangles, tiles};
+// window.terrabakeScreenPoint(lon, lat, height) gives where a point of the
+// ellipsoid lands on the canvas, in CSS pixels from its top-left corner.
 // Anything that fails to load is reported with console.error.
+//
+// A layer made with nodata.surface: cut (tilejson terrabake.nodata_surface)
+// draws nothing where its normal maps have alpha 0: where the DEM has no data.
 
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
@@ -49,6 +55,17 @@ function numberParam(name, fallback) {
   return value;
 }
 
+// center=LON,LAT as [lon, lat], or null.
+function centerParam() {
+  if (!params.has('center')) return null;
+  const lonLat = params.get('center').split(',').map(Number);
+  if (lonLat.length !== 2 || !lonLat.every(Number.isFinite)) {
+    console.error(`terrabake viewer: URL parameter center=${params.get('center')} is not LON,LAT`);
+    return null;
+  }
+  return lonLat;
+}
+
 const settings = {
   layer: params.get('layer'),
   zoom: params.has('z') ? numberParam('z', null) : null,
@@ -62,6 +79,7 @@ const settings = {
   cameraDistanceFactor: numberParam('camDist', 1),
   fovDeg: numberParam('fov', 35),
   maxTiles: Math.max(1, Math.floor(numberParam('maxTiles', kDefaultMaxTiles))),
+  center: centerParam(),
   fixedWidth: params.has('width') ? numberParam('width', 960) : null,
   fixedHeight: params.has('height') ? numberParam('height', 640) : null,
 };
@@ -213,10 +231,11 @@ function schemeGrid(scheme, zoom) {
   return null;
 }
 
-// Tiles of one zoom that cover the layer bounds, nearest the centre first,
-// at most maxTiles. Mirrors tiling::Scheme::tilesCovering; the epsilon keeps a
-// bound that lies on a tile edge (up to rounding) from adding the next tile.
-function tilesCovering(tilejson, zoom, maxTiles) {
+// Tiles of one zoom that cover the layer bounds, nearest the centre (or
+// `center`, [lon, lat]) first, at most maxTiles. Mirrors
+// tiling::Scheme::tilesCovering; the epsilon keeps a bound that lies on a tile
+// edge (up to rounding) from adding the next tile.
+function tilesCovering(tilejson, zoom, maxTiles, center = null) {
   const scheme = tilejson.terrabake?.scheme ?? 'webmercator';
   const grid = schemeGrid(scheme, zoom);
   if (!grid) {
@@ -229,8 +248,8 @@ function tilesCovering(tilejson, zoom, maxTiles) {
   const x1 = Math.ceil(grid.col(east) - eps) - 1;
   const r0 = Math.max(0, Math.floor(grid.row(north) + eps));
   const r1 = Math.min(grid.rows - 1, Math.ceil(grid.row(south) - eps) - 1);
-  const centreCol = (grid.col(west) + grid.col(east)) / 2;
-  const centreRow = (grid.row(north) + grid.row(south)) / 2;
+  const centreCol = center ? grid.col(center[0]) : (grid.col(west) + grid.col(east)) / 2;
+  const centreRow = center ? grid.row(center[1]) : (grid.row(north) + grid.row(south)) / 2;
   const tiles = [];
   for (let r = r0; r <= r1; ++r) {
     for (let xu = x0; xu <= x1; ++xu) {
@@ -257,6 +276,40 @@ function enuToEcef(gltf, url) {
   }
   return new THREE.Matrix4().fromArray(values);  // column-major, as glTF stores it
 }
+
+// Alpha of a cut layer's normal maps says where the DEM has data; glTF gives
+// a normal texture's alpha no meaning, so the fragment shader is told.
+function discardWhereNoData(material) {
+  material.onBeforeCompile = (shader) => {
+    shader.fragmentShader = shader.fragmentShader.replace('#include <normal_fragment_maps>', [
+      '#include <normal_fragment_maps>',
+      '#ifdef USE_NORMALMAP',
+      '  if ( texture2D( normalMap, vNormalMapUv ).a < 0.5 ) discard;',
+      '#endif',
+    ].join('\n'));
+  };
+  material.customProgramCacheKey = () => 'terrabake-cut';
+}
+
+// ECEF metres of a point given in degrees and metres above the WGS84 ellipsoid.
+function geodeticToEcef(lonDeg, latDeg, height) {
+  const a = 6378137;
+  const f = 1 / 298.257223563;
+  const e2 = f * (2 - f);
+  const lon = THREE.MathUtils.degToRad(lonDeg);
+  const lat = THREE.MathUtils.degToRad(latDeg);
+  const n = a / Math.sqrt(1 - e2 * Math.sin(lat) ** 2);
+  return new THREE.Vector3((n + height) * Math.cos(lat) * Math.cos(lon), (n + height) * Math.cos(lat) * Math.sin(lon),
+    (n * (1 - e2) + height) * Math.sin(lat));
+}
+
+// Where a point lands on the canvas (CSS pixels from its top-left corner).
+window.terrabakeScreenPoint = (lonDeg, latDeg, height = 0) => {
+  if (!state.reference) return null;
+  const ndc = geodeticToEcef(lonDeg, latDeg, height).applyMatrix4(state.reference).project(camera);
+  const canvas = renderer.domElement;
+  return { x: (ndc.x + 1) / 2 * canvas.clientWidth, y: (1 - ndc.y) / 2 * canvas.clientHeight };
+};
 
 // Inverse of a rigid transform [R t; 0 1]: [R^T -R^T t; 0 1], in doubles.
 function rigidInverse(m) {
@@ -297,8 +350,9 @@ async function mapPool(items, limit, fn) {
 // Loads one .glb; returns {root, matrix, meshes} or null if it failed (reported).
 // greenDown: the layer's normal maps have +Y of tangent space pointing south
 // (tilejson terrabake.green = "down", DirectX style); three then reads them
-// with normalScale.y = -1.
-async function loadTileGlb(url, kind, greenDown = false) {
+// with normalScale.y = -1. cut: the layer was made with nodata.surface: cut,
+// so texels whose normal-map alpha is 0 are not drawn.
+async function loadTileGlb(url, kind, { greenDown = false, cut = false } = {}) {
   let gltf;
   for (let attempt = 0; ; ++attempt) {
     try {
@@ -356,6 +410,7 @@ async function loadTileGlb(url, kind, greenDown = false) {
           console.warn(`terrabake viewer: ${url}: normalScale was (${material.normalScale.x}, ${material.normalScale.y}); forcing (1, 1)`);
         }
         material.normalScale.set(1, greenDown ? -1 : 1);
+        if (cut) discardWhereNoData(material);
       }
     }
     meshes.push(object);
@@ -416,7 +471,10 @@ async function loadLowPoly(generation, tilejson, tileIds) {
   const meshTemplate = new URL(template, state.tilejsonUrl).href.replace(/%7B/gi, '{').replace(/%7D/gi, '}');
   let loaded = 0;
   const parts = await mapPool(tileIds, kLoadConcurrency, async (id) => {
-    const part = await loadTileGlb(tileUrl(meshTemplate, id), 'low-poly', tilejson.terrabake?.green === 'down');
+    const part = await loadTileGlb(tileUrl(meshTemplate, id), 'low-poly', {
+      greenDown: tilejson.terrabake?.green === 'down',
+      cut: tilejson.terrabake?.nodata_surface === 'cut',
+    });
     if (generation === state.generation) setStatus(`loading low-poly tiles: ${++loaded}/${tileIds.length}`);
     return part;
   });
@@ -556,7 +614,7 @@ async function showZoom(zoom) {
   settings.zoom = zoom;
   ui.zoom.value = `${zoom}`;
   try {
-    const { tiles, total } = tilesCovering(state.tilejson, zoom, settings.maxTiles);
+    const { tiles, total } = tilesCovering(state.tilejson, zoom, settings.maxTiles, settings.center);
     if (tiles.length === 0) throw new Error(`no tiles cover the layer at zoom ${zoom}`);
     if (total > tiles.length) {
       console.info(`terrabake viewer: zoom ${zoom} has ${total} tiles; showing the ${tiles.length} nearest the centre`);

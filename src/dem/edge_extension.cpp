@@ -1,0 +1,156 @@
+#include "dem/edge_extension.hpp"
+
+#include <gdal_vrt.h>
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+
+namespace terrabake::dem {
+namespace {
+
+bool maskBit(const GUInt32* mask, std::size_t i) { return (mask[i >> 5] >> (i & 31)) & 1u; }
+void setMaskBit(GUInt32* mask, std::size_t i) { mask[i >> 5] |= GUInt32(1) << (i & 31); }
+
+// A chunk's source pixels and which of them hold heights so far.
+struct PixelGrid {
+  int width = 0, height = 0;
+  const float* values = nullptr;
+  const std::vector<std::uint8_t>* valid = nullptr;
+
+  bool validAt(int c, int r) const {
+    return c >= 0 && r >= 0 && c < width && r < height && (*valid)[std::size_t(r) * width + c];
+  }
+  float at(int c, int r) const { return values[std::size_t(r) * width + c]; }
+};
+
+// Height of void pixel (c, r) extrapolated from the valid pixels in line
+// with it along the rows and columns, the most accurate way each line
+// allows: Keys' cubic-convolution boundary condition 3 f1 - 3 f2 + f3 from
+// three, a straight line from two, the nearest from one. Lines with fewer
+// pixels than the best one are left out, so a coarse estimate never dilutes
+// an accurate one. Empty when no valid pixel touches it along a line.
+std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
+  constexpr int kSteps[4][2] = {{1, 0}, {-1, 0}, {0, 1}, {0, -1}};
+  int best_order = 0;
+  double sum = 0;
+  int count = 0;
+  for (const auto& step : kSteps) {
+    int order = 0;
+    while (order < 3 && grid.validAt(c + (order + 1) * step[0], r + (order + 1) * step[1])) ++order;
+    if (order == 0 || order < best_order) continue;
+    const auto f = [&](int k) { return double(grid.at(c + k * step[0], r + k * step[1])); };
+    const double estimate = order == 3 ? 3 * f(1) - 3 * f(2) + f(3) : order == 2 ? 2 * f(1) - f(2) : f(1);
+    if (order > best_order) best_order = order, sum = 0, count = 0;
+    sum += estimate;
+    ++count;
+  }
+  if (count == 0) return std::nullopt;
+  return float(sum / count);
+}
+
+}  // namespace
+
+GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file) {
+  const int width = file.GetRasterXSize(), height = file.GetRasterYSize();
+  VRTDatasetH vrt = VRTCreate(width + 2 * kPixels, height + 2 * kPixels);
+  if (!vrt) return nullptr;
+  double gt[6];
+  file.GetGeoTransform(gt);
+  gt[0] -= kPixels * gt[1];
+  gt[3] -= kPixels * gt[5];
+  GDALSetGeoTransform(vrt, gt);
+  GDALSetProjection(vrt, file.GetProjectionRef());
+  VRTAddBand(vrt, GDT_Float32, nullptr);
+  GDALRasterBandH band = GDALGetRasterBand(vrt, 1);
+  // Where no source reaches, a VRT reads its nodata value: NaN, a void.
+  GDALSetRasterNoDataValue(band, NAN);
+  if (VRTAddSimpleSource(band, GDALRasterBand::ToHandle(file.GetRasterBand(1)), 0, 0, width, height, kPixels,
+                         kPixels, width, height, nullptr, VRT_NODATA_UNSET) != CE_None) {
+    GDALClose(vrt);
+    return nullptr;
+  }
+  return GDALDataset::FromHandle(vrt);
+}
+
+CPLErr EdgeExtension::extend(GDALWarpKernel& kernel) {
+  const int width = kernel.nSrcXSize, height = kernel.nSrcYSize;
+  const std::size_t count = std::size_t(width) * height;
+  m_was_valid.assign(count, 1);
+  m_had_voids = false;
+  GUInt32* mask = kernel.panUnifiedSrcValid;
+  if (!mask) return CE_None;
+  for (std::size_t i = 0; i < count; ++i) {
+    m_was_valid[i] = maskBit(mask, i);
+    m_had_voids = m_had_voids || !m_was_valid[i];
+  }
+  if (!m_had_voids) return CE_None;
+
+  // Void pixels within kPixels of data, in rows and columns and diagonally.
+  std::vector<std::uint8_t> near_data(count, 0);
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      if (!m_was_valid[std::size_t(r) * width + c]) continue;
+      for (int rr = std::max(0, r - kPixels); rr <= std::min(height - 1, r + kPixels); ++rr) {
+        for (int cc = std::max(0, c - kPixels); cc <= std::min(width - 1, c + kPixels); ++cc) {
+          near_data[std::size_t(rr) * width + cc] = 1;
+        }
+      }
+    }
+  }
+
+  // Ring by ring, each from the data and the rings before it; a pixel
+  // diagonal to the data waits for the rings beside it. Twice kPixels rings
+  // reach the far corner.
+  float* values = reinterpret_cast<float*>(kernel.papabySrcImage[0]);
+  std::vector<std::uint8_t> valid = m_was_valid;
+  const PixelGrid grid{width, height, values, &valid};
+  std::vector<std::pair<std::size_t, float>> ring;
+  for (int pass = 0; pass < 2 * kPixels; ++pass) {
+    ring.clear();
+    for (int r = 0; r < height; ++r) {
+      for (int c = 0; c < width; ++c) {
+        const std::size_t i = std::size_t(r) * width + c;
+        if (valid[i] || !near_data[i]) continue;
+        if (const auto value = extrapolated(grid, c, r)) ring.emplace_back(i, *value);
+      }
+    }
+    for (const auto& [i, value] : ring) {
+      values[i] = value;
+      valid[i] = 1;
+      setMaskBit(mask, i);
+    }
+  }
+  return CE_None;
+}
+
+CPLErr EdgeExtension::restoreCoverage(GDALWarpKernel& kernel) const {
+  if (!m_had_voids) return CE_None;
+  const int width = kernel.nDstXSize, height = kernel.nDstYSize;
+  float* texels = reinterpret_cast<float*>(kernel.papabyDstImage[0]);
+  const std::size_t row_size = std::size_t(width);
+  std::vector<double> x(row_size), y(row_size), z(row_size);
+  std::vector<int> ok(row_size);
+  for (int r = 0; r < height; ++r) {
+    // Texel centres in the source's pixels, as the warp kernel finds them.
+    for (int c = 0; c < width; ++c) {
+      x[c] = c + 0.5 + kernel.nDstXOff;
+      y[c] = r + 0.5 + kernel.nDstYOff;
+      z[c] = 0;
+    }
+    kernel.pfnTransformer(kernel.pTransformerArg, TRUE, width, x.data(), y.data(), z.data(), ok.data());
+    for (int c = 0; c < width; ++c) {
+      const double col = std::floor(x[c] - kernel.nSrcXOff), row = std::floor(y[c] - kernel.nSrcYOff);
+      // The chunk holds every pixel its texels read, so a centre outside it
+      // lies beyond the raster, where an average over the border still finds
+      // extended pixels.
+      const bool in_chunk = ok[c] && col >= 0 && row >= 0 && col < kernel.nSrcXSize && row < kernel.nSrcYSize;
+      if (!in_chunk || !m_was_valid[std::size_t(row) * std::size_t(kernel.nSrcXSize) + std::size_t(col)]) {
+        texels[std::size_t(r) * width + c] = NAN;
+      }
+    }
+  }
+  return CE_None;
+}
+
+}  // namespace terrabake::dem

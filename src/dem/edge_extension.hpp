@@ -1,0 +1,50 @@
+#pragma once
+// Resampling up to the edge of a DEM's data, internal to the dem module.
+//
+// GDAL's cubic kernel falls back to bilinear wherever one of its taps is
+// void, and to the nearest pixel's height beyond the last pixel centre; near
+// the edge of the DEM and of its voids that tilts normals by up to tens of
+// degrees. An EdgeExtension gives the kernel the taps it lacks: the chunk's
+// void pixels next to data take heights extrapolated from the data with
+// Keys' boundary condition for cubic convolution, which keeps the kernel as
+// accurate there as inside, and texels whose centre lies in such a pixel are
+// made void again after the warp, so what counts as data stays the DEM's own.
+#include <gdal_priv.h>
+#include <gdalwarper.h>
+
+#include <cstdint>
+#include <vector>
+
+namespace terrabake::dem {
+
+class EdgeExtension {
+ public:
+  // A cubic kernel reaches two pixels from the point it interpolates.
+  static constexpr int kPixels = 2;
+  // Source pixels the warper must read beyond its kernel so that every
+  // extrapolated tap sees the same data in any window: three pixels of data
+  // behind the second ring.
+  static constexpr int kSourceExtra = kPixels + 3;
+
+  // `file` (band 1, as Float32) inside a border of kPixels void pixels, as a
+  // new in-memory VRT over it that the caller closes: beyond the file's edge
+  // the warper then loads pixels that extend() can fill. `file` must outlive
+  // it. Returns nullptr when GDAL cannot make it.
+  static GDALDataset* withVoidBorder(GDALDataset& file);
+
+  // Pre-warp step, once void pixels are marked invalid in the chunk's
+  // unified validity mask: void pixels within kPixels of data get
+  // extrapolated heights and become valid.
+  CPLErr extend(GDALWarpKernel& kernel);
+
+  // Post-warp step: destination texels whose centre lies in a pixel that
+  // extend() filled are void again.
+  CPLErr restoreCoverage(GDALWarpKernel& kernel) const;
+
+ private:
+  // Of the current chunk, one byte per source pixel: valid before extend().
+  std::vector<std::uint8_t> m_was_valid;
+  bool m_had_voids = false;
+};
+
+}  // namespace terrabake::dem
