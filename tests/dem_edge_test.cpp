@@ -26,28 +26,31 @@ namespace ts = test_support;
 constexpr double kCentreLon = 17.5, kCentreLat = 60.0;
 constexpr int kDemPixels = 256;
 constexpr double kPixelM = 30.0;
-// 19 m texels at 60 degrees north: the DEM (7.7 km) ends inside tiles of
-// 4.9 km on all four sides, and the cubic kernel reads it (texels finer than
-// its pixels).
-constexpr int kZoom = 12;
+// Two zooms, the two ways a DEM is read. At zoom 12, texels of 19 m at 60
+// degrees north, the cubic kernel interpolates the 30 m pixels, and the DEM
+// (7.7 km) ends inside tiles of 4.9 km on all four sides; at zoom 11, texels
+// of 38 m average 1.3 pixels each, and it ends inside tiles of 9.8 km.
+constexpr int kInterpolatedZoom = 12;
+constexpr int kAveragedZoom = 11;
 
 // The band the accuracy promise is judged in, and where "inside" starts for
 // the steps it is compared with.
 constexpr double kEdgeBandTexels = 3;
 
 // 16 bits, so that quantisation does not hide the bake. The bounds of
-// accuracy_test (docs/CONTRACT.md §4) are 0.05 and 0.1 degrees; texels inside
-// this DEM measure 0.002 and 0.004, those within three texels of its edge
-// 0.005 and 0.025 (GDAL's own kernel there, bilinear and then flat, and
-// central differences into the fill gave 2.8 and 18 degrees). These bounds
-// are twice the measured ones.
-constexpr double kMaxEdgeMeanDeg = 0.01;
+// accuracy_test (docs/CONTRACT.md §4) are 0.05 and 0.1 degrees (mean, 99th
+// percentile). Texels within three texels of the edge measure 0.005 and 0.025
+// at zoom 12 (inside: 0.002 and 0.004; GDAL's kernel alone there, bilinear
+// and then flat, with central differences into the fill, gave 2.8 and 18),
+// 0.015 and 0.032 at zoom 11 (inside: 0.013 and 0.022; the footprint mean of
+// the part on data gave 0.9 and 9.4).
+constexpr double kMaxEdgeMeanDeg = 0.02;
 constexpr double kMaxEdgeP99Deg = 0.05;
 
 // A carried-on surface is as smooth as the data's own: across the edge, no
 // decoded normal turns more than twice as far between neighbouring texels as
-// it does anywhere inside (measured 1.0 times), and no height steps further
-// than the terrain's own largest step.
+// it does anywhere inside (measured 1.0 times at zoom 12, 0.94 at zoom 11),
+// and no height steps further than the terrain's own largest step.
 constexpr double kMaxAcrossToInsideNormalStep = 2;
 // Further out the continuation fades into the backdrop over max_fill_px
 // texels: it bends the data's slope, up to 30 degrees here, back to the
@@ -107,12 +110,13 @@ class EdgeLayer {
 
   explicit EdgeLayer(const config::TileJob& job) : m_geometry(edgeDem()) {
     const auto layer = test::layerDir(job);
-    for (const auto& column : std::filesystem::directory_iterator(layer / std::to_string(kZoom))) {
+    const int zoom = job.min_zoom;
+    for (const auto& column : std::filesystem::directory_iterator(layer / std::to_string(zoom))) {
       const int x = std::stoi(column.path().filename().string());
       for (const auto& file : std::filesystem::directory_iterator(column.path())) {
         if (file.path().extension() != ".png") continue;
-        const TileId id{kZoom, x, std::stoi(file.path().stem().string())};
-        const auto base = layer / std::to_string(kZoom) / std::to_string(x) / file.path().stem();
+        const TileId id{zoom, x, std::stoi(file.path().stem().string())};
+        const auto base = layer / std::to_string(zoom) / std::to_string(x) / file.path().stem();
         Tile tile{test::readTile(layer, id), ts::readGlb(base.string() + ".hires.glb", false), {}};
         const int size = tile.size();
         for (int j = 0; j < size; ++j) {
@@ -138,25 +142,29 @@ class EdgeLayer {
   std::map<TileId, Tile> m_tiles;
 };
 
-config::TileJob edgeJob(const std::string& name, NodataSurface surface) {
-  config::TileJob job = test::tileJob(edgeDem(), "dem_edge/" + name, SchemeKind::kWebMercator, kZoom, kZoom);
+config::TileJob edgeJob(const std::string& name, int zoom, NodataSurface surface) {
+  config::TileJob job = test::tileJob(edgeDem(), "dem_edge/" + name, SchemeKind::kWebMercator, zoom, zoom);
   job.bits = 16;
   job.high_res_mesh = true;
   job.nodata_surface = surface;
   return job;
 }
 
-// The default layer, made once per test process. ctest runs each test in a
-// process of its own, in parallel, so each test makes it in a folder of its own.
-const EdgeLayer& continuedLayer() {
-  static const EdgeLayer layer = [] {
-    const std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
-    const config::TileJob job = edgeJob("continue_" + test, NodataSurface::kContinue);
-    EXPECT_EQ(pipeline::runTileJob(job).failed, 0);
-    return EdgeLayer(job);
-  }();
-  return layer;
+// The default layer at a zoom, made once per test process. ctest runs each
+// test in a process of its own, in parallel, so each test makes it in a
+// folder of its own.
+const EdgeLayer& continuedLayer(int zoom) {
+  static std::map<int, EdgeLayer> layers;
+  const auto made = layers.find(zoom);
+  if (made != layers.end()) return made->second;
+  std::string test = ::testing::UnitTest::GetInstance()->current_test_info()->name();
+  std::replace(test.begin(), test.end(), '/', '_');
+  const config::TileJob job = edgeJob("continue_z" + std::to_string(zoom) + "_" + test, zoom, NodataSurface::kContinue);
+  EXPECT_EQ(pipeline::runTileJob(job).failed, 0);
+  return layers.emplace(zoom, EdgeLayer(job)).first->second;
 }
+
+class DemEdge : public ::testing::TestWithParam<int> {};
 
 // Calls f(tile, i, j, i2, j2) for every pair of texels next to each other
 // along a row or a column of one tile.
@@ -174,8 +182,8 @@ void forEachNeighbourPair(const EdgeLayer& layer, F f) {
 
 bool wellInside(const Place& p) { return p.has_data && p.edge_texels >= kEdgeBandTexels; }
 
-TEST(DemEdge, TexelsWithDataAreAsAccurateNextToTheEdgeAsInside) {
-  const EdgeLayer& layer = continuedLayer();
+TEST_P(DemEdge, TexelsWithDataAreAsAccurateNextToTheEdgeAsInside) {
+  const EdgeLayer& layer = continuedLayer(GetParam());
   std::vector<double> edge, inside;
   for (const auto& [id, tile] : layer.tiles()) {
     for (int j = 0; j < tile.size(); ++j) {
@@ -198,8 +206,8 @@ TEST(DemEdge, TexelsWithDataAreAsAccurateNextToTheEdgeAsInside) {
   EXPECT_LE(e.p99, kMaxEdgeP99Deg);
 }
 
-TEST(DemEdge, SurfaceRunsOnAcrossTheEdgeWithoutAStep) {
-  const EdgeLayer& layer = continuedLayer();
+TEST_P(DemEdge, SurfaceRunsOnAcrossTheEdgeWithoutAStep) {
+  const EdgeLayer& layer = continuedLayer(GetParam());
   std::vector<double> across_turn, inside_turn, across_rise, inside_rise;
   forEachNeighbourPair(layer, [&](const EdgeLayer::Tile& tile, int i, int j, int i2, int j2) {
     const Place &p = tile.at(i, j), &q = tile.at(i2, j2);
@@ -216,7 +224,7 @@ TEST(DemEdge, SurfaceRunsOnAcrossTheEdgeWithoutAStep) {
   print("normal step inside (deg)", it);
   print("height step across the edge (m)", ar);
   print("height step inside (m)", ir);
-  ASSERT_GT(at.count, 1000u);
+  ASSERT_GT(at.count, 500u);
   EXPECT_LE(at.max, kMaxAcrossToInsideNormalStep * it.max);
   EXPECT_LE(ar.max, ir.max);
 }
@@ -224,8 +232,8 @@ TEST(DemEdge, SurfaceRunsOnAcrossTheEdgeWithoutAStep) {
 // The low-poly mesh the viewer draws: vertices 16 texels apart, each placed
 // at its texel-corner position; no step across the edge beyond the terrain's
 // own between neighbouring vertices.
-TEST(DemEdge, LowPolyMeshRunsOnAcrossTheEdgeWithoutAStep) {
-  const EdgeLayer& layer = continuedLayer();
+TEST_P(DemEdge, LowPolyMeshRunsOnAcrossTheEdgeWithoutAStep) {
+  const EdgeLayer& layer = continuedLayer(GetParam());
   std::vector<double> across, inside;
   for (const auto& [id, tile] : layer.tiles()) {
     const ts::GlbMesh& low = tile.decoded.glb;
@@ -255,8 +263,8 @@ TEST(DemEdge, LowPolyMeshRunsOnAcrossTheEdgeWithoutAStep) {
 
 // Beyond the edge the continuation fades into the backdrop with no wall (a
 // height step) or lip (a crease) anywhere, up to and past max_fill_px.
-TEST(DemEdge, ContinuationFadesIntoTheBackdropWithoutAWallOrLip) {
-  const EdgeLayer& layer = continuedLayer();
+TEST_P(DemEdge, ContinuationFadesIntoTheBackdropWithoutAWallOrLip) {
+  const EdgeLayer& layer = continuedLayer(GetParam());
   std::vector<double> fill_turn, inside_turn, fill_rise, inside_rise;
   forEachNeighbourPair(layer, [&](const EdgeLayer::Tile& tile, int i, int j, int i2, int j2) {
     const Place &p = tile.at(i, j), &q = tile.at(i2, j2);
@@ -278,11 +286,16 @@ TEST(DemEdge, ContinuationFadesIntoTheBackdropWithoutAWallOrLip) {
 // nodata.surface: cut. The same texels as the default, alpha 0 exactly where
 // the DEM has no sample, and meshes whose every triangle holds a texel
 // centre with data while every texel with data lies on one.
-TEST(DemEdge, CutDrawsNothingWhereTheDemHasNoSample) {
-  const config::TileJob job = edgeJob("cut", NodataSurface::kCut);
+INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, DemEdge, ::testing::Values(kInterpolatedZoom, kAveragedZoom),
+                         [](const auto& test_info) { return "zoom" + std::to_string(test_info.param); });
+
+// The cut's alpha is judged where texels are as fine as the pixels, where a
+// texel has data exactly when its centre lies on the DEM.
+TEST(DemEdgeCut, DrawsNothingWhereTheDemHasNoSample) {
+  const config::TileJob job = edgeJob("cut", kInterpolatedZoom, NodataSurface::kCut);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
   const EdgeLayer cut(job);
-  const EdgeLayer& continued = continuedLayer();
+  const EdgeLayer& continued = continuedLayer(kInterpolatedZoom);
   ASSERT_EQ(cut.tiles().size(), continued.tiles().size());
   // GDAL's transformer is interpolated on a lattice: within this much of the
   // edge a texel centre may fall on either side.

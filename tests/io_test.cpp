@@ -523,7 +523,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(j["bounds"], json::array({170.0, -10.0, -170.0, 20.0}));
   EXPECT_EQ(j["center"], json::array({-180.0, 5.0, 9}));
   EXPECT_EQ(j["terrabake"], json::parse(R"({
-      "version": "2", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
+      "version": "3", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
       "alpha": true, "nodata_surface": "cut", "z_scale": 0.3048, "exaggeration": 2.0,
       "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"grid": 33},
       "sources": ["dem/a.tif", "dem/b.tif"]})"));

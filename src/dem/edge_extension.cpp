@@ -73,9 +73,50 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file) {
   return GDALDataset::FromHandle(vrt);
 }
 
+void extendIntoVoids(float* values, std::vector<std::uint8_t>& valid, int width, int height) {
+  constexpr int kReach = EdgeExtension::kPixels;
+  if (std::all_of(valid.begin(), valid.end(), [](std::uint8_t v) { return v != 0; })) return;
+  const std::size_t w = std::size_t(width);
+  // Pixels within kReach of data, in rows and columns and diagonally: the
+  // data dilated along rows, then along columns.
+  std::vector<std::uint8_t> along_rows(valid.size(), 0), near_data(valid.size(), 0);
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      for (int cc = std::max(0, c - kReach); cc <= std::min(width - 1, c + kReach); ++cc) {
+        along_rows[std::size_t(r) * w + std::size_t(c)] |= valid[std::size_t(r) * w + std::size_t(cc)];
+      }
+    }
+  }
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) {
+      for (int rr = std::max(0, r - kReach); rr <= std::min(height - 1, r + kReach); ++rr) {
+        near_data[std::size_t(r) * w + std::size_t(c)] |= along_rows[std::size_t(rr) * w + std::size_t(c)];
+      }
+    }
+  }
+  // Ring by ring, each from the data and the rings before it; a pixel
+  // diagonal to the data waits for the rings beside it. Twice kReach rings
+  // reach the far corner.
+  const PixelGrid grid{width, height, values, &valid};
+  std::vector<std::pair<std::size_t, float>> ring;
+  for (int pass = 0; pass < 2 * kReach; ++pass) {
+    ring.clear();
+    for (int r = 0; r < height; ++r) {
+      for (int c = 0; c < width; ++c) {
+        const std::size_t i = std::size_t(r) * std::size_t(width) + std::size_t(c);
+        if (valid[i] || !near_data[i]) continue;
+        if (const auto value = extrapolated(grid, c, r)) ring.emplace_back(i, *value);
+      }
+    }
+    for (const auto& [i, value] : ring) {
+      values[i] = value;
+      valid[i] = 1;
+    }
+  }
+}
+
 CPLErr EdgeExtension::extend(GDALWarpKernel& kernel) {
-  const int width = kernel.nSrcXSize, height = kernel.nSrcYSize;
-  const std::size_t count = std::size_t(width) * height;
+  const std::size_t count = std::size_t(kernel.nSrcXSize) * std::size_t(kernel.nSrcYSize);
   m_was_valid.assign(count, 1);
   m_had_voids = false;
   GUInt32* mask = kernel.panUnifiedSrcValid;
@@ -85,41 +126,10 @@ CPLErr EdgeExtension::extend(GDALWarpKernel& kernel) {
     m_had_voids = m_had_voids || !m_was_valid[i];
   }
   if (!m_had_voids) return CE_None;
-
-  // Void pixels within kPixels of data, in rows and columns and diagonally.
-  std::vector<std::uint8_t> near_data(count, 0);
-  for (int r = 0; r < height; ++r) {
-    for (int c = 0; c < width; ++c) {
-      if (!m_was_valid[std::size_t(r) * width + c]) continue;
-      for (int rr = std::max(0, r - kPixels); rr <= std::min(height - 1, r + kPixels); ++rr) {
-        for (int cc = std::max(0, c - kPixels); cc <= std::min(width - 1, c + kPixels); ++cc) {
-          near_data[std::size_t(rr) * width + cc] = 1;
-        }
-      }
-    }
-  }
-
-  // Ring by ring, each from the data and the rings before it; a pixel
-  // diagonal to the data waits for the rings beside it. Twice kPixels rings
-  // reach the far corner.
-  float* values = reinterpret_cast<float*>(kernel.papabySrcImage[0]);
   std::vector<std::uint8_t> valid = m_was_valid;
-  const PixelGrid grid{width, height, values, &valid};
-  std::vector<std::pair<std::size_t, float>> ring;
-  for (int pass = 0; pass < 2 * kPixels; ++pass) {
-    ring.clear();
-    for (int r = 0; r < height; ++r) {
-      for (int c = 0; c < width; ++c) {
-        const std::size_t i = std::size_t(r) * width + c;
-        if (valid[i] || !near_data[i]) continue;
-        if (const auto value = extrapolated(grid, c, r)) ring.emplace_back(i, *value);
-      }
-    }
-    for (const auto& [i, value] : ring) {
-      values[i] = value;
-      valid[i] = 1;
-      setMaskBit(mask, i);
-    }
+  extendIntoVoids(reinterpret_cast<float*>(kernel.papabySrcImage[0]), valid, kernel.nSrcXSize, kernel.nSrcYSize);
+  for (std::size_t i = 0; i < count; ++i) {
+    if (valid[i] && !m_was_valid[i]) setMaskBit(mask, i);
   }
   return CE_None;
 }

@@ -2,13 +2,14 @@
 // Resampling up to the edge of a DEM's data, internal to the dem module.
 //
 // GDAL's cubic kernel falls back to bilinear wherever one of its taps is
-// void, and to the nearest pixel's height beyond the last pixel centre; near
-// the edge of the DEM and of its voids that tilts normals by up to tens of
-// degrees. An EdgeExtension gives the kernel the taps it lacks: the chunk's
-// void pixels next to data take heights extrapolated from the data with
-// Keys' boundary condition for cubic convolution, which keeps the kernel as
-// accurate there as inside, and texels whose centre lies in such a pixel are
-// made void again after the warp, so what counts as data stays the DEM's own.
+// void, and to the nearest pixel's height beyond the last pixel centre; a
+// footprint mean over the part of a footprint on data is the height of that
+// part's middle, not of the texel's. Near the edge of the DEM and of its
+// voids either tilts normals by up to tens of degrees. The void pixels next
+// to data therefore take heights extrapolated from the data with Keys'
+// boundary condition for cubic convolution, which keeps both kernels as
+// accurate there as inside; they only feed the kernels, and what counts as
+// data stays the DEM's own.
 #include <gdal_priv.h>
 #include <gdalwarper.h>
 
@@ -17,6 +18,14 @@
 
 namespace terrabake::dem {
 
+// Void pixels (`valid` 0) of a row-major width x height raster within
+// EdgeExtension::kPixels of valid ones, along rows, columns and diagonals,
+// take heights extrapolated from the valid pixels in line with them and
+// become valid. A pixel's value depends on the pixels within
+// EdgeExtension::kSourceExtra of it only.
+void extendIntoVoids(float* values, std::vector<std::uint8_t>& valid, int width, int height);
+
+// The steps of a GDAL warp that give its cubic kernel the extended pixels.
 class EdgeExtension {
  public:
   // A cubic kernel reaches two pixels from the point it interpolates.

@@ -6,6 +6,7 @@
 
 #include <glm/vec2.hpp>
 
+#include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
 #include "dem/void_samples.hpp"
 
@@ -115,24 +116,34 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
 
   // Strips of whole rows, top to bottom; every texel adds its rows in that
   // order, so its sum does not depend on where strips break, nor on which
-  // window it was read for.
-  const long cols = col1 - col0 + 1;
+  // window it was read for. Each strip is read with a halo, so that the void
+  // samples next to data are extended (extendIntoVoids) from the same
+  // samples whatever the strip or the window: a footprint that reaches past
+  // the data then averages the data carried on, not the part on data alone,
+  // whose middle lies off the texel's.
+  const long halo = EdgeExtension::kSourceExtra;
+  const long read_col0 = std::max(0L, col0 - halo), read_col1 = std::min(raster_w - 1, col1 + halo);
+  const long cols = read_col1 - read_col0 + 1;
   const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
-  std::vector<float> strip(std::size_t(strip_rows) * std::size_t(cols));
-  std::vector<double> sum(footprints.size(), 0.0), valid_weight(footprints.size(), 0.0);
+  std::vector<float> strip;
+  std::vector<std::uint8_t> valid, data;
+  std::vector<double> sum(footprints.size(), 0.0), weight(footprints.size(), 0.0);
+  std::vector<double> data_weight(footprints.size(), 0.0);
   std::vector<double> x_weights, y_weights;
   for (long top = row0; top <= row1; top += strip_rows) {
     const long bottom = std::min(row1, top + strip_rows - 1);
-    const int rows = int(bottom - top + 1);
-    if (GDALRasterIO(band, GF_Read, int(col0), int(top), int(cols), rows, strip.data(), int(cols), rows,
+    const long read_top = std::max(0L, top - halo), read_bottom = std::min(raster_h - 1, bottom + halo);
+    const int rows = int(read_bottom - read_top + 1);
+    const std::size_t count = std::size_t(rows) * std::size_t(cols);
+    strip.resize(count);
+    if (GDALRasterIO(band, GF_Read, int(read_col0), int(read_top), int(cols), rows, strip.data(), int(cols), rows,
                      GDT_Float32, 0, 0) != CE_None) {
       return std::nullopt;
     }
-    // Void samples become NaN, which the sums below skip.
-    const std::size_t count = std::size_t(rows) * std::size_t(cols);
-    for (std::size_t i = 0; i < count; ++i) {
-      if (isVoid(strip[i], nodata)) strip[i] = NAN;
-    }
+    data.resize(count);
+    for (std::size_t i = 0; i < count; ++i) data[i] = !isVoid(strip[i], nodata);
+    valid = data;
+    extendIntoVoids(strip.data(), valid, int(cols), rows);
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom) continue;
@@ -141,23 +152,27 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
       const long x_from = std::max(f.x.first, col0), x_to = std::min(f.x.last, col1);
       const long y_from = std::max(f.y.first, top), y_to = std::min(f.y.last, bottom);
       for (long y = y_from; y <= y_to; ++y) {
-        const float* row = strip.data() + std::size_t(y - top) * std::size_t(cols);
-        double row_sum = 0, row_weight = 0;
+        const std::size_t row = std::size_t(y - read_top) * std::size_t(cols);
+        double row_sum = 0, row_weight = 0, row_data = 0;
         for (long x = x_from; x <= x_to; ++x) {
-          const float value = row[x - col0];
-          if (std::isnan(value)) continue;
+          const std::size_t i = row + std::size_t(x - read_col0);
+          if (!valid[i]) continue;
           const double w = x_weights[std::size_t(x - f.x.first)];
-          row_sum += w * value;
+          row_sum += w * strip[i];
           row_weight += w;
+          if (data[i]) row_data += w;
         }
         const double row_share = y_weights[std::size_t(y - f.y.first)];
         sum[k] += row_share * row_sum;
-        valid_weight[k] += row_share * row_weight;
+        weight[k] += row_share * row_weight;
+        data_weight[k] += row_share * row_data;
       }
     }
   }
+  // Coverage is the data's own weight; the height, the mean of data and its
+  // extension together.
   for (std::size_t k = 0; k < footprints.size(); ++k) {
-    if (valid_weight[k] >= kMinValidWeight) heights.data[k] = float(sum[k] / valid_weight[k]);
+    if (data_weight[k] >= kMinValidWeight) heights.data[k] = float(sum[k] / weight[k]);
   }
   return heights;
 }

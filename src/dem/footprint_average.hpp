@@ -19,7 +19,9 @@ class LatticeTransformer;
 // any plane exactly, so a texel's height depends only on where it is and how
 // large, never on how its footprint falls on the pixel grid (a plain area
 // mean of the pixels shifts it by up to a twentieth of a pixel, in a
-// pattern that beats with the grid). NaN where less than half the
+// pattern that beats with the grid). Void samples next to data take heights
+// carried on from it (extendIntoVoids), so a footprint that reaches past the
+// data is as true as one inside. NaN where less than half the
 // footprint's weight lies on valid samples (not void, not past the edge).
 // Reads the level in strips of bounded size, whatever the texels span.
 // Nullopt when GDAL cannot read the band (its last error says why).

@@ -12,7 +12,7 @@ namespace {
 using Json = nlohmann::ordered_json;  // keeps the key order the file was written in
 
 // The version of docs/CONTRACT.md the layer follows.
-constexpr const char* kFormatVersion = "2";
+constexpr const char* kFormatVersion = "3";
 
 // Middle longitude of [west, east], also when the bounds cross the antimeridian
 // (west > east).
