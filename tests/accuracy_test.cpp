@@ -35,23 +35,8 @@ constexpr double kCentreLon = 15.3, kCentreLat = 60.0;  // UTM zone 33, 60 degre
 constexpr int kDemPixels = 512;
 constexpr double kPixelM = 30.0;
 
-struct AngleStats {
-  std::size_t count = 0;
-  double mean = 0, p99 = 0, max = 0;
-};
-
-AngleStats summarise(std::vector<double> angles) {
-  AngleStats s;
-  s.count = angles.size();
-  if (angles.empty()) return s;
-  std::sort(angles.begin(), angles.end());
-  double sum = 0;
-  for (double a : angles) sum += a;
-  s.mean = sum / double(angles.size());
-  s.p99 = angles[std::min(angles.size() - 1, std::size_t(double(angles.size()) * 0.99))];
-  s.max = angles.back();
-  return s;
-}
+using AngleStats = test::Stats;
+using test::summarise;
 
 // The tiles a layer folder holds at `zoom`, from its images.
 std::vector<TileId> tilesOfZoom(const std::filesystem::path& layer, int zoom) {

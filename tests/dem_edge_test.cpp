@@ -65,23 +65,8 @@ std::filesystem::path edgeDem() {
   });
 }
 
-struct Stats {
-  std::size_t count = 0;
-  double mean = 0, p99 = 0, max = 0;
-};
-
-Stats summarise(std::vector<double> values) {
-  Stats s;
-  s.count = values.size();
-  if (values.empty()) return s;
-  std::sort(values.begin(), values.end());
-  double sum = 0;
-  for (double v : values) sum += v;
-  s.mean = sum / double(values.size());
-  s.p99 = values[std::min(values.size() - 1, std::size_t(double(values.size()) * 0.99))];
-  s.max = values.back();
-  return s;
-}
+using test::Stats;
+using test::summarise;
 
 void print(const char* what, const Stats& s) {
   std::printf("%-44s %7zu  mean %8.4f  p99 %8.4f  max %8.4f\n", what, s.count, s.mean, s.p99, s.max);

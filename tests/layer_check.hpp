@@ -1,11 +1,13 @@
 #pragma once
 // Runs tile jobs into the test output folder and decodes what they wrote the
 // way a glTF renderer would (tests/support), for tests that judge layers.
+#include <algorithm>
 #include <cmath>
 #include <filesystem>
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
@@ -75,6 +77,25 @@ struct DecodedTile {
 inline DecodedTile readTile(const std::filesystem::path& layer, const TileId& tile) {
   const auto base = layer / std::to_string(tile.z) / std::to_string(tile.x) / std::to_string(tile.y);
   return {test_support::readPng(base.string() + ".png"), test_support::readGlb(base.string() + ".glb")};
+}
+
+// Count, mean, 99th percentile and maximum of a set of values (angles, steps).
+struct Stats {
+  std::size_t count = 0;
+  double mean = 0, p99 = 0, max = 0;
+};
+
+inline Stats summarise(std::vector<double> values) {
+  Stats s;
+  s.count = values.size();
+  if (values.empty()) return s;
+  std::sort(values.begin(), values.end());
+  double sum = 0;
+  for (double v : values) sum += v;
+  s.mean = sum / double(values.size());
+  s.p99 = values[std::min(values.size() - 1, std::size_t(double(values.size()) * 0.99))];
+  s.max = values.back();
+  return s;
 }
 
 inline double angleBetweenDeg(const glm::dvec3& a, const glm::dvec3& b) {
