@@ -66,7 +66,7 @@ TEST_P(BakerKnownAnswers, IdenticalFlatMeshesGiveStraightUp) {
   }
 }
 
-TEST_P(BakerKnownAnswers, TiltedPlaneIsItsOwnGridMesh) {
+TEST_P(BakerKnownAnswers, TiltedPlaneIsItsOwnTriangleMesh) {
   TERRABAKE_BAKER_OR_SKIP(baker, GetParam());
   auto plane = [](double e, double n) { return 0.4 * e - 0.25 * n; };
   const Baked baked = bakeSurfaces(*baker, plane, plane);

@@ -24,7 +24,7 @@ namespace fs = std::filesystem;
 using nlohmann::json;
 using terrabake::Image;
 using terrabake::InputError;
-using terrabake::mesh::GridMesh;
+using terrabake::mesh::TriangleMesh;
 namespace io = terrabake::io;
 using terrabake::Green;
 using terrabake::NodataSurface;
@@ -242,10 +242,9 @@ TEST(Png, RejectsBadInput) {
 // ------------------------------------------------------------------------ GLB
 
 // A flat cols x rows grid in the y = 0 plane, 10 m apart, centred on the
-// origin, triangulated like GridMesh (NW, SW, SE) and (NW, SE, NE).
-GridMesh planeMesh(int cols, int rows) {
-  GridMesh m;
-  m.grid = cols;
+// origin, triangulated like TriangleMesh (NW, SW, SE) and (NW, SE, NE).
+TriangleMesh planeMesh(int cols, int rows) {
+  TriangleMesh m;
   for (int r = 0; r < rows; ++r) {
     for (int c = 0; c < cols; ++c) {
       const float u = float(c) / float(cols - 1);
@@ -338,7 +337,7 @@ std::vector<float> flatten(const std::vector<V>& vs) {
 }
 
 TEST(Glb, ContainerAndJsonFollowTheContract) {
-  const GridMesh mesh = planeMesh(3, 3);
+  const TriangleMesh mesh = planeMesh(3, 3);
   const io::GlbInfo info = sampleInfo();
   const Glb glb = parseGlb(io::encodeGlb(mesh, info));
   const json& g = glb.gltf;
@@ -383,7 +382,7 @@ TEST(Glb, ContainerAndJsonFollowTheContract) {
 }
 
 TEST(Glb, AccessorsHoldTheMeshArrays) {
-  const GridMesh mesh = planeMesh(3, 3);
+  const TriangleMesh mesh = planeMesh(3, 3);
   const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
   const json& g = glb.gltf;
   ASSERT_TRUE(g.is_object());
@@ -428,7 +427,7 @@ TEST(Glb, AccessorsHoldTheMeshArrays) {
 TEST(Glb, IndexTypeSwitchesAbove65535Vertices) {
   const std::pair<int, int> sizes[] = {{255, 257}, {256, 256}};  // 65535 and 65536 vertices
   for (const auto& [cols, rows] : sizes) {
-    const GridMesh mesh = planeMesh(cols, rows);
+    const TriangleMesh mesh = planeMesh(cols, rows);
     SCOPED_TRACE(mesh.position.size());
     const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
     const json& g = glb.gltf;
@@ -447,7 +446,7 @@ TEST(Glb, IndexTypeSwitchesAbove65535Vertices) {
 
 TEST(Glb, OddIndexCountIsPaddedToFourBytes) {
   // One triangle: 6 bytes of 16-bit indices, the BIN chunk must still end 4-aligned.
-  GridMesh mesh = planeMesh(2, 2);
+  TriangleMesh mesh = planeMesh(2, 2);
   mesh.indices.resize(3);
   const Glb glb = parseGlb(io::encodeGlb(mesh, sampleInfo()));
   ASSERT_TRUE(glb.gltf.is_object());
@@ -457,7 +456,7 @@ TEST(Glb, OddIndexCountIsPaddedToFourBytes) {
 }
 
 TEST(Glb, RejectsInconsistentMesh) {
-  GridMesh mesh = planeMesh(3, 3);
+  TriangleMesh mesh = planeMesh(3, 3);
   mesh.indices.push_back(0);
   EXPECT_THROW(io::encodeGlb(mesh, sampleInfo()), std::invalid_argument);
   mesh = planeMesh(3, 3);
@@ -475,7 +474,7 @@ TEST(Glb, RejectsInconsistentMesh) {
 // public functions, for the glTF validator that checks TERRABAKE_TEST_OUTPUT.
 TEST(Glb, WritesATileTheValidatorCanCheck) {
   const fs::path dir = freshDir("layer");
-  const GridMesh mesh = planeMesh(17, 17);
+  const TriangleMesh mesh = planeMesh(17, 17);
   io::writeFileAtomically((dir / "0/0/0.glb").string(), io::encodeGlb(mesh, sampleInfo()));
   Image<std::uint16_t> flat{16, 16, 3, {}};
   for (int k = 0; k < 16 * 16; ++k) flat.pixels.insert(flat.pixels.end(), {128, 128, 255});

@@ -19,7 +19,7 @@ constexpr double kUnitTolerance = 1e-6;
 
 double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
 
-TEST(GridMesh, FramesAreOrthonormalAndRightHanded) {
+TEST(GridLowPolyMesh, FramesAreOrthonormalAndRightHanded) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
   ASSERT_EQ(mesh.position.size(), 81u);
@@ -37,7 +37,7 @@ TEST(GridMesh, FramesAreOrthonormalAndRightHanded) {
   }
 }
 
-TEST(GridMesh, UvsSpanTheTileAndTrianglesFaceUp) {
+TEST(GridLowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
   EXPECT_EQ(mesh.uv.front(), glm::vec2(0, 0));
@@ -50,7 +50,7 @@ TEST(GridMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   }
 }
 
-TEST(GridMesh, VerticesSitOnTheSurface) {
+TEST(GridLowPolyMesh, VerticesSitOnTheSurface) {
   // A low-poly vertex interpolates the samples around its texel corner; on a
   // plane that is exactly the plane.
   auto plane = [](double e, double n) { return 0.3 * e - 0.1 * n + 50; };
@@ -145,7 +145,7 @@ TEST(HighResMesh, NormalsAtTheDataEdgeIgnoreTheFill) {
 }
 
 // A cut keeps exactly the triangles that hold a texel centre with data.
-TEST(GridMesh, CutKeepsTheTrianglesOverData) {
+TEST(GridLowPolyMesh, CutKeepsTheTrianglesOverData) {
   auto flat = [](double, double) { return 0.0; };
   constexpr int kLastData = 9;  // texel columns 0..9 hold data
   const auto samples = dataThenFill(flat, flat, kLastData);

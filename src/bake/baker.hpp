@@ -20,7 +20,7 @@ struct NormalMap {
 class Baker {
  public:
   virtual ~Baker() = default;
-  virtual NormalMap bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) = 0;
+  virtual NormalMap bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) = 0;
   // What bakes, for the log: "cpu reference", "OpenGL (llvmpipe ...) via OSMesa".
   virtual std::string description() const = 0;
 };

@@ -7,7 +7,7 @@ namespace terrabake::bake {
 
 class CpuBaker : public Baker {
  public:
-  NormalMap bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) override;
+  NormalMap bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) override;
   std::string description() const override { return "cpu reference baker"; }
 };
 

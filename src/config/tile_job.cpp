@@ -85,7 +85,19 @@ const kt::KeyTable<TileJob>& table() {
        "where the DEM has no sample: continue (the surface runs on from the data without a step) or cut "
        "(alpha 0 and no triangles there, so nothing is drawn)",
        choice(&TileJob::nodata_surface)},
-      {"low_poly.grid", "--low-poly-grid", "integer", "vertices a side of each tile's low-poly mesh, 2..257",
+      {"low_poly.mesh", "--low-poly", "string",
+       "each tile's low-poly mesh: adaptive (a crack-free triangulation of the heights within a distance bound) "
+       "or grid (low_poly.grid vertices a side)",
+       choice(&TileJob::low_poly_mesh)},
+      {"low_poly.max_error_m", "--max-error", "number",
+       "adaptive: the largest distance in metres between any height sample and the mesh, the same at every "
+       "zoom, 0..100000; 0: low_poly.max_error_texels at each zoom instead",
+       number(&TileJob::max_error_m, 0.0, 100000.0)},
+      {"low_poly.max_error_texels", "--max-error-texels", "number",
+       "adaptive, when low_poly.max_error_m is 0: the bound at each zoom as a multiple of that zoom's texel "
+       "size on the ground (so it halves from one zoom to the next), above 0 and at most 1000",
+       number(&TileJob::max_error_texels, 0.0, 1000.0, {}, true)},
+      {"low_poly.grid", "--low-poly-grid", "integer", "grid: vertices a side of each tile's low-poly mesh, 2..257",
        number(&TileJob::low_poly_grid, 2, 257)},
       {"bake.backend", "--backend", "string",
        "how normals are baked: auto (terrabake picks), osmesa or egl (GL), cpu (reference)",

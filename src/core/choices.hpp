@@ -19,6 +19,11 @@ enum class NodataSurface {
   kContinue,  // the surface runs on from the data, fading into a coarse backdrop
   kCut,       // nothing: alpha 0 and no triangle there
 };
+// The low-poly mesh of each tile.
+enum class LowPolyMesh {
+  kAdaptive,  // a triangulation of the samples within a distance bound, crack-free
+  kGrid,      // a regular grid of low_poly.grid vertices a side
+};
 enum class Backend {
   kAuto,    // a hardware GPU through EGL when there is one, else OSMesa
   kOsMesa,  // Mesa's offscreen llvmpipe renderer
@@ -47,6 +52,11 @@ template <>
 struct Words<NodataSurface> {
   static constexpr std::array<std::pair<NodataSurface, std::string_view>, 2> table{
       {{NodataSurface::kContinue, "continue"}, {NodataSurface::kCut, "cut"}}};
+};
+template <>
+struct Words<LowPolyMesh> {
+  static constexpr std::array<std::pair<LowPolyMesh, std::string_view>, 2> table{
+      {{LowPolyMesh::kAdaptive, "adaptive"}, {LowPolyMesh::kGrid, "grid"}}};
 };
 template <>
 struct Words<Backend> {

@@ -44,7 +44,7 @@ namespace terrabake::gl {
   X(PFNGLUSEPROGRAMPROC, UseProgram)                                \
   X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                \
   X(PFNGLUNIFORM1IPROC, Uniform1i)                                  \
-  X(PFNGLUNIFORM1FPROC, Uniform1f)                                  \
+  X(PFNGLDRAWBUFFERSPROC, DrawBuffers)                              \
   X(PFNGLGENVERTEXARRAYSPROC, GenVertexArrays)                      \
   X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)                \
   X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                      \

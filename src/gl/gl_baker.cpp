@@ -1,5 +1,7 @@
 #include "gl/gl_baker.hpp"
 
+#include <cstdio>
+#include <initializer_list>
 #include <vector>
 
 #include "core/error.hpp"
@@ -24,9 +26,9 @@ GLuint compileShader(const Functions& gl, GLenum type, const char* source) {
   return shader;
 }
 
-GLuint linkProgram(const Functions& gl) {
-  const GLuint vertex = compileShader(gl, GL_VERTEX_SHADER, shaders::kBakeVertex);
-  const GLuint fragment = compileShader(gl, GL_FRAGMENT_SHADER, shaders::kBakeFragment);
+GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* fragment_source) {
+  const GLuint vertex = compileShader(gl, GL_VERTEX_SHADER, vertex_source);
+  const GLuint fragment = compileShader(gl, GL_FRAGMENT_SHADER, fragment_source);
   const GLuint program = gl.CreateProgram();
   gl.AttachShader(program, vertex);
   gl.AttachShader(program, fragment);
@@ -44,6 +46,10 @@ GLuint linkProgram(const Functions& gl) {
   return program;
 }
 
+// The low-poly frame, interpolated per texel by the first pass: normal,
+// tangent and bitangent, one float texture each.
+constexpr int kFrameParts = 3;
+
 // Entry points can only be loaded once the context is current.
 const Context& makeCurrent(Context& context) {
   context.makeCurrent();
@@ -56,12 +62,14 @@ struct GlBaker::Impl {
   std::unique_ptr<Context> context;
   Functions gl;
   std::string description;
-  GLuint program = 0, vao = 0, vertex_buffer = 0, index_buffer = 0;
-  GLuint frame_texture = 0, target_texture = 0, framebuffer = 0;
-  GLint grid_location = -1, tile_size_location = -1, low_poly_location = -1;
-  int target_size = 0;         // size of target_texture, 0 = none yet
-  int index_cols = 0, index_rows = 0;  // grid the index buffer was built for
-  GLsizei index_count = 0;
+  GLuint bake_program = 0, frame_program = 0;
+  GLuint high_vao = 0, high_vertices = 0, high_indices = 0;
+  GLuint low_vao = 0, low_vertices = 0, low_indices = 0;
+  GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
+  GLuint target_texture = 0, target_framebuffer = 0;
+  int target_size = 0;                 // size of the textures, 0 = none yet
+  int index_cols = 0, index_rows = 0;  // grid the high-res index buffer was built for
+  GLsizei high_index_count = 0, low_index_count = 0;
 
   explicit Impl(std::unique_ptr<Context> ctx) : context(std::move(ctx)), gl(makeCurrent(*context)) {
     const auto* version = reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
@@ -69,26 +77,36 @@ struct GlBaker::Impl {
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");
     description = std::string("OpenGL ") + version + " (" + renderer + ") via " + context->apiName();
 
-    program = linkProgram(gl);
-    grid_location = gl.GetUniformLocation(program, "u_grid");
-    tile_size_location = gl.GetUniformLocation(program, "u_tile_size");
-    low_poly_location = gl.GetUniformLocation(program, "u_low_poly");
-    gl.GenVertexArrays(1, &vao);
-    gl.GenBuffers(1, &vertex_buffer);
-    gl.GenBuffers(1, &index_buffer);
-    gl.GenTextures(1, &frame_texture);
+    frame_program = linkProgram(gl, shaders::kFrameVertex, shaders::kFrameFragment);
+    bake_program = linkProgram(gl, shaders::kBakeVertex, shaders::kBakeFragment);
+    gl.UseProgram(bake_program);
+    const char* frame_samplers[kFrameParts] = {"u_frame_normal", "u_frame_tangent", "u_frame_bitangent"};
+    for (int k = 0; k < kFrameParts; ++k) gl.Uniform1i(gl.GetUniformLocation(bake_program, frame_samplers[k]), k);
+    gl.GenVertexArrays(1, &high_vao);
+    gl.GenVertexArrays(1, &low_vao);
+    gl.GenBuffers(1, &high_vertices);
+    gl.GenBuffers(1, &high_indices);
+    gl.GenBuffers(1, &low_vertices);
+    gl.GenBuffers(1, &low_indices);
+    gl.GenTextures(kFrameParts, frame_textures);
     gl.GenTextures(1, &target_texture);
-    gl.GenFramebuffers(1, &framebuffer);
+    gl.GenFramebuffers(1, &frame_framebuffer);
+    gl.GenFramebuffers(1, &target_framebuffer);
   }
 
   ~Impl() {
-    gl.DeleteFramebuffers(1, &framebuffer);
+    gl.DeleteFramebuffers(1, &target_framebuffer);
+    gl.DeleteFramebuffers(1, &frame_framebuffer);
     gl.DeleteTextures(1, &target_texture);
-    gl.DeleteTextures(1, &frame_texture);
-    gl.DeleteBuffers(1, &index_buffer);
-    gl.DeleteBuffers(1, &vertex_buffer);
-    gl.DeleteVertexArrays(1, &vao);
-    gl.DeleteProgram(program);
+    gl.DeleteTextures(kFrameParts, frame_textures);
+    gl.DeleteBuffers(1, &low_indices);
+    gl.DeleteBuffers(1, &low_vertices);
+    gl.DeleteBuffers(1, &high_indices);
+    gl.DeleteBuffers(1, &high_vertices);
+    gl.DeleteVertexArrays(1, &low_vao);
+    gl.DeleteVertexArrays(1, &high_vao);
+    gl.DeleteProgram(bake_program);
+    gl.DeleteProgram(frame_program);
   }
 
   void checkError(const char* where) {
@@ -100,20 +118,54 @@ struct GlBaker::Impl {
     }
   }
 
-  // A float target keeps full precision; quantisation happens once, on the
+  // Float targets keep full precision; quantisation happens once, on the
   // CPU, with the same code for every backend.
-  void prepareTarget(int size) {
-    if (size == target_size) return;
-    gl.BindTexture(GL_TEXTURE_2D, target_texture);
+  void allocateFloatTexture(GLuint texture, int size) {
+    gl.BindTexture(GL_TEXTURE_2D, texture);
     gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, size, size, 0, GL_RGBA, GL_FLOAT, nullptr);
     gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
-    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target_texture, 0);
+  }
+
+  void checkFramebuffer(int size) {
     if (gl.CheckFramebufferStatus(GL_FRAMEBUFFER) != GL_FRAMEBUFFER_COMPLETE) {
       throw InputError("gl: RGBA32F framebuffer of " + std::to_string(size) + " texels is not supported");
     }
+  }
+
+  void prepareTargets(int size) {
+    if (size == target_size) return;
+    gl.BindFramebuffer(GL_FRAMEBUFFER, frame_framebuffer);
+    GLenum attachments[kFrameParts];
+    for (int k = 0; k < kFrameParts; ++k) {
+      allocateFloatTexture(frame_textures[k], size);
+      attachments[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+      gl.FramebufferTexture2D(GL_FRAMEBUFFER, attachments[k], GL_TEXTURE_2D, frame_textures[k], 0);
+    }
+    gl.DrawBuffers(kFrameParts, attachments);
+    checkFramebuffer(size);
+    gl.BindFramebuffer(GL_FRAMEBUFFER, target_framebuffer);
+    allocateFloatTexture(target_texture, size);
+    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target_texture, 0);
+    checkFramebuffer(size);
     target_size = size;
+  }
+
+  // Interleaved float attributes: `layout` lists each attribute's width.
+  void uploadVertices(GLuint vao, GLuint buffer, const std::vector<float>& vertices, std::initializer_list<int> layout) {
+    gl.BindVertexArray(vao);
+    gl.BindBuffer(GL_ARRAY_BUFFER, buffer);
+    gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STREAM_DRAW);
+    int stride = 0;
+    for (int width : layout) stride += width;
+    int offset = 0;
+    GLuint location = 0;
+    for (int width : layout) {
+      gl.VertexAttribPointer(location, width, GL_FLOAT, GL_FALSE, GLsizei(stride * sizeof(float)),
+                             reinterpret_cast<const void*>(std::size_t(offset) * sizeof(float)));
+      gl.EnableVertexAttribArray(location++);
+      offset += width;
+    }
   }
 
   void uploadHighRes(const mesh::HighResMesh& high) {
@@ -123,42 +175,31 @@ struct GlBaker::Impl {
       vertices.insert(vertices.end(), {high.uv[i].x, high.uv[i].y, high.normal[i].x, high.normal[i].y,
                                        high.normal[i].z});
     }
-    gl.BindVertexArray(vao);
-    gl.BindBuffer(GL_ARRAY_BUFFER, vertex_buffer);
-    gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STREAM_DRAW);
-    gl.VertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 5 * sizeof(float), nullptr);
-    gl.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 5 * sizeof(float),
-                           reinterpret_cast<const void*>(2 * sizeof(float)));
-    gl.EnableVertexAttribArray(0);
-    gl.EnableVertexAttribArray(1);
-    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, index_buffer);
+    uploadVertices(high_vao, high_vertices, vertices, {2, 3});
+    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, high_indices);
     if (high.cols != index_cols || high.rows != index_rows) {
       const auto indices = mesh::gridIndices(high.cols, high.rows);
       gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(std::uint32_t)), indices.data(),
                     GL_STATIC_DRAW);
       index_cols = high.cols;
       index_rows = high.rows;
-      index_count = GLsizei(indices.size());
+      high_index_count = GLsizei(indices.size());
     }
   }
 
-  void uploadLowPolyFrames(const mesh::GridMesh& low) {
-    const int g = low.grid;
-    std::vector<float> texels(std::size_t(g) * 2 * g * 4);
-    for (int k = 0; k < g * g; ++k) {
-      const glm::vec3& n = low.normal[k];
-      const glm::vec4& t = low.tangent[k];
-      const std::size_t normal_at = std::size_t(k) * 4, tangent_at = (std::size_t(g) * g + k) * 4;
-      texels[normal_at + 0] = n.x, texels[normal_at + 1] = n.y, texels[normal_at + 2] = n.z;
-      texels[tangent_at + 0] = t.x, texels[tangent_at + 1] = t.y, texels[tangent_at + 2] = t.z;
-      texels[tangent_at + 3] = t.w;
+  void uploadLowPoly(const mesh::TriangleMesh& low) {
+    std::vector<float> vertices;
+    vertices.reserve(low.uv.size() * 9);
+    for (std::size_t i = 0; i < low.uv.size(); ++i) {
+      const glm::vec3& n = low.normal[i];
+      const glm::vec4& t = low.tangent[i];
+      vertices.insert(vertices.end(), {low.uv[i].x, low.uv[i].y, n.x, n.y, n.z, t.x, t.y, t.z, t.w});
     }
-    gl.ActiveTexture(GL_TEXTURE0);
-    gl.BindTexture(GL_TEXTURE_2D, frame_texture);
-    gl.PixelStorei(GL_UNPACK_ALIGNMENT, 4);
-    gl.TexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, g, 2 * g, 0, GL_RGBA, GL_FLOAT, texels.data());
-    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    gl.TexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    uploadVertices(low_vao, low_vertices, vertices, {2, 3, 4});
+    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, low_indices);
+    gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(low.indices.size() * sizeof(std::uint32_t)), low.indices.data(),
+                  GL_STREAM_DRAW);
+    low_index_count = GLsizei(low.indices.size());
   }
 };
 
@@ -167,25 +208,34 @@ GlBaker::~GlBaker() = default;
 
 std::string GlBaker::description() const { return m_impl->description; }
 
-bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) {
+bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   Impl& s = *m_impl;
   const Functions& gl = s.gl;
-  s.prepareTarget(size);
+  s.prepareTargets(size);
+  s.uploadLowPoly(low);
   s.uploadHighRes(high);
-  s.uploadLowPolyFrames(low);
-
-  gl.BindFramebuffer(GL_FRAMEBUFFER, s.framebuffer);
   gl.Viewport(0, 0, size, size);
   gl.Disable(GL_DEPTH_TEST);
   gl.Disable(GL_CULL_FACE);  // UV-space triangles may face either way
   gl.ClearColor(0, 0, 0, 0);
+
+  // Pass 1: the low-poly frame at every texel.
+  gl.BindFramebuffer(GL_FRAMEBUFFER, s.frame_framebuffer);
   gl.Clear(GL_COLOR_BUFFER_BIT);
-  gl.UseProgram(s.program);
-  gl.Uniform1i(s.grid_location, low.grid);
-  gl.Uniform1f(s.tile_size_location, float(size));
-  gl.Uniform1i(s.low_poly_location, 0);
-  gl.BindVertexArray(s.vao);
-  gl.DrawElements(GL_TRIANGLES, s.index_count, GL_UNSIGNED_INT, nullptr);
+  gl.UseProgram(s.frame_program);
+  gl.BindVertexArray(s.low_vao);
+  gl.DrawElements(GL_TRIANGLES, s.low_index_count, GL_UNSIGNED_INT, nullptr);
+
+  // Pass 2: the high-res normals, expressed in that frame.
+  gl.BindFramebuffer(GL_FRAMEBUFFER, s.target_framebuffer);
+  gl.Clear(GL_COLOR_BUFFER_BIT);
+  gl.UseProgram(s.bake_program);
+  for (int k = 0; k < kFrameParts; ++k) {
+    gl.ActiveTexture(GLenum(GL_TEXTURE0 + k));
+    gl.BindTexture(GL_TEXTURE_2D, s.frame_textures[k]);
+  }
+  gl.BindVertexArray(s.high_vao);
+  gl.DrawElements(GL_TRIANGLES, s.high_index_count, GL_UNSIGNED_INT, nullptr);
 
   std::vector<float> rgba(std::size_t(size) * size * 4);
   gl.PixelStorei(GL_PACK_ALIGNMENT, 4);

@@ -14,7 +14,7 @@ class GlBaker : public bake::Baker {
   explicit GlBaker(std::unique_ptr<Context> context);
   ~GlBaker() override;
 
-  bake::NormalMap bake(const mesh::HighResMesh& high, const mesh::GridMesh& low, int size) override;
+  bake::NormalMap bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) override;
   std::string description() const override;
 
  private:

@@ -3,4 +3,6 @@
 namespace terrabake::gl::shaders {
 extern const char* const kBakeVertex;
 extern const char* const kBakeFragment;
+extern const char* const kFrameVertex;
+extern const char* const kFrameFragment;
 }  // namespace terrabake::gl::shaders

@@ -35,7 +35,7 @@ static_assert(sizeof(glm::vec2) == 8 && sizeof(glm::vec3) == 12 && sizeof(glm::v
 static_assert(sizeof(float) == 4 && std::numeric_limits<float>::is_iec559);
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__);
 
-void checkMesh(const mesh::GridMesh& mesh, const GlbInfo& info) {
+void checkMesh(const mesh::TriangleMesh& mesh, const GlbInfo& info) {
   const std::size_t n = mesh.position.size();
   if (n == 0 || mesh.normal.size() != n || mesh.tangent.size() != n || mesh.uv.size() != n) {
     throw std::invalid_argument("encodeGlb: vertex arrays are empty or differ in length");
@@ -88,7 +88,7 @@ void appendU32(std::vector<std::uint8_t>& out, std::uint32_t v) {
 
 }  // namespace
 
-std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info) {
+std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInfo& info) {
   checkMesh(mesh, info);
   const std::size_t n = mesh.position.size();
 
@@ -122,14 +122,10 @@ std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& i
   Json enu_to_ecef = Json::array();
   for (double v : info.enu_to_ecef) enu_to_ecef.push_back(v);
 
+  Json extras = {{"origin", {info.origin_lon_deg, info.origin_lat_deg, 0.0}}, {"enu_to_ecef", enu_to_ecef}};
+  if (info.max_error_m) extras["max_error_m"] = *info.max_error_m;
   Json gltf = {
-      {"asset",
-       {{"version", "2.0"},
-        {"generator", "terrabake"},
-        {"extras",
-         {{"terrabake",
-           {{"origin", {info.origin_lon_deg, info.origin_lat_deg, 0.0}},
-            {"enu_to_ecef", enu_to_ecef}}}}}}},
+      {"asset", {{"version", "2.0"}, {"generator", "terrabake"}, {"extras", {{"terrabake", extras}}}}},
       {"scene", 0},
       {"scenes", {{{"nodes", {0}}}}},
       {"nodes", {{{"mesh", 0}}}},

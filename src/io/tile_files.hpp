@@ -3,6 +3,7 @@
 // Every file appears atomically under its final name (temp file + rename).
 #include <array>
 #include <cstdint>
+#include <map>
 #include <optional>
 #include <string>
 #include <vector>
@@ -38,10 +39,11 @@ struct GlbInfo {
   double origin_lon_deg = 0;
   double origin_lat_deg = 0;
   std::array<double, 16> enu_to_ecef{};  // column-major, glTF axes -> ECEF
+  std::optional<double> max_error_m;     // the mesh's distance to the height samples
 };
 
 // glTF 2.0 binary of the low-poly mesh (docs/CONTRACT.md §5).
-std::vector<std::uint8_t> encodeGlb(const mesh::GridMesh& mesh, const GlbInfo& info);
+std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInfo& info);
 
 // What a layer's tilejson.json says, written by tileJson() and read back by
 // readTileJson().
@@ -59,7 +61,9 @@ struct TileJsonInfo {
   NodataSurface nodata_surface{};      // what tiles show where the DEM had no sample
   double z_scale = 0;                  // metres per DEM height unit
   double exaggeration = 0;             // vertical exaggeration of normals and meshes
-  int low_poly_grid = 0;
+  LowPolyMesh low_poly_mesh{};
+  int low_poly_grid = 0;               // grid: vertices a side
+  std::map<int, double> max_error_m;   // adaptive: the distance bound of each zoom's meshes
   std::vector<std::string> sources;    // DEM paths as the user gave them
 };
 

@@ -12,7 +12,7 @@ namespace {
 using Json = nlohmann::ordered_json;  // keeps the key order the file was written in
 
 // The version of docs/CONTRACT.md the layer follows.
-constexpr const char* kFormatVersion = "3";
+constexpr const char* kFormatVersion = "4";
 
 // Middle longitude of [west, east], also when the bounds cross the antimeridian
 // (west > east).
@@ -34,6 +34,20 @@ Json parseObject(const std::string& text) {
 std::string resolve(const std::string& url, const std::string& layer_url) {
   if (url.find("://") != std::string::npos || url.rfind('/', 0) == 0) return url;
   return layer_url + (url.rfind("./", 0) == 0 ? url.substr(2) : url);
+}
+
+// What a renderer choosing between levels needs of the meshes: the kind,
+// and for adaptive meshes each zoom's distance bound in metres.
+Json lowPolyJson(const TileJsonInfo& info) {
+  Json low_poly = {{"mesh", std::string(wordOf(info.low_poly_mesh))}};
+  if (info.low_poly_mesh == LowPolyMesh::kGrid) {
+    low_poly["grid"] = info.low_poly_grid;
+    return low_poly;
+  }
+  Json bounds = Json::object();
+  for (const auto& [zoom, metres] : info.max_error_m) bounds[std::to_string(zoom)] = metres;
+  low_poly["max_error_m"] = bounds;
+  return low_poly;
 }
 
 }  // namespace
@@ -68,7 +82,7 @@ std::string tileJson(const TileJsonInfo& info) {
         {"z_scale", info.z_scale},
         {"exaggeration", info.exaggeration},
         {"mesh", "./{z}/{x}/{y}.glb"},
-        {"low_poly", {{"grid", info.low_poly_grid}}},
+        {"low_poly", lowPolyJson(info)},
         {"sources", info.sources}}},
   };
   return doc.dump(2) + "\n";

@@ -2,16 +2,17 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <stdexcept>
+#include <string>
 
 #include <glm/geometric.hpp>
 
-namespace terrabake::mesh {
-namespace {
+#include "mesh/sample_surface.hpp"
+#include "mesh/texel_raster.hpp"
 
-// Bilinear interpolation of sample positions at fractional sample
-// coordinates (s_col, s_row) in the SampleGrid's raster. Interpolating
-// positions, not heights, keeps the result frame-independent: two tiles that
-// interpolate the same samples get the same ECEF point.
+namespace terrabake::mesh {
+
 glm::dvec3 interpolatePosition(const Raster<glm::dvec3>& grid, double s_col, double s_row) {
   const int c0 = std::clamp(int(std::floor(s_col)), 0, grid.width - 2);
   const int r0 = std::clamp(int(std::floor(s_row)), 0, grid.height - 2);
@@ -22,21 +23,21 @@ glm::dvec3 interpolatePosition(const Raster<glm::dvec3>& grid, double s_col, dou
   return top * (1 - fr) + bottom * fr;
 }
 
-// Normal and tangent from central differences: du runs east (u grows), dv
-// runs south (v grows). cross(dv, du) points up for a surface seen from above.
-struct Frame {
-  glm::dvec3 normal;
-  glm::dvec4 tangent;
-};
-
-Frame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
+VertexFrame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
+  // cross(dv, du) points up for a surface seen from above.
   const glm::dvec3 n = glm::normalize(glm::cross(dv, du));
   const glm::dvec3 t = glm::normalize(du - n * glm::dot(n, du));
-  // Bitangent should follow -v (north, glTF's "green up"); w records whether
-  // cross(n, t) does.
   const double w = glm::dot(glm::cross(n, t), -dv) >= 0 ? 1.0 : -1.0;
   return {n, glm::dvec4(t, w)};
 }
+
+VertexFrame frameAtSampleCoordinate(const Raster<glm::dvec3>& grid, double s_col, double s_row, double step) {
+  return frameFromDifferences(
+      interpolatePosition(grid, s_col + step, s_row) - interpolatePosition(grid, s_col - step, s_row),
+      interpolatePosition(grid, s_col, s_row + step) - interpolatePosition(grid, s_col, s_row - step));
+}
+
+namespace {
 
 bool isDemSample(const SampleGrid& samples, int c, int r) {
   const Raster<glm::dvec3>& p = samples.position;
@@ -61,7 +62,7 @@ glm::dvec3 differenceAt(const SampleGrid& samples, int c, int r, int dc, int dr)
 }
 
 // The frame at sample (c, r), from the differences across it east and south.
-Frame sampleFrame(const SampleGrid& samples, int c, int r) {
+VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
   return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
@@ -80,22 +81,12 @@ std::vector<std::uint32_t> gridIndices(int cols, int rows) {
   return indices;
 }
 
-GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows) {
-  const int c = std::clamp(int(std::floor(g.x)), 0, cols - 2);
-  const int r = std::clamp(int(std::floor(g.y)), 0, rows - 2);
-  const double fu = g.x - c, fv = g.y - r;
-  const int nw = r * cols + c, ne = nw + 1, sw = nw + cols, se = sw + 1;
-  if (fv >= fu) return {{nw, sw, se}, {1 - fv, fv - fu, fu}};  // south-west triangle
-  return {{nw, se, ne}, {1 - fu, fv, fu - fv}};                // north-east triangle
-}
-
 int requiredApron(int tile_size, int grid) {
   const double cell_texels = double(tile_size) / (grid - 1);
   // The low-poly neighbour one cell out lies at texel-centre coordinate
   // -(cell + 0.5); bilinear interpolation needs the sample below that.
   const int low_poly_apron = int(std::ceil(cell_texels + 0.5));
-  constexpr int kHighResApron = 3;
-  return std::max(kHighResApron, low_poly_apron);
+  return std::max(kAdaptiveApron, low_poly_apron);
 }
 
 HighResMesh buildHighResMesh(const SampleGrid& samples) {
@@ -121,7 +112,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   return mesh;
 }
 
-GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
+TriangleMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
   const int s = samples.tile_size;
   const int a = samples.apron;
   // Low-poly vertex k sits at texel-corner coordinate k * s / (grid - 1); the
@@ -133,15 +124,14 @@ GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
     return interpolatePosition(samples.position, sampleCoord(kc), sampleCoord(kr));
   };
 
-  GridMesh mesh;
-  mesh.grid = grid;
+  TriangleMesh mesh;
   for (int r = 0; r < grid; ++r) {
     for (int c = 0; c < grid; ++c) {
       // Differences reach one cell beyond the tile, so edge vertices get the
       // same frame as the neighbouring tile computes for them.
       const glm::dvec3 du = positionAt(c + 1, r) - positionAt(c - 1, r);
       const glm::dvec3 dv = positionAt(c, r + 1) - positionAt(c, r - 1);
-      const Frame frame = frameFromDifferences(du, dv);
+      const VertexFrame frame = frameFromDifferences(du, dv);
       mesh.position.emplace_back(positionAt(c, r));
       mesh.normal.emplace_back(frame.normal);
       mesh.tangent.emplace_back(frame.tangent);
@@ -152,27 +142,26 @@ GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
   return mesh;
 }
 
-GridMesh buildHighResDisplayMesh(const SampleGrid& samples) {
+TriangleMesh buildHighResDisplayMesh(const SampleGrid& samples) {
   const int s = samples.tile_size;
   const int a = samples.apron;
   const auto& p = samples.position;
-  GridMesh mesh;
-  mesh.grid = s + 1;
+  TriangleMesh mesh;
   for (int j = 0; j <= s; ++j) {
     for (int i = 0; i <= s; ++i) {
       const int c = a + i, r = a + j;
-      const Frame frame = sampleFrame(samples, c, r);
+      const VertexFrame frame = sampleFrame(samples, c, r);
       mesh.position.emplace_back(p.at(c, r));
       mesh.normal.emplace_back(frame.normal);
       mesh.tangent.emplace_back(frame.tangent);
       mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
     }
   }
-  mesh.indices = gridIndices(mesh.grid, mesh.grid);
+  mesh.indices = gridIndices(s + 1, s + 1);
   return mesh;
 }
 
-void dropTrianglesWithoutData(GridMesh& mesh, const SampleGrid& samples) {
+void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples) {
   if (samples.from_dem.data.empty()) return;
   // Texel (i, j)'s centre is at texel coordinate (i, j); a centre on an edge
   // of the triangle, up to float32 UVs, counts as inside.
@@ -202,22 +191,105 @@ void dropTrianglesWithoutData(GridMesh& mesh, const SampleGrid& samples) {
   mesh.indices = std::move(kept);
 }
 
-TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv) {
-  const GridTriangle tri = gridTriangleAt(uv * double(mesh.grid - 1), mesh.grid, mesh.grid);
+namespace {
+
+// Barycentric weights of p in the triangle (a, b, c); zero area gives NaN.
+void barycentric(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, glm::dvec2 p, double (&w)[3]) {
+  const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+  w[1] = ((p.x - a.x) * (c.y - a.y) - (p.y - a.y) * (c.x - a.x)) / area;
+  w[2] = ((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / area;
+  w[0] = 1 - w[1] - w[2];
+}
+
+// Texel centres within this many texels of a triangle's edge count as under
+// it: float32 UVs of a 4096-texel tile are good to about 2.5e-4 texels, and
+// a centre counted under two triangles gets the same frame from either.
+constexpr double kTexelOnEdge = 1e-3;
+
+}  // namespace
+
+TangentFrame frameAt(const TriangleMesh& mesh, const TrianglePoint& point) {
   glm::dvec3 n(0), t(0), b(0);
   for (int k = 0; k < 3; ++k) {
-    const glm::dvec3 vertex_n(mesh.normal[tri.vertex[k]]);
-    const glm::dvec4 vertex_t(mesh.tangent[tri.vertex[k]]);
-    n += vertex_n * tri.weight[k];
-    t += glm::dvec3(vertex_t) * tri.weight[k];
+    const glm::dvec3 vertex_n(mesh.normal[point.vertex[k]]);
+    const glm::dvec4 vertex_t(mesh.tangent[point.vertex[k]]);
+    n += vertex_n * point.weight[k];
+    t += glm::dvec3(vertex_t) * point.weight[k];
     // The bitangent is made per vertex and interpolated, as renderers do.
-    b += vertex_t.w * glm::cross(vertex_n, glm::dvec3(vertex_t)) * tri.weight[k];
+    b += vertex_t.w * glm::cross(vertex_n, glm::dvec3(vertex_t)) * point.weight[k];
   }
   TangentFrame frame;
   frame.n = glm::normalize(n);
   frame.t = glm::normalize(t);
   frame.b = glm::normalize(b);
   return frame;
+}
+
+TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv) {
+  TrianglePoint best{};
+  double best_inside = -std::numeric_limits<double>::infinity();
+  for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
+    const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
+    double w[3];
+    barycentric(glm::dvec2(mesh.uv[v[0]]), glm::dvec2(mesh.uv[v[1]]), glm::dvec2(mesh.uv[v[2]]), uv, w);
+    const double inside = std::min({w[0], w[1], w[2]});  // >= 0 inside, most negative farthest out
+    if (inside > best_inside) {
+      best_inside = inside;
+      best = {{v[0], v[1], v[2]}, {w[0], w[1], w[2]}};
+    }
+  }
+  return best;
+}
+
+TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return frameAt(mesh, triangleAt(mesh, uv)); }
+
+std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size) {
+  std::vector<TangentFrame> frames(std::size_t(size) * size);
+  std::vector<std::uint8_t> covered(frames.size(), 0);
+  for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
+    const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
+    const glm::dvec2 a = glm::dvec2(mesh.uv[v[0]]) * double(size), b = glm::dvec2(mesh.uv[v[1]]) * double(size),
+                     c = glm::dvec2(mesh.uv[v[2]]) * double(size);
+    forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
+      for (int i = first; i <= last; ++i) {
+        const std::size_t texel = std::size_t(j) * size + i;
+        if (covered[texel]) continue;
+        TrianglePoint point{{v[0], v[1], v[2]}, {}};
+        barycentric(a, b, c, {i + 0.5, j + 0.5}, point.weight);
+        frames[texel] = frameAt(mesh, point);
+        covered[texel] = 1;
+      }
+    });
+  }
+  const auto hole = std::find(covered.begin(), covered.end(), 0);
+  if (hole != covered.end()) {
+    const auto texel = std::size_t(hole - covered.begin());
+    throw std::invalid_argument("texelFrames: texel (" + std::to_string(texel % std::size_t(size)) + ", " +
+                                std::to_string(texel / std::size_t(size)) + ") is under no triangle");
+  }
+  return frames;
+}
+
+double maxDistanceToSamples(const TriangleMesh& mesh, const SampleGrid& samples) {
+  const int s = samples.tile_size;
+  double worst = 0;
+  for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
+    glm::dvec2 at[3];
+    glm::dvec3 p[3];
+    for (int m = 0; m < 3; ++m) {
+      at[m] = glm::dvec2(mesh.uv[mesh.indices[k + std::size_t(m)]]) * double(s);
+      p[m] = glm::dvec3(mesh.position[mesh.indices[k + std::size_t(m)]]);
+    }
+    forEachTexelSpan(at[0], at[1], at[2], s, kTexelOnEdge, [&](int j, int first, int last) {
+      for (int i = first; i <= last; ++i) {
+        double w[3];
+        barycentric(at[0], at[1], at[2], {i + 0.5, j + 0.5}, w);
+        const glm::dvec3 surface = p[0] * w[0] + p[1] * w[1] + p[2] * w[2];
+        worst = std::max(worst, glm::distance(surface, samples.position.at(samples.apron + i, samples.apron + j)));
+      }
+    });
+  }
+  return worst;
 }
 
 }  // namespace terrabake::mesh

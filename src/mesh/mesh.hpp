@@ -39,11 +39,10 @@ struct HighResMesh {
   std::vector<glm::vec3> normal;  // unit, smooth: central differences, one-sided at the DEM's edge
 };
 
-// A regular grid of `grid` x `grid` vertices, split into triangles like
-// HighResMesh; what a .glb holds. Vertex (c, r) has index r * grid + c. The
-// low-poly mesh spans UV [0, 1] exactly.
-struct GridMesh {
-  int grid = 0;
+// An indexed triangle mesh with a tangent frame per vertex: what a .glb
+// holds. A low-poly mesh's UVs cover [0, 1] exactly; its triangles are
+// counter-clockwise seen from above, like HighResMesh's.
+struct TriangleMesh {
   std::vector<glm::vec3> position;
   std::vector<glm::vec3> normal;   // unit
   std::vector<glm::vec4> tangent;  // xyz unit and orthogonal to normal; w = handedness
@@ -61,17 +60,14 @@ struct TangentFrame {
   glm::dvec3 n;
 };
 
-// Indices of a row-major grid of cols x rows vertices, split as above.
-std::vector<std::uint32_t> gridIndices(int cols, int rows);
-
-// The triangle of such a grid that holds the point at grid coordinate g
-// (vertex (c, r) at (c, r)), with its barycentric weights. Points beyond the
-// grid fall to the nearest cell.
-struct GridTriangle {
-  int vertex[3];
+// A point of a mesh: the triangle it lies in and its barycentric weights.
+struct TrianglePoint {
+  std::uint32_t vertex[3];
   double weight[3];
 };
-GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows);
+
+// Indices of a row-major grid of cols x rows vertices, split as above.
+std::vector<std::uint32_t> gridIndices(int cols, int rows);
 
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
 // three for the high-res normals up to the first sample beyond the edge (a
@@ -79,19 +75,45 @@ GridTriangle gridTriangleAt(glm::dvec2 g, int cols, int rows);
 // cell (plus one sample to interpolate in) for the low-poly normals at the edge.
 int requiredApron(int tile_size, int grid);
 
+// Samples each side of the tile the adaptive mesh needs: the high-res
+// normals' own three (its edge vertices' frames reach 1.5 samples out).
+constexpr int kAdaptiveApron = 3;
+
 HighResMesh buildHighResMesh(const SampleGrid& samples);
-GridMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
+
+// The low-poly mesh as a regular grid of `grid` x `grid` vertices at texel
+// corners (vertex (c, r) has index r * grid + c), split like HighResMesh.
+TriangleMesh buildLowPolyMesh(const SampleGrid& samples, int grid);
 
 // The high-res surface as a .glb-ready grid, for viewers that compare it with
 // the normal-mapped low-poly mesh: one vertex per texel centre from the tile's
 // first texel to the next tile's first, so neighbouring tiles meet.
-GridMesh buildHighResDisplayMesh(const SampleGrid& samples);
+TriangleMesh buildHighResDisplayMesh(const SampleGrid& samples);
 
-TangentFrame lowPolyFrameAt(const GridMesh& mesh, glm::dvec2 uv);
+// The frame a renderer interpolates at a point of the mesh.
+TangentFrame frameAt(const TriangleMesh& mesh, const TrianglePoint& point);
+
+// The triangle of `mesh` under a UV point, found by searching every triangle
+// (for tests and single points; texelFrames() serves a whole tile). Points
+// on an edge get either triangle; a point under none, the nearest.
+TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv);
+TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv);
+
+// The frame at each texel centre of a size x size tile, row by row, from the
+// triangle under it: the mesh is rasterised in UV space, so any low-poly
+// mesh whose UVs cover [0, 1] serves. Throws std::invalid_argument naming a
+// texel no triangle covers.
+std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size);
+
+// The largest distance between a sample of the tile (a texel centre) and the
+// mesh's surface at the same UV, in metres: the mesh's geometric error. It
+// bounds the vertical distance, and includes the sag of long chords below a
+// curved surface.
+double maxDistanceToSamples(const TriangleMesh& mesh, const SampleGrid& samples);
 
 // Leaves out of `mesh` (over the UV space of `samples`' tile) the triangles
 // that hold no texel centre with a DEM sample, edges and corners included,
 // so the mesh stops within a triangle of where the data stops. Vertices stay.
-void dropTrianglesWithoutData(GridMesh& mesh, const SampleGrid& samples);
+void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples);
 
 }  // namespace terrabake::mesh

@@ -77,14 +77,20 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan,
   info.nodata_surface = job.nodata_surface;
   info.z_scale = job.z_scale;
   info.exaggeration = job.exaggeration;
+  info.low_poly_mesh = job.low_poly_mesh;
   info.low_poly_grid = job.low_poly_grid;
+  if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
+    for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) info.max_error_m[z] = plan.settings.max_error_m.at(std::size_t(z));
+  }
   info.sources = job.dems;
   return info;
 }
 
 TileSettings tileSettings(const config::TileJob& job) {
   TileSettings settings;
-  settings.apron = mesh::requiredApron(job.tile_size, job.low_poly_grid);
+  const bool grid = job.low_poly_mesh == LowPolyMesh::kGrid;
+  settings.apron = grid ? mesh::requiredApron(job.tile_size, job.low_poly_grid) : mesh::kAdaptiveApron;
+  settings.low_poly_mesh = job.low_poly_mesh;
   settings.low_poly_grid = job.low_poly_grid;
   settings.bits = job.bits;
   settings.green = job.green;
@@ -95,6 +101,22 @@ TileSettings tileSettings(const config::TileJob& job) {
   settings.max_fill_px = job.max_fill_px;
   settings.nodata_surface = job.nodata_surface;
   return settings;
+}
+
+// The adaptive mesh's bound at each zoom: max_error_m, or max_error_texels
+// of the zoom's texel size on the ground in the middle of the DEM (whatever
+// the bbox, so a bbox run writes the bytes a whole run does).
+std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Scheme& scheme, const Extent& dem_area,
+                                   int max_zoom) {
+  std::vector<double> bounds;
+  const double x = (dem_area.min_x + dem_area.max_x) / 2, y = (dem_area.min_y + dem_area.max_y) / 2;
+  for (int z = 0; z <= max_zoom; ++z) {
+    const tiling::LevelGrid level = scheme.levelGrid(z);
+    const double texel_m =
+        cellGroundSizeM(scheme.crs(), x, y, level.tile_w / scheme.tileSize(), level.tile_h / scheme.tileSize());
+    bounds.push_back(job.max_error_m > 0 ? job.max_error_m : job.max_error_texels * texel_m);
+  }
+  return bounds;
 }
 
 }  // namespace
@@ -108,6 +130,9 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.settings = tileSettings(job);
   const Extent dem_area = dem.boundsIn(plan.scheme->crs());
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, dem);
+  if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
+    plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);
+  }
   const Extent lon_lat = lonLatCover(job, *plan.scheme, dem);
   plan.area = job.bbox.empty()
                   ? dem_area

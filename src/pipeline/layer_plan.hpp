@@ -22,7 +22,9 @@ namespace terrabake::pipeline {
 // What every tile of the layer is made with (the scheme holds the tile size).
 struct TileSettings {
   int apron = 0;  // texels read beyond each tile edge for the meshes' normals
-  int low_poly_grid = 0;
+  LowPolyMesh low_poly_mesh{};
+  std::vector<double> max_error_m;  // adaptive: the distance bound at each zoom (index z)
+  int low_poly_grid = 0;            // grid: vertices a side
   int bits = 0;
   Green green{};
   bool high_res_mesh = false;  // also make the high-res display mesh

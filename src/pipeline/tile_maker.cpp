@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <utility>
 
 #include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
@@ -9,6 +10,7 @@
 #include "geo/local_frame.hpp"
 #include "gl/baker_factory.hpp"
 #include "io/tile_files.hpp"
+#include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
 
 namespace terrabake::pipeline {
@@ -45,6 +47,31 @@ Raster<std::uint8_t> texelsOf(const Raster<std::uint8_t>& samples, int apron, in
 
 void scaleHeights(Raster<float>& heights, double scale) {
   for (float& h : heights.data) h = float(h * scale);
+}
+
+// The tile beside `tile` across its east or south edge; east of the last
+// column of a global scheme is the first (the antimeridian).
+TileId eastOf(const tiling::Scheme& scheme, const TileId& tile) {
+  const int cols = scheme.levelGrid(tile.z).cols;
+  const bool wraps = scheme.kind() != SchemeKind::kNative;
+  return {tile.z, wraps && tile.x + 1 == cols ? 0 : tile.x + 1, tile.y};
+}
+TileId southOf(const tiling::Scheme& scheme, const TileId& tile) {
+  return {tile.z, tile.x, scheme.tmsRows() ? tile.y - 1 : tile.y + 1};
+}
+
+// The strip of texels either side of a tile's west edge (two columns) or
+// north edge (two rows), from its first texel row (or column) before the
+// tile to its first after.
+GridSpec westStrip(const tiling::Scheme& scheme, const TileId& tile) {
+  GridSpec strip = scheme.texelGrid(tile, 1);
+  strip.width = 2;
+  return strip;
+}
+GridSpec northStrip(const tiling::Scheme& scheme, const TileId& tile) {
+  GridSpec strip = scheme.texelGrid(tile, 1);
+  strip.height = 2;
+  return strip;
 }
 
 }  // namespace
@@ -103,6 +130,70 @@ struct TileMaker::Impl {
     return samples;
   }
 
+  // The heights a tile uses from those read on `grid`: holes filled, scaled.
+  // `from_dem`, when given, gets the samples the DEM had (empty: all).
+  Raster<float> finishedHeights(Raster<float> read, const GridSpec& grid, const dem::ReadPlan& read_plan,
+                                Raster<std::uint8_t>* from_dem) const {
+    if (hasHoles(read)) {
+      if (from_dem) *from_dem = demSamples(read);
+      read = filledHeights(grid, read_plan);
+    }
+    scaleHeights(read, settings.height_scale);
+    return read;
+  }
+
+  // The profile of the edge a strip straddles (mesh::EdgeProfile), in ECEF.
+  // Both tiles sharing the edge make the strip's grid from the same tile
+  // (westStrip, northStrip), so they read the same heights at the same
+  // places and keep the same edge vertices.
+  mesh::EdgeProfile edgeProfile(const GridSpec& strip, const dem::ReadPlan& read_plan) const {
+    const Raster<float> heights = finishedHeights(dem.read(strip, read_plan), strip, read_plan, nullptr);
+    std::vector<glm::dvec2> lon_lat;
+    for (int r = 0; r < strip.height; ++r) {
+      for (int c = 0; c < strip.width; ++c) lon_lat.emplace_back(strip.centreX(c), strip.centreY(r));
+    }
+    to_lon_lat.transform(lon_lat);
+    Raster<glm::dvec3> ecef(strip.width, strip.height);
+    for (std::size_t k = 0; k < lon_lat.size(); ++k) {
+      ecef.data[k] = geo::geodeticToEcef(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+    }
+    // Point k of the profile lies between samples k - 1 and k along the
+    // edge, half way across it; the corners (k = 0 and k = n - 1) between four.
+    const bool vertical = strip.width == 2;
+    const int n = vertical ? strip.height : strip.width;
+    auto across = [&](int along) {
+      return vertical ? (ecef.at(0, along) + ecef.at(1, along)) * 0.5 : (ecef.at(along, 0) + ecef.at(along, 1)) * 0.5;
+    };
+    mesh::EdgeProfile profile;
+    profile.push_back((across(0) + across(1)) * 0.5);
+    for (int k = 1; k + 1 < n; ++k) profile.push_back(across(k));
+    profile.push_back((across(n - 2) + across(n - 1)) * 0.5);
+    return profile;
+  }
+
+  mesh::TileEdgePoints edgePoints(const TileId& tile, const dem::ReadPlan& read_plan, double max_error_m) const {
+    auto kept = [&](const GridSpec& strip) { return mesh::keptEdgePoints(edgeProfile(strip, read_plan), max_error_m); };
+    mesh::TileEdgePoints edges;
+    edges.west = kept(westStrip(scheme, tile));
+    edges.east = kept(westStrip(scheme, eastOf(scheme, tile)));
+    edges.north = kept(northStrip(scheme, tile));
+    edges.south = kept(northStrip(scheme, southOf(scheme, tile)));
+    return edges;
+  }
+
+  // The low-poly mesh the settings ask for, and its distance to the samples.
+  mesh::AdaptiveMesh lowPolyMesh(const TileId& tile, const mesh::SampleGrid& samples,
+                                 const dem::ReadPlan& read_plan) const {
+    if (settings.low_poly_mesh == LowPolyMesh::kGrid) {
+      mesh::AdaptiveMesh grid;
+      grid.mesh = mesh::buildLowPolyMesh(samples, settings.low_poly_grid);
+      grid.max_error_m = mesh::maxDistanceToSamples(grid.mesh, samples);
+      return grid;
+    }
+    const double max_error_m = settings.max_error_m.at(std::size_t(tile.z));
+    return mesh::buildAdaptiveMesh(samples, edgePoints(tile, read_plan, max_error_m), max_error_m);
+  }
+
   geo::LocalFrame frameAtCentre(const TileId& tile) const {
     const Extent e = scheme.tileExtent(tile);
     std::vector<glm::dvec2> centre = {{(e.min_x + e.max_x) / 2, (e.min_y + e.max_y) / 2}};
@@ -123,21 +214,18 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const int size = s.scheme.tileSize();
   const int apron = s.settings.apron;
   const GridSpec grid = s.scheme.texelGrid(tile, apron);
-  Raster<float> heights = s.dem.read(grid, read_plan);
-  if (!hasValidSample(heights, apron, size)) return std::nullopt;
+  Raster<float> read = s.dem.read(grid, read_plan);
+  if (!hasValidSample(read, apron, size)) return std::nullopt;
   // Coverage is what the DEM itself gives, before any fill.
   Raster<std::uint8_t> from_dem;
-  if (hasHoles(heights)) {
-    from_dem = demSamples(heights);
-    heights = s.filledHeights(grid, read_plan);
-  }
-  scaleHeights(heights, s.settings.height_scale);
+  const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
   samples.from_dem = from_dem;
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
-  mesh::GridMesh low = mesh::buildLowPolyMesh(samples, s.settings.low_poly_grid);
+  mesh::AdaptiveMesh low_poly = s.lowPolyMesh(tile, samples, read_plan);
+  mesh::TriangleMesh& low = low_poly.mesh;
   const bake::NormalMap map = s.baker->bake(high, low, size);
   const bool cut = s.settings.nodata_surface == NodataSurface::kCut;
   if (cut) mesh::dropTrianglesWithoutData(low, samples);
@@ -147,6 +235,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.origin_lon_deg = frame.originLonDeg();
   glb_info.origin_lat_deg = frame.originLatDeg();
   glb_info.enu_to_ecef = frame.localToEcef();
+  glb_info.max_error_m = low_poly.max_error_m;
   io::TileFiles files;
   Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
   if (s.settings.alpha) {
@@ -158,7 +247,8 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   files.glb = io::encodeGlb(low, glb_info);
   if (s.settings.high_res_mesh) {
     glb_info.normal_texture_uri.clear();
-    mesh::GridMesh display = mesh::buildHighResDisplayMesh(samples);
+    glb_info.max_error_m.reset();  // the display mesh is the samples themselves
+    mesh::TriangleMesh display = mesh::buildHighResDisplayMesh(samples);
     if (cut) mesh::dropTrianglesWithoutData(display, samples);
     files.high_res_glb = io::encodeGlb(display, glb_info);
   }

@@ -69,7 +69,7 @@ constexpr std::array<BackendCase, 3> kBackends = {{
 struct SyntheticTile {
   mesh::SampleGrid samples;
   mesh::HighResMesh high;
-  mesh::GridMesh low;
+  mesh::TriangleMesh low;
 };
 
 SyntheticTile makeSyntheticTile(int tile_size) {
@@ -219,7 +219,7 @@ void benchEncodePng(benchmark::State& state) {
 }
 
 void benchEncodeGlb(benchmark::State& state) {
-  const mesh::GridMesh& low = benchData().synthetic.at(kTileSize).low;
+  const mesh::TriangleMesh& low = benchData().synthetic.at(kTileSize).low;
   io::GlbInfo info;
   info.normal_texture_uri = "0.png";
   info.origin_lon_deg = kCentreLon;

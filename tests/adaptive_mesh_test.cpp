@@ -1,0 +1,188 @@
+// The adaptive low-poly mesh: its distance to the samples stays within the
+// bound, it keeps exactly the edge vertices it is given (what makes
+// neighbours meet), it is a valid triangulation of the tile in UV space, and
+// it needs fewer triangles than a grid of the same error.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include <glm/geometric.hpp>
+
+#include "mesh/adaptive_mesh.hpp"
+#include "mesh/mesh.hpp"
+#include "synthetic_surface.hpp"
+
+namespace terrabake {
+namespace {
+
+// Vertex positions are float32 in the tile's frame: on tiles of a few
+// kilometres, a coordinate rounds by under 2.5e-4 m, a point by under 5e-4 m.
+constexpr double kFloatPositionSlackM = 5e-4;
+
+// sampleHeightField's apron is a grid's: one with cells of one texel asks
+// for the adaptive mesh's own.
+constexpr int kAdaptiveGrid = 65;
+
+// texelFrames weighs in texel units, lowPolyFrameAt in UV units: the weights
+// differ by double rounding, the frames by far less than 1e-5 degrees.
+constexpr double kSameFrameDeg = 1e-5;
+
+double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
+double ridges(double e, double n) { return 300.0 * std::abs(std::sin(e / 400.0 + n / 900.0)) + 0.02 * e; }
+
+// The edge profile a tile's samples give for one of its edges, in its frame.
+mesh::EdgeProfile profileOf(const mesh::SampleGrid& samples, bool vertical, bool far_side) {
+  const int s = samples.tile_size, a = samples.apron;
+  auto at = [&](int along, int across) {
+    return vertical ? samples.position.at(across, along) : samples.position.at(along, across);
+  };
+  const int before = far_side ? a + s - 1 : a - 1;  // the sample row (or column) before the edge
+  auto mid = [&](int along) { return (at(along, before) + at(along, before + 1)) * 0.5; };
+  mesh::EdgeProfile profile;
+  profile.push_back((mid(a - 1) + mid(a)) * 0.5);
+  for (int k = 0; k < s; ++k) profile.push_back(mid(a + k));
+  profile.push_back((mid(a + s - 1) + mid(a + s)) * 0.5);
+  return profile;
+}
+
+mesh::TileEdgePoints edgesOf(const mesh::SampleGrid& samples, double max_error_m) {
+  mesh::TileEdgePoints edges;
+  edges.north = mesh::keptEdgePoints(profileOf(samples, false, false), max_error_m);
+  edges.south = mesh::keptEdgePoints(profileOf(samples, false, true), max_error_m);
+  edges.west = mesh::keptEdgePoints(profileOf(samples, true, false), max_error_m);
+  edges.east = mesh::keptEdgePoints(profileOf(samples, true, true), max_error_m);
+  return edges;
+}
+
+std::size_t triangles(const mesh::TriangleMesh& mesh) { return mesh.indices.size() / 3; }
+
+double uvArea(const mesh::TriangleMesh& mesh, std::size_t t) {
+  const glm::dvec2 a(mesh.uv[mesh.indices[3 * t]]), b(mesh.uv[mesh.indices[3 * t + 1]]),
+      c(mesh.uv[mesh.indices[3 * t + 2]]);
+  return (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);  // negative: counter-clockwise from above
+}
+
+class AdaptiveBound : public ::testing::TestWithParam<double> {};
+
+TEST_P(AdaptiveBound, EverySampleIsWithinTheBound) {
+  const double bound = GetParam();
+  for (const auto& field : {test::HeightField(hills), test::HeightField(ridges)}) {
+    const auto samples = test::sampleHeightField(field, 64, kAdaptiveGrid, 10.0);
+    const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, bound), bound);
+    EXPECT_LE(result.max_error_m, bound);
+    EXPECT_LE(mesh::maxDistanceToSamples(result.mesh, samples), bound + kFloatPositionSlackM);
+    EXPECT_NEAR(mesh::maxDistanceToSamples(result.mesh, samples), result.max_error_m, kFloatPositionSlackM);
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(Metres, AdaptiveBound, ::testing::Values(0.05, 0.5, 2.0, 8.0, 40.0));
+
+TEST(AdaptiveMesh, IsATriangulationOfTheTileFacingUp) {
+  const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
+  const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 1.0), 1.0);
+  double area = 0;
+  for (std::size_t t = 0; t < triangles(result.mesh); ++t) {
+    EXPECT_LT(uvArea(result.mesh, t), 0.0) << "triangle " << t;
+    area -= uvArea(result.mesh, t);
+  }
+  EXPECT_NEAR(area, 2.0, 1e-9);  // twice the unit square: no gap, no overlap
+  for (const glm::vec2& uv : result.mesh.uv) {
+    EXPECT_GE(uv.x, 0.0f);
+    EXPECT_LE(uv.x, 1.0f);
+    EXPECT_GE(uv.y, 0.0f);
+    EXPECT_LE(uv.y, 1.0f);
+  }
+  // Frames are unit, orthogonal and face up, as the grid's.
+  for (std::size_t k = 0; k < result.mesh.normal.size(); ++k) {
+    EXPECT_NEAR(glm::length(glm::dvec3(result.mesh.normal[k])), 1.0, 1e-6);
+    EXPECT_NEAR(glm::dot(glm::dvec3(result.mesh.normal[k]), glm::dvec3(result.mesh.tangent[k])), 0.0, 1e-6);
+    EXPECT_GT(result.mesh.normal[k].y, 0.0f);
+  }
+}
+
+TEST(AdaptiveMesh, FlatTileIsTwoTriangles) {
+  const auto samples = test::sampleHeightField([](double e, double n) { return 0.3 * e - 0.1 * n; }, 64, kAdaptiveGrid, 10.0);
+  const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 0.01), 0.01);
+  EXPECT_EQ(triangles(result.mesh), 2u);
+  EXPECT_EQ(result.mesh.position.size(), 4u);
+}
+
+TEST(AdaptiveMesh, KeepsExactlyTheGivenEdgeVertices) {
+  const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
+  mesh::TileEdgePoints edges;
+  edges.north = {5, 40};
+  edges.south = {1, 64};
+  edges.west = {17};
+  edges.east = {};
+  const auto result = mesh::buildAdaptiveMesh(samples, edges, 2.0);
+  auto onEdge = [&](bool vertical, float at) {
+    std::vector<float> along;
+    for (const glm::vec2& uv : result.mesh.uv) {
+      if ((vertical ? uv.x : uv.y) == at) along.push_back(vertical ? uv.y : uv.x);
+    }
+    std::sort(along.begin(), along.end());
+    return along;
+  };
+  auto expected = [](std::vector<int> kept) {
+    std::vector<float> along = {0.0f};
+    for (int k : kept) along.push_back(float((k - 0.5) / 64));
+    along.push_back(1.0f);
+    return along;
+  };
+  EXPECT_EQ(onEdge(false, 0.0f), expected(edges.north));
+  EXPECT_EQ(onEdge(false, 1.0f), expected(edges.south));
+  EXPECT_EQ(onEdge(true, 0.0f), expected(edges.west));
+  EXPECT_EQ(onEdge(true, 1.0f), expected(edges.east));
+  // And the bound still holds inside.
+  EXPECT_LE(result.max_error_m, 2.0);
+}
+
+TEST(EdgeProfile, KeptPointsHoldEveryPointWithinTheBoundOfItsChord) {
+  std::mt19937 random(7);
+  std::uniform_real_distribution<double> noise(-30, 30);
+  mesh::EdgeProfile profile;
+  for (int k = 0; k < 130; ++k) profile.push_back({k * 10.0, 50 * std::sin(k / 9.0) + noise(random), 0});
+  const int s = int(profile.size()) - 2;
+  auto uvAt = [&](int k) { return k == 0 ? 0.0 : k == s + 1 ? 1.0 : (k - 0.5) / s; };
+  for (double bound : {1.0, 10.0, 40.0}) {
+    std::vector<int> kept = mesh::keptEdgePoints(profile, bound);
+    EXPECT_EQ(kept, mesh::keptEdgePoints(profile, bound));  // a pure function
+    kept.insert(kept.begin(), 0);
+    kept.push_back(s + 1);
+    for (std::size_t m = 0; m + 1 < kept.size(); ++m) {
+      const int a = kept[m], b = kept[m + 1];
+      for (int k = a + 1; k < b; ++k) {
+        const double f = (uvAt(k) - uvAt(a)) / (uvAt(b) - uvAt(a));
+        EXPECT_LE(glm::distance(profile[std::size_t(k)], glm::mix(profile[std::size_t(a)], profile[std::size_t(b)], f)),
+                  bound);
+      }
+    }
+  }
+}
+
+TEST(AdaptiveMesh, FewerTrianglesThanAGridOfTheSameError) {
+  const auto samples = test::sampleHeightField(ridges, 256, 17, 10.0);
+  const auto grid = mesh::buildLowPolyMesh(samples, 17);
+  const double grid_error = mesh::maxDistanceToSamples(grid, samples);
+  const auto adaptive = mesh::buildAdaptiveMesh(samples, edgesOf(samples, grid_error), grid_error);
+  EXPECT_LT(triangles(adaptive.mesh) * 2, triangles(grid));
+}
+
+TEST(TexelFrames, FindTheTriangleUnderEveryTexelOfAnyMesh) {
+  const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
+  const auto adaptive = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 1.0), 1.0).mesh;
+  const auto frames = mesh::texelFrames(adaptive, 64);
+  for (int j = 0; j < 64; ++j) {
+    for (int i = 0; i < 64; ++i) {
+      const auto searched = mesh::lowPolyFrameAt(adaptive, {(i + 0.5) / 64, (j + 0.5) / 64});
+      const auto& rasterised = frames[std::size_t(j) * 64 + std::size_t(i)];
+      EXPECT_LT(test::angleDeg(rasterised.n, searched.n), kSameFrameDeg) << i << ", " << j;
+      EXPECT_LT(test::angleDeg(rasterised.t, searched.t), kSameFrameDeg) << i << ", " << j;
+      EXPECT_LT(test::angleDeg(rasterised.b, searched.b), kSameFrameDeg) << i << ", " << j;
+    }
+  }
+}
+
+}  // namespace
+}  // namespace terrabake
