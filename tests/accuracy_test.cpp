@@ -56,11 +56,12 @@ struct Case {
   DemCrs crs;
   SchemeKind scheme;
   int bits;
+  LowPolyMesh mesh = LowPolyMesh::kAdaptive;
 };
 
 std::string caseName(const Case& c) {
   return std::string(c.crs == DemCrs::kUtm ? "utm" : "geographic") + "_" + std::string(wordOf(c.scheme)) + "_" +
-         std::to_string(c.bits) + "bit";
+         std::to_string(c.bits) + "bit" + (c.mesh == LowPolyMesh::kGrid ? "_grid" : "");
 }
 
 std::filesystem::path demFor(DemCrs crs) {
@@ -88,6 +89,7 @@ TEST_P(Accuracy, DecodedNormalsMatchTheAnalyticTerrain) {
   const int zoom = native ? 1 : 12;
   config::TileJob job = test::tileJob(dem, "accuracy/" + caseName(c), c.scheme, zoom, zoom);
   job.bits = c.bits;
+  job.low_poly_mesh = c.mesh;
   const auto summary = pipeline::runTileJob(job);
   ASSERT_GT(summary.written, 0);
   ASSERT_EQ(summary.failed, 0);
@@ -129,6 +131,8 @@ std::vector<Case> allCases() {
       for (int bits : {8, 16}) cases.push_back({crs, scheme, bits});
     }
   }
+  // The regular grid holds the same bounds.
+  for (int bits : {8, 16}) cases.push_back({DemCrs::kUtm, SchemeKind::kWebMercator, bits, LowPolyMesh::kGrid});
   return cases;
 }
 

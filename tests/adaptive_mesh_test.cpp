@@ -20,9 +20,9 @@ namespace {
 // kilometres, a coordinate rounds by under 2.5e-4 m, a point by under 5e-4 m.
 constexpr double kFloatPositionSlackM = 5e-4;
 
-// sampleHeightField's apron is a grid's: one with cells of one texel asks
-// for the adaptive mesh's own.
-constexpr int kAdaptiveGrid = 65;
+// sampleHeightField's apron is a grid's: one with cells of four texels asks
+// for the adaptive mesh's own (mesh::kAdaptiveApron).
+constexpr int kAdaptiveGrid = 17;
 
 // texelFrames weighs in texel units, lowPolyFrameAt in UV units: the weights
 // differ by double rounding, the frames by far less than 1e-5 degrees.

@@ -68,7 +68,8 @@ TEST(ConfigSample, LoadsTheMainJob) {
   EXPECT_EQ(job.min_zoom, 9);
   EXPECT_EQ(job.max_zoom, 12);
   EXPECT_EQ(job.tile_size, 256);
-  EXPECT_EQ(job.low_poly_grid, 17);
+  EXPECT_EQ(job.low_poly_mesh, LowPolyMesh::kAdaptive);
+  EXPECT_EQ(job.max_error_texels, 1.0);
   EXPECT_EQ(job.backend, Backend::kAuto);
   EXPECT_EQ(job.workers, 0);
   EXPECT_NO_THROW(validate(job, path));
@@ -152,7 +153,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 19u);
+  ASSERT_EQ(keys.size(), 22u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {

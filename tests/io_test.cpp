@@ -271,6 +271,7 @@ io::GlbInfo sampleInfo() {
   info.origin_lon_deg = 11.123456789012345;
   info.origin_lat_deg = 47.987654321098765;
   for (int i = 0; i < 16; ++i) info.enu_to_ecef[i] = i == 15 ? 1.0 : 0.1 * i + 1e-9 / 3;
+  info.max_error_m = 12.5;
   return info;
 }
 
@@ -351,6 +352,7 @@ TEST(Glb, ContainerAndJsonFollowTheContract) {
   for (int i = 0; i < 16; ++i) {
     EXPECT_EQ(extras["enu_to_ecef"][i].get<double>(), info.enu_to_ecef[i]) << i;  // exact
   }
+  EXPECT_EQ(extras["max_error_m"], 12.5);
 
   EXPECT_EQ(g["scene"], 0);
   EXPECT_EQ(g["scenes"], json::parse(R"([{"nodes":[0]}])"));
@@ -505,6 +507,7 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   info.nodata_surface = NodataSurface::kCut;
   info.z_scale = 0.3048;
   info.exaggeration = 2;
+  info.low_poly_mesh = terrabake::LowPolyMesh::kGrid;
   info.low_poly_grid = 33;
   info.sources = {"dem/a.tif", "dem/b.tif"};
 
@@ -522,9 +525,9 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(j["bounds"], json::array({170.0, -10.0, -170.0, 20.0}));
   EXPECT_EQ(j["center"], json::array({-180.0, 5.0, 9}));
   EXPECT_EQ(j["terrabake"], json::parse(R"({
-      "version": "3", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
+      "version": "4", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
       "alpha": true, "nodata_surface": "cut", "z_scale": 0.3048, "exaggeration": 2.0,
-      "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"grid": 33},
+      "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"mesh": "grid", "grid": 33},
       "sources": ["dem/a.tif", "dem/b.tif"]})"));
 
   info.tms_rows = false;
@@ -534,6 +537,12 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(k["scheme"], "xyz");
   EXPECT_EQ(k["terrabake"]["green"], "up");
   EXPECT_EQ(k["center"], json::array({11.0, 45.0, 9}));
+
+  // Adaptive meshes: each zoom's distance bound, by zoom.
+  info.low_poly_mesh = terrabake::LowPolyMesh::kAdaptive;
+  info.max_error_m = {{3, 80.0}, {4, 40.0}};
+  const json a = json::parse(io::tileJson(info));
+  EXPECT_EQ(a["terrabake"]["low_poly"], json::parse(R"({"mesh": "adaptive", "max_error_m": {"3": 80.0, "4": 40.0}})"));
 }
 
 TEST(TileJson, ReadsBackWhatItWrote) {

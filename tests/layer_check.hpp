@@ -1,6 +1,8 @@
 #pragma once
 // Runs tile jobs into the test output folder and decodes what they wrote the
 // way a glTF renderer would (tests/support), for tests that judge layers.
+#include <gtest/gtest.h>
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -156,5 +158,47 @@ class DemGeometry {
   int m_width = 0, m_height = 0;
   std::unique_ptr<OGRCoordinateTransformation> m_to_dem, m_to_lon_lat;
 };
+
+// Neighbouring meshes meet (docs/CONTRACT.md §5): the same edge vertices, at
+// the same ECEF point, with the same normal and tangent.
+// docs/CONTRACT.md §5: edge vertices of neighbours coincide to 1 mm in ECEF.
+constexpr double kMaxEdgeGapM = 1e-3;
+// Edge normals and tangents are computed in double from the same samples and
+// stored as float32 unit vectors in each tile's own frame: 1e-3 degrees is
+// about a hundred float32 roundings.
+constexpr double kMaxEdgeFrameAngleDeg = 1e-3;
+struct EdgeVertex {
+  glm::dvec3 position, normal, tangent;
+};
+
+// Vertices of `mesh` on its edge u == edge_uv (along_u false) or v == edge_uv,
+// in ECEF, ordered along the edge.
+inline std::vector<EdgeVertex> edgeVertices(const test_support::GlbMesh& mesh, bool vertical_edge, double edge_uv) {
+  std::vector<std::pair<double, EdgeVertex>> found;
+  for (std::size_t k = 0; k < mesh.uv.size(); ++k) {
+    const double across = vertical_edge ? mesh.uv[k].x : mesh.uv[k].y;
+    const double along = vertical_edge ? mesh.uv[k].y : mesh.uv[k].x;
+    if (std::abs(across - edge_uv) > 1e-6) continue;
+    found.push_back({along,
+                     {test_support::localToEcefPoint(mesh, mesh.position[k]), test_support::localToEcefDirection(mesh, mesh.normal[k]),
+                      test_support::localToEcefDirection(mesh, glm::dvec3(mesh.tangent[k]))}});
+  }
+  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
+  std::vector<EdgeVertex> result;
+  for (auto& f : found) result.push_back(f.second);
+  return result;
+}
+
+inline void expectSharedEdge(const test_support::GlbMesh& a, const test_support::GlbMesh& b, bool vertical_edge) {
+  // a lies west (or north) of b: a's u (v) = 1 edge meets b's u (v) = 0 edge.
+  const auto ea = edgeVertices(a, vertical_edge, 1.0), eb = edgeVertices(b, vertical_edge, 0.0);
+  ASSERT_EQ(ea.size(), eb.size());
+  ASSERT_GE(ea.size(), 2u);
+  for (std::size_t k = 0; k < ea.size(); ++k) {
+    EXPECT_LE(glm::length(ea[k].position - eb[k].position), kMaxEdgeGapM) << "edge vertex " << k;
+    EXPECT_LE(angleBetweenDeg(ea[k].normal, eb[k].normal), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
+    EXPECT_LE(angleBetweenDeg(ea[k].tangent, eb[k].tangent), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
+  }
+}
 
 }  // namespace terrabake::test

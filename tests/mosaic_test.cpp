@@ -21,20 +21,15 @@ namespace ts = test_support;
 // larger tile's mesh cut in four: both bakes then see the same tangent frame
 // at every texel.
 constexpr double kMaxMosaicAngleDeg = 0.6;
-// With the default grid on both sizes the block's low-poly mesh is twice as
-// dense, so the two bakes round different tangent-space vectors. One 8-bit
+// With a grid of 17 on both sizes the block's low-poly mesh is twice as
+// dense (and adaptive meshes differ too), so the two bakes round different
+// tangent-space vectors. One 8-bit
 // rounding moves a decoded normal by at most |e_perp| <= sqrt(8/3) / 255 rad
 // (0.367 degrees, error vector (1, 1, -1) / 255 against a diagonal normal);
 // two independent ones by twice that.
 const double kMaxTwoRoundingsDeg = 2 * std::sqrt(8.0 / 3.0) / 255 * 180 / M_PI;
 // Their mean stays within the single-decode accuracy bound (docs/CONTRACT.md §4).
 constexpr double kMaxMeanTwoRoundingsDeg = 0.35;
-// docs/CONTRACT.md §5: edge vertices of neighbours coincide to 1 mm in ECEF.
-constexpr double kMaxEdgeGapM = 1e-3;
-// Edge normals and tangents are computed in double from the same samples and
-// stored as float32 unit vectors in each tile's own frame: 1e-3 degrees is
-// about a hundred float32 roundings.
-constexpr double kMaxEdgeFrameAngleDeg = 1e-3;
 // A column step is a mean over the rows of angles between two 8-bit normals,
 // each rounded by up to 0.37 degrees, so it wanders by a few hundredths of a
 // degree from one column pair to the next. Where the terrain happens to step
@@ -59,40 +54,6 @@ std::filesystem::path analyticDem() {
   return test::analyticUtmDem(1024);
 }
 
-struct EdgeVertex {
-  glm::dvec3 position, normal, tangent;
-};
-
-// Vertices of `mesh` on its edge u == edge_uv (along_u false) or v == edge_uv,
-// in ECEF, ordered along the edge.
-std::vector<EdgeVertex> edgeVertices(const ts::GlbMesh& mesh, bool vertical_edge, double edge_uv) {
-  std::vector<std::pair<double, EdgeVertex>> found;
-  for (std::size_t k = 0; k < mesh.uv.size(); ++k) {
-    const double across = vertical_edge ? mesh.uv[k].x : mesh.uv[k].y;
-    const double along = vertical_edge ? mesh.uv[k].y : mesh.uv[k].x;
-    if (std::abs(across - edge_uv) > 1e-6) continue;
-    found.push_back({along,
-                     {ts::localToEcefPoint(mesh, mesh.position[k]), ts::localToEcefDirection(mesh, mesh.normal[k]),
-                      ts::localToEcefDirection(mesh, glm::dvec3(mesh.tangent[k]))}});
-  }
-  std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
-  std::vector<EdgeVertex> result;
-  for (auto& f : found) result.push_back(f.second);
-  return result;
-}
-
-void expectSharedEdge(const ts::GlbMesh& a, const ts::GlbMesh& b, bool vertical_edge) {
-  // a lies west (or north) of b: a's u (v) = 1 edge meets b's u (v) = 0 edge.
-  const auto ea = edgeVertices(a, vertical_edge, 1.0), eb = edgeVertices(b, vertical_edge, 0.0);
-  ASSERT_EQ(ea.size(), eb.size());
-  ASSERT_GE(ea.size(), 2u);
-  for (std::size_t k = 0; k < ea.size(); ++k) {
-    EXPECT_LE(glm::length(ea[k].position - eb[k].position), kMaxEdgeGapM) << "edge vertex " << k;
-    EXPECT_LE(test::angleBetweenDeg(ea[k].normal, eb[k].normal), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
-    EXPECT_LE(test::angleBetweenDeg(ea[k].tangent, eb[k].tangent), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
-  }
-}
-
 // Mean angle between decoded normals of texel columns c0 and c1 (possibly of
 // two tiles), over all rows.
 double meanColumnStepDeg(const test::DecodedTile& a, int c0, const test::DecodedTile& b, int c1) {
@@ -103,14 +64,17 @@ double meanColumnStepDeg(const test::DecodedTile& a, int c0, const test::Decoded
 
 struct MosaicCase {
   int zoom;
-  int small_grid;  // low-poly grid of the block's tiles; the big tile has 17
+  LowPolyMesh mesh;
+  int small_grid;  // grid: low-poly grid of the block's tiles; the big tile has 17
 };
 
 constexpr int kBigGrid = 17;
 constexpr int kSameCellsGrid = (kBigGrid - 1) / 2 + 1;
 
 std::string mosaicName(const MosaicCase& c) {
-  return "zoom" + std::to_string(c.zoom) + "_grid" + std::to_string(c.small_grid);
+  const std::string mesh =
+      c.mesh == LowPolyMesh::kGrid ? "_grid" + std::to_string(c.small_grid) : std::string("_adaptive");
+  return "zoom" + std::to_string(c.zoom) + mesh;
 }
 
 class Mosaic : public ::testing::TestWithParam<MosaicCase> {};
@@ -120,10 +84,12 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   const auto dem = analyticDem();
   config::TileJob big_job = test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_big", SchemeKind::kWebMercator, zoom, zoom);
   big_job.tile_size = kBigSize;
+  big_job.low_poly_mesh = GetParam().mesh;
   big_job.low_poly_grid = kBigGrid;
   config::TileJob small_job =
       test::tileJob(dem, "mosaic/" + mosaicName(GetParam()) + "_small", SchemeKind::kWebMercator, zoom + 1, zoom + 1);
   small_job.tile_size = kSmallSize;
+  small_job.low_poly_mesh = GetParam().mesh;
   small_job.low_poly_grid = GetParam().small_grid;
   ASSERT_EQ(pipeline::runTileJob(big_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(small_job).failed, 0);
@@ -151,7 +117,7 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   const double mean = sum / (kBigSize * kBigSize);
   std::printf("%s: zoom %d vs 2x2 at %d: mean %.4f deg, max %.4f deg\n", mosaicName(GetParam()).c_str(), zoom,
               zoom + 1, mean, worst);
-  if (GetParam().small_grid == kSameCellsGrid) {
+  if (GetParam().mesh == LowPolyMesh::kGrid && GetParam().small_grid == kSameCellsGrid) {
     EXPECT_LE(worst, kMaxMosaicAngleDeg);
   } else {
     EXPECT_LE(worst, kMaxTwoRoundingsDeg);
@@ -159,10 +125,10 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   }
 
   // No cracks: shared edges of the block, vertical and horizontal.
-  expectSharedEdge(block[0][0].glb, block[0][1].glb, true);
-  expectSharedEdge(block[1][0].glb, block[1][1].glb, true);
-  expectSharedEdge(block[0][0].glb, block[1][0].glb, false);
-  expectSharedEdge(block[0][1].glb, block[1][1].glb, false);
+  test::expectSharedEdge(block[0][0].glb, block[0][1].glb, true);
+  test::expectSharedEdge(block[1][0].glb, block[1][1].glb, true);
+  test::expectSharedEdge(block[0][0].glb, block[1][0].glb, false);
+  test::expectSharedEdge(block[0][1].glb, block[1][1].glb, false);
 
   // Across the seam the normal field changes no more than between two
   // neighbouring columns inside the tiles it joins.
@@ -180,8 +146,12 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
 // Zoom 12 reads the DEM by interpolation (19 m texels from 30 m pixels at 60
 // degrees north), zoom 11 by averaging (38 m texels).
 INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, Mosaic,
-                         ::testing::Values(MosaicCase{12, kSameCellsGrid}, MosaicCase{12, kBigGrid},
-                                           MosaicCase{11, kSameCellsGrid}, MosaicCase{11, kBigGrid}),
+                         ::testing::Values(MosaicCase{12, LowPolyMesh::kGrid, kSameCellsGrid},
+                                           MosaicCase{12, LowPolyMesh::kGrid, kBigGrid},
+                                           MosaicCase{12, LowPolyMesh::kAdaptive, kBigGrid},
+                                           MosaicCase{11, LowPolyMesh::kGrid, kSameCellsGrid},
+                                           MosaicCase{11, LowPolyMesh::kGrid, kBigGrid},
+                                           MosaicCase{11, LowPolyMesh::kAdaptive, kBigGrid}),
                          [](const auto& test_info) { return mosaicName(test_info.param); });
 
 // Tiles that lie partly outside the DEM fill the rest from the DEM around
@@ -208,8 +178,8 @@ TEST(MosaicAtTheDemEdge, TilesBeyondTheDemStillShareTheirEdges) {
   for (const auto& [xy, mesh] : meshes) {
     const auto east = meshes.find({xy.first + 1, xy.second});
     const auto south = meshes.find({xy.first, xy.second + 1});
-    if (east != meshes.end()) expectSharedEdge(mesh, east->second, true), ++shared_edges;
-    if (south != meshes.end()) expectSharedEdge(mesh, south->second, false), ++shared_edges;
+    if (east != meshes.end()) test::expectSharedEdge(mesh, east->second, true), ++shared_edges;
+    if (south != meshes.end()) test::expectSharedEdge(mesh, south->second, false), ++shared_edges;
   }
   EXPECT_GE(shared_edges, 4);
 }

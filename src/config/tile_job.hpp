@@ -32,7 +32,7 @@ struct TileJob {
   NodataSurface nodata_surface = NodataSurface::kContinue;  // nodata.surface
   LowPolyMesh low_poly_mesh = LowPolyMesh::kAdaptive;  // low_poly.mesh
   double max_error_m = 0;                         // low_poly.max_error_m: 0 = from max_error_texels per zoom
-  double max_error_texels = 0.5;                  // low_poly.max_error_texels: bound per zoom, in texels
+  double max_error_texels = 1;                    // low_poly.max_error_texels: bound per zoom, in texels
   int low_poly_grid = 17;                         // low_poly.grid: vertices a side
   Backend backend = Backend::kAuto;               // bake.backend
   int workers = 0;                                // bake.workers: 0 = one per core

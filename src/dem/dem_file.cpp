@@ -129,6 +129,12 @@ std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const G
   // A window this file does not reach is no error: it just fills nothing.
   options->papszWarpOptions =
       CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
+  // Plain cubic interpolation: left to itself, GDAL widens the kernel by the
+  // ratio of each chunk's source and target windows, which differs from one
+  // tile to the next where a cell is longer than a pixel in one direction
+  // only, so neighbours would read different heights for the same texel.
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "XSCALE", "1");
+  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "YSCALE", "1");
   options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "SOURCE_EXTRA",
                                               std::to_string(EdgeExtension::kSourceExtra).c_str());
 

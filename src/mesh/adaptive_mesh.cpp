@@ -77,6 +77,13 @@ constexpr int kNone = -1;
 int nextEdge(int e) { return e % 3 == 2 ? e - 2 : e + 1; }
 int prevEdge(int e) { return e % 3 == 0 ? e + 2 : e - 1; }
 
+// Vertex frames come from differences this many samples either side: at one
+// sample, the frames of a large triangle's corners can differ so much that
+// their interpolation is nearly singular, and the bake's inverse of it loses
+// float precision; four keeps them as smooth as a grid's (mesh.hpp's
+// kAdaptiveApron covers the reach).
+constexpr double kFrameStepSamples = 4;
+
 // Vertices sit on half texels, so the predicates are exact; the span scan
 // only has to be safe from rounding.
 constexpr double kExactOnEdge = 1e-9;
@@ -140,7 +147,7 @@ class GreedyMesher {
     const double apron = m_samples.apron;
     for (const Vertex& v : m_vertices) {
       const VertexFrame frame =
-          frameAtSampleCoordinate(m_samples.position, apron + v.at.x - 0.5, apron + v.at.y - 0.5, 1.0);
+          frameAtSampleCoordinate(m_samples.position, apron + v.at.x - 0.5, apron + v.at.y - 0.5, kFrameStepSamples);
       out.position.emplace_back(v.position);
       out.normal.emplace_back(frame.normal);
       out.tangent.emplace_back(frame.tangent);
@@ -309,14 +316,13 @@ class GreedyMesher {
     double farthest2 = -1;
     int farthest = -1;
     forEachTexelSpan(a.at, b.at, c.at, m_size, kExactOnEdge, [&](int j, int first, int last) {
-      glm::dvec3 surface = a.position + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
+      const glm::dvec3 row_start = a.position + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
       const glm::dvec3* sample = &positions.at(apron + first, apron + j);
       const std::uint8_t* is_vertex = &m_is_vertex[std::size_t(j) * std::size_t(m_size) + std::size_t(first)];
-      for (int i = 0; i <= last - first; ++i, surface += per_x) {
-        if (is_vertex[i]) continue;
-        const glm::dvec3 d = sample[i] - surface;
+      for (int i = 0; i <= last - first; ++i) {
+        const glm::dvec3 d = sample[i] - (row_start + per_x * double(i));
         const double e2 = glm::dot(d, d);
-        if (e2 > farthest2) {
+        if (e2 > farthest2 && !is_vertex[i]) {
           farthest2 = e2;
           farthest = j * m_size + first + i;
         }

@@ -44,7 +44,8 @@ struct AdaptiveMesh {
 // inserted, the triangulation kept Delaunay in UV space, until no sample is
 // more than max_error_m from the surface at its UV. Vertices sit on samples
 // (inside) and on the interpolated edge points; frames come from the surface
-// one sample either side, so an edge vertex gets the same frame in both tiles.
+// a few samples either side, so an edge vertex gets the same frame in both
+// tiles. `samples` needs kAdaptiveApron samples beyond each edge.
 AdaptiveMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& edges, double max_error_m);
 
 }  // namespace terrabake::mesh

@@ -86,7 +86,8 @@ int requiredApron(int tile_size, int grid) {
   // The low-poly neighbour one cell out lies at texel-centre coordinate
   // -(cell + 0.5); bilinear interpolation needs the sample below that.
   const int low_poly_apron = int(std::ceil(cell_texels + 0.5));
-  return std::max(kAdaptiveApron, low_poly_apron);
+  constexpr int kHighResApron = 3;
+  return std::max(kHighResApron, low_poly_apron);
 }
 
 HighResMesh buildHighResMesh(const SampleGrid& samples) {
@@ -243,51 +244,63 @@ TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv) {
 
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return frameAt(mesh, triangleAt(mesh, uv)); }
 
-std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size) {
-  std::vector<TangentFrame> frames(std::size_t(size) * size);
-  std::vector<std::uint8_t> covered(frames.size(), 0);
+namespace {
+
+// The triangle under each texel centre of a size x size tile, row by row:
+// of the triangles whose edges come within kTexelOnEdge of it, the one it
+// lies deepest inside (a centre just outside a thin triangle would otherwise
+// take weights extrapolated far across it). Throws std::invalid_argument
+// naming a texel no triangle covers.
+std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
+  std::vector<TrianglePoint> points(std::size_t(size) * std::size_t(size));
+  std::vector<double> depth(points.size(), -std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
     const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
     const glm::dvec2 a = glm::dvec2(mesh.uv[v[0]]) * double(size), b = glm::dvec2(mesh.uv[v[1]]) * double(size),
                      c = glm::dvec2(mesh.uv[v[2]]) * double(size);
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
       for (int i = first; i <= last; ++i) {
-        const std::size_t texel = std::size_t(j) * size + i;
-        if (covered[texel]) continue;
         TrianglePoint point{{v[0], v[1], v[2]}, {}};
         barycentric(a, b, c, {i + 0.5, j + 0.5}, point.weight);
-        frames[texel] = frameAt(mesh, point);
-        covered[texel] = 1;
+        const double inside = std::min({point.weight[0], point.weight[1], point.weight[2]});
+        const std::size_t texel = std::size_t(j) * std::size_t(size) + std::size_t(i);
+        if (inside > depth[texel]) {
+          depth[texel] = inside;
+          points[texel] = point;
+        }
       }
     });
   }
-  const auto hole = std::find(covered.begin(), covered.end(), 0);
-  if (hole != covered.end()) {
-    const auto texel = std::size_t(hole - covered.begin());
-    throw std::invalid_argument("texelFrames: texel (" + std::to_string(texel % std::size_t(size)) + ", " +
-                                std::to_string(texel / std::size_t(size)) + ") is under no triangle");
+  const auto hole = std::find(depth.begin(), depth.end(), -std::numeric_limits<double>::infinity());
+  if (hole != depth.end()) {
+    const auto texel = std::size_t(hole - depth.begin());
+    throw std::invalid_argument("texel (" + std::to_string(texel % std::size_t(size)) + ", " +
+                                std::to_string(texel / std::size_t(size)) + ") is under no low-poly triangle");
   }
+  return points;
+}
+
+}  // namespace
+
+std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size) {
+  const std::vector<TrianglePoint> points = texelTriangles(mesh, size);
+  std::vector<TangentFrame> frames;
+  frames.reserve(points.size());
+  for (const TrianglePoint& point : points) frames.push_back(frameAt(mesh, point));
   return frames;
 }
 
 double maxDistanceToSamples(const TriangleMesh& mesh, const SampleGrid& samples) {
   const int s = samples.tile_size;
+  const std::vector<TrianglePoint> points = texelTriangles(mesh, s);
   double worst = 0;
-  for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
-    glm::dvec2 at[3];
-    glm::dvec3 p[3];
-    for (int m = 0; m < 3; ++m) {
-      at[m] = glm::dvec2(mesh.uv[mesh.indices[k + std::size_t(m)]]) * double(s);
-      p[m] = glm::dvec3(mesh.position[mesh.indices[k + std::size_t(m)]]);
+  for (int j = 0; j < s; ++j) {
+    for (int i = 0; i < s; ++i) {
+      const TrianglePoint& point = points[std::size_t(j) * std::size_t(s) + std::size_t(i)];
+      glm::dvec3 surface(0);
+      for (int k = 0; k < 3; ++k) surface += glm::dvec3(mesh.position[point.vertex[k]]) * point.weight[k];
+      worst = std::max(worst, glm::distance(surface, samples.position.at(samples.apron + i, samples.apron + j)));
     }
-    forEachTexelSpan(at[0], at[1], at[2], s, kTexelOnEdge, [&](int j, int first, int last) {
-      for (int i = first; i <= last; ++i) {
-        double w[3];
-        barycentric(at[0], at[1], at[2], {i + 0.5, j + 0.5}, w);
-        const glm::dvec3 surface = p[0] * w[0] + p[1] * w[1] + p[2] * w[2];
-        worst = std::max(worst, glm::distance(surface, samples.position.at(samples.apron + i, samples.apron + j)));
-      }
-    });
   }
   return worst;
 }

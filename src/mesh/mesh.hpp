@@ -75,9 +75,9 @@ std::vector<std::uint32_t> gridIndices(int cols, int rows);
 // cell (plus one sample to interpolate in) for the low-poly normals at the edge.
 int requiredApron(int tile_size, int grid);
 
-// Samples each side of the tile the adaptive mesh needs: the high-res
-// normals' own three (its edge vertices' frames reach 1.5 samples out).
-constexpr int kAdaptiveApron = 3;
+// Samples each side of the tile the adaptive mesh needs: its edge vertices'
+// frames reach 4.5 samples out (the high-res normals need three).
+constexpr int kAdaptiveApron = 5;
 
 HighResMesh buildHighResMesh(const SampleGrid& samples);
 

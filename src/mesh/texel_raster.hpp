@@ -4,7 +4,7 @@
 // (i, j)'s centre, and sample (apron + i, apron + j), sits at (i + 0.5, j + 0.5).
 #include <algorithm>
 #include <cmath>
-#include <limits>
+#include <utility>
 
 #include <glm/vec2.hpp>
 
@@ -12,36 +12,29 @@ namespace terrabake::mesh {
 
 // Calls visit(j, i_first, i_last) for each row j of texel centres of a
 // size x size tile with some centre in the triangle (a, b, c), edges
-// included: centres within `on_edge` texels of an edge count as inside.
+// included: centres within `on_edge` texels of an edge count as inside. A
+// scanline walk: the long edge from the top vertex to the bottom one bounds
+// every row on one side, the two short edges on the other.
 template <class Visit>
 void forEachTexelSpan(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, int size, double on_edge, Visit&& visit) {
-  const double lo_y = std::min({a.y, b.y, c.y}), hi_y = std::max({a.y, b.y, c.y});
-  const int first_row = std::max(0, int(std::ceil(lo_y - 0.5 - on_edge)));
-  const int last_row = std::min(size - 1, int(std::floor(hi_y - 0.5 + on_edge)));
+  if (b.y < a.y) std::swap(a, b);
+  if (c.y < b.y) std::swap(b, c);
+  if (b.y < a.y) std::swap(a, b);
+  // x along an edge per unit of y; an edge along a row starts where it is.
+  auto slope = [](glm::dvec2 p, glm::dvec2 q) { return q.y > p.y ? (q.x - p.x) / (q.y - p.y) : 0.0; };
+  const double long_slope = slope(a, c), upper_slope = slope(a, b), lower_slope = slope(b, c);
+  // Widening the span by on_edge along x widens it by at least on_edge
+  // across any edge.
+  const int first_row = std::max(0, int(std::ceil(a.y - 0.5 - on_edge)));
+  const int last_row = std::min(size - 1, int(std::floor(c.y - 0.5 + on_edge)));
   for (int j = first_row; j <= last_row; ++j) {
-    const double y = j + 0.5;
-    double lo = std::numeric_limits<double>::infinity(), hi = -lo;
-    // Where the row crosses each edge; an edge along the row gives both ends.
-    auto cross = [&](glm::dvec2 p, glm::dvec2 q) {
-      if (p.y == q.y) {
-        if (std::abs(p.y - y) > on_edge) return;
-        lo = std::min({lo, p.x, q.x});
-        hi = std::max({hi, p.x, q.x});
-        return;
-      }
-      const double t = (y - p.y) / (q.y - p.y);
-      const double slack = on_edge / std::abs(q.y - p.y);
-      if (t < -slack || t > 1 + slack) return;
-      const double x = p.x + std::clamp(t, 0.0, 1.0) * (q.x - p.x);
-      lo = std::min(lo, x);
-      hi = std::max(hi, x);
-    };
-    cross(a, b);
-    cross(b, c);
-    cross(c, a);
-    if (lo > hi) continue;
-    const int first = std::max(0, int(std::ceil(lo - 0.5 - on_edge)));
-    const int last = std::min(size - 1, int(std::floor(hi - 0.5 + on_edge)));
+    const double y = std::clamp(j + 0.5, a.y, c.y);
+    const double x_long = a.x + (y - a.y) * long_slope;
+    const double x_short = y < b.y ? a.x + (y - a.y) * upper_slope : b.x + (y - b.y) * lower_slope;
+    const double lo = std::min(x_long, x_short), hi = std::max(x_long, x_short);
+    const double widen = on_edge * (1 + std::max(std::abs(long_slope), std::abs(y < b.y ? upper_slope : lower_slope)));
+    const int first = std::max(0, int(std::ceil(lo - widen - 0.5)));
+    const int last = std::min(size - 1, int(std::floor(hi + widen - 0.5)));
     if (first <= last) visit(j, first, last);
   }
 }

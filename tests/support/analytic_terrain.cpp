@@ -247,6 +247,18 @@ void writeUtmDem(const std::filesystem::path& path, double centre_lon, double ce
                 [&relief](double e, double n) { return heightUtm(e, n, relief); });
 }
 
+void writeFlatAndRoughUtmDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
+                             double pixel_m, int width, int height) {
+  const glm::dvec2 centre = utm33(centre_lon, centre_lat);
+  const std::array<double, 6> gt = {centre.x - 0.5 * width * pixel_m,  pixel_m, 0.0,
+                                    centre.y + 0.5 * height * pixel_m, 0.0,     -pixel_m};
+  writeFloatDem(path, 32633, gt, width, height, [&](double e, double n) {
+    const double east_of_middle = std::max(0.0, e - centre.x);
+    const double ridges = std::abs(std::sin(e / 170.0 + n / 430.0)) * 250 + std::sin(n / 61.0) * 40;
+    return 300.0 + std::min(1.0, east_of_middle / 500.0) * ridges;
+  });
+}
+
 void writeGeographicDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
                         double pixel_lon_deg, double pixel_lat_deg, int width, int height,
                         const Relief& relief) {

@@ -51,6 +51,12 @@ void writeGeographicDem(const std::filesystem::path& path, double centre_lon, do
                         double pixel_lon_deg, double pixel_lat_deg, int width, int height,
                         const Relief& relief = kHills);
 
+// Float32 GeoTIFF in EPSG:32633 like writeUtmDem, west half a flat plain at
+// 300 m, east half steep ridges a few hundred metres high on that plain
+// (they rise from the plain without a step, at the middle column).
+void writeFlatAndRoughUtmDem(const std::filesystem::path& path, double centre_lon, double centre_lat,
+                             double pixel_m, int width, int height);
+
 // The bundled sample (tests/data/sample_dem.tif): deterministic ridged-noise
 // mountains, 1024 x 1024 Int16 pixels of 30 m in EPSG:32632 around lon 10,
 // lat 46.5, heights 400-3500 m, deflate-compressed and tiled.

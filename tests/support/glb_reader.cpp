@@ -291,11 +291,18 @@ void indexUv(GlbMesh& mesh) {
   }
 }
 
-std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
-                                            glm::dvec3 tangent_xyz) {
+namespace {
+
+// The triangle under uv and its barycentric weights; empty when uv lies on no triangle.
+struct MeshPoint {
+  uint32_t triangle;
+  glm::dvec3 weights;
+};
+
+std::optional<MeshPoint> locate(const GlbMesh& mesh, glm::dvec2 uv) {
   const UvGrid& grid = mesh.uv_grid;
   if (grid.cells == 0 || grid.triangle_count != mesh.indices.size() / 3) {
-    throw std::logic_error("decodeWorldNormal: mesh.uv_grid is stale; call indexUv");
+    throw std::logic_error("mesh.uv_grid is stale; call indexUv");
   }
   if (grid.triangle_count == 0) return std::nullopt;
   const glm::dvec2 extent = glm::max(grid.max - grid.min, glm::dvec2(1e-300));
@@ -309,8 +316,7 @@ std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
   // The triangle uv lies deepest inside: on a shared edge either neighbour is
   // right, and interpolation agrees there.
   double best_inside = -std::numeric_limits<double>::max();
-  uint32_t best_triangle = 0;
-  glm::dvec3 best_weights(0.0);
+  MeshPoint best{0, glm::dvec3(0.0)};
   for (uint32_t t : grid.triangles[std::size_t(row) * grid.cells + col]) {
     const glm::dvec2 a = mesh.uv[mesh.indices[3 * t]];
     const glm::dvec2 b = mesh.uv[mesh.indices[3 * t + 1]];
@@ -323,11 +329,29 @@ std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
     const double inside = std::min({l0, l1, l2});
     if (inside > best_inside) {
       best_inside = inside;
-      best_triangle = t;
-      best_weights = {l0, l1, l2};
+      best = {t, {l0, l1, l2}};
     }
   }
   if (best_inside < -kEdgeTolerance) return std::nullopt;
+  return best;
+}
+
+}  // namespace
+
+std::optional<glm::dvec3> surfacePointAt(const GlbMesh& mesh, glm::dvec2 uv) {
+  const auto point = locate(mesh, uv);
+  if (!point) return std::nullopt;
+  glm::dvec3 position(0.0);
+  for (int k = 0; k < 3; ++k) position += point->weights[k] * mesh.position[mesh.indices[3 * point->triangle + k]];
+  return position;
+}
+
+std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
+                                            glm::dvec3 tangent_xyz) {
+  const auto point = locate(mesh, uv);
+  if (!point) return std::nullopt;
+  const uint32_t best_triangle = point->triangle;
+  const glm::dvec3 best_weights = point->weights;
 
   // As three.js, CesiumJS and the glTF Sample Renderer do: the bitangent is
   // w * cross(NORMAL, TANGENT) per vertex, interpolated like the others, and

@@ -54,6 +54,10 @@ void indexUv(GlbMesh& mesh);
 std::optional<glm::dvec3> decodeWorldNormal(const GlbMesh& mesh, glm::dvec2 uv,
                                             glm::dvec3 tangent_xyz);
 
+// The mesh's surface (mesh frame) at uv, interpolated over the triangle
+// under it; empty when uv lies on no triangle.
+std::optional<glm::dvec3> surfacePointAt(const GlbMesh& mesh, glm::dvec2 uv);
+
 // Mesh-frame direction or point to ECEF, through enu_to_ecef.
 glm::dvec3 localToEcefDirection(const GlbMesh& mesh, glm::dvec3 direction);
 glm::dvec3 localToEcefPoint(const GlbMesh& mesh, glm::dvec3 point);
