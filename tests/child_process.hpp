@@ -5,6 +5,7 @@
 #include <fcntl.h>
 #include <poll.h>
 #include <spawn.h>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
@@ -20,9 +21,15 @@ extern char** environ;
 
 namespace terrabake::test {
 
+// Resource limits for the child, set between fork and exec (0: inherited).
+struct ChildLimits {
+  rlim_t open_files = 0;     // RLIMIT_NOFILE
+  rlim_t address_space = 0;  // RLIMIT_AS, bytes
+};
+
 class ChildProcess {
  public:
-  explicit ChildProcess(const std::vector<std::string>& args) {
+  explicit ChildProcess(const std::vector<std::string>& args, const ChildLimits& limits = {}) {
     int out_pipe[2], err_pipe[2];
     // CLOEXEC: only the dup2'ed copies reach the child, so EOF comes when it exits.
     if (::pipe2(out_pipe, O_CLOEXEC) != 0) throw std::runtime_error(std::string("pipe2: ") + std::strerror(errno));
@@ -41,7 +48,30 @@ class ChildProcess {
     std::vector<char*> argv;
     for (auto& word : words) argv.push_back(word.data());
     argv.push_back(nullptr);
-    const int error = ::posix_spawn(&m_pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
+    int error = 0;
+    if (limits.open_files == 0 && limits.address_space == 0) {
+      error = ::posix_spawn(&m_pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
+    } else {
+      // posix_spawn cannot set limits: fork, and only async-signal-safe calls before exec.
+      m_pid = ::fork();
+      if (m_pid == 0) {
+        const auto limit = [](int resource, rlim_t value) {
+          if (value == 0) return;
+          rlimit r{value, value};
+          if (::setrlimit(resource, &r) != 0) ::_exit(126);
+        };
+        limit(RLIMIT_NOFILE, limits.open_files);
+        limit(RLIMIT_AS, limits.address_space);
+        const int null_fd = ::open("/dev/null", O_RDONLY);
+        if (null_fd < 0 || ::dup2(null_fd, STDIN_FILENO) < 0 || ::dup2(out_pipe[1], STDOUT_FILENO) < 0 ||
+            ::dup2(err_pipe[1], STDERR_FILENO) < 0) {
+          ::_exit(126);
+        }
+        ::execve(TERRABAKE_EXE, argv.data(), environ);
+        ::_exit(127);
+      }
+      if (m_pid < 0) error = errno;
+    }
     posix_spawn_file_actions_destroy(&actions);
     ::close(out_pipe[1]);
     ::close(err_pipe[1]);

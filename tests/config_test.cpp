@@ -153,7 +153,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 22u);
+  ASSERT_EQ(keys.size(), 23u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {
@@ -378,6 +378,62 @@ TEST(ConfigPaths, RelativeToTheFileFolder) {
   EXPECT_EQ(again.output_dir, expected_dir);
 }
 
+TEST(ConfigPaths, GdalVirtualPathsAreKeptAsWritten) {
+  const std::string path = writeYaml("job.yaml",
+                                     "dem:\n"
+                                     "  - /vsicurl/https://example.com/dems/a.tif\n"
+                                     "  - /vsis3/bucket/b.tif\n"
+                                     "  - /vsizip/dems.zip/c.tif\n"
+                                     "  - /vsizip//data/dems.zip/d.tif\n"
+                                     "tiling:\n"
+                                     "  zoom: 3\n");
+  const fs::path folder = fs::path(path).parent_path();
+  const TileJob job = loadTileJob(path);
+  const std::vector<std::string> expected = {"/vsicurl/https://example.com/dems/a.tif", "/vsis3/bucket/b.tif",
+                                             "/vsizip/" + normal(folder / "dems.zip" / "c.tif"),
+                                             "/vsizip//data/dems.zip/d.tif"};
+  EXPECT_EQ(job.dems, expected);
+}
+
+TEST(ConfigErrors, SecondYamlDocumentIsRefused) {
+  const std::string path = writeYaml("multi.yaml", "dem: a.tif\ntiling:\n  zoom: 3\n---\ndem: b.tif\n");
+  EXPECT_EQ(loadMessage(path),
+            path + ":5: the file holds 2 YAML documents (separated by ---); a config file is one document");
+  // One document with its start marker is fine.
+  EXPECT_EQ(loadTileJob(writeYaml("one.yaml", "---\ndem: a.tif\ntiling:\n  zoom: 3\n")).dems.size(), 1u);
+}
+
+TEST(ConfigErrors, NulEscapeInAValueIsRefused) {
+  const std::string path = writeYaml("nul.yaml", "dem: \"a.tif\\0.txt\"\ntiling:\n  zoom: 3\n");
+  EXPECT_EQ(loadMessage(path), path + ":1: dem: the value holds a NUL character (\\0) after 'a.tif'");
+}
+
+TEST(ConfigErrors, LongValuesAreShortenedInMessages) {
+  const std::string value(1'000'000, 'a');
+  const std::string path = writeYaml("long.yaml", "dem: a.tif\ntiling:\n  zoom: 3\noutput:\n  bits: " + value + "\n");
+  const std::string message = loadMessage(path);
+  EXPECT_LT(message.size(), 400u);
+  EXPECT_NE(message.find("expected an integer, got 'aaaa"), std::string::npos) << message;
+  EXPECT_NE(message.find("... (1000000 bytes)'"), std::string::npos) << message;
+  // A long unknown key too, without the search for a close key taking its time.
+  const std::string key_path = writeYaml("long_key.yaml", std::string(200'000, 'k') + ": 1\n");
+  EXPECT_LT(loadMessage(key_path).size(), 400u);
+}
+
+TEST(ConfigErrors, FilesOverOneMebibyteAreRefused) {
+  const std::string path = writeYaml("big.yaml", "dem: a.tif\n# " + std::string(2 << 20, 'x') + "\n");
+  EXPECT_NE(loadMessage(path).find("a config file may hold at most 1048576"), std::string::npos);
+}
+
+TEST(ConfigErrors, DevicesAreRefusedUnread) {
+  try {
+    loadTileJob("/dev/zero");
+    FAIL() << "no InputError thrown";
+  } catch (const InputError& error) {
+    EXPECT_EQ(std::string(error.what()), "cannot read config '/dev/zero': it is a character device, not a regular file");
+  }
+}
+
 TEST(ConfigOverrides, EveryKeyFromText) {
   TileJob job = loadTileJob((kSourceDir / "config" / "sample.yaml").string());
   applyOverride(job, "dem", "/data/other.tif", "--dem");
@@ -391,6 +447,8 @@ TEST(ConfigOverrides, EveryKeyFromText) {
   applyOverride(job, "low_poly.grid", "33", "--low-poly-grid");
   applyOverride(job, "bake.backend", "cpu", "--backend");
   applyOverride(job, "bake.workers", "4", "--workers");
+  applyOverride(job, "heights.band", "2", "--band");
+  EXPECT_EQ(job.band, 2);
   EXPECT_EQ(job.dems, std::vector<std::string>{"/data/other.tif"});  // replaces, not appends
   EXPECT_EQ(job.output_dir, "/data/out");
   EXPECT_EQ(job.layer, "hires_v2");

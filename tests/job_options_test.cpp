@@ -425,15 +425,16 @@ TEST(Bbox, LimitsTheRunToTilesThatIntersectIt) {
   for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(bounds[i].get<double>(), box[i]) << i;
 }
 
-TEST(Bbox, BesideTheDemIsAUsageErrorNamingTheKey) {
+TEST(Bbox, BesideTheDemMakesNothingNamingTheKey) {
   config::TileJob job = cpuJob(dem60North(), "bbox_beside", SchemeKind::kWebMercator, 10, 10);
   job.bbox = {20, 40, 21, 41};
   try {
     pipeline::planLayer(job);
     ADD_FAILURE() << "a box beside the DEM was accepted";
-  } catch (const UsageError& e) {
+  } catch (const NothingToMake& e) {
     EXPECT_EQ(std::string(e.what()).rfind("tiling.bbox: lon 20 to 21, lat 40 to 41 does not overlap", 0), 0u)
         << e.what();
+    EXPECT_EQ(e.code(), ExitCode::kNothingMade);
   }
 }
 

@@ -100,6 +100,25 @@ TEST(Schemes, CoversAgreesWithTilesCovering) {
   EXPECT_FALSE(s->covers(area, {kMaxZoom + 1, 0, 0}));
 }
 
+TEST(Schemes, RangesCountAndIndexTheTilesWithoutListingThem) {
+  for (const SchemeKind kind : {SchemeKind::kWebMercator, SchemeKind::kGeodetic}) {
+    const auto s = tiling::makeScheme(kind, 256);
+    const auto area = s->fromLonLat({9.8, 45.9, 10.7, 46.6});
+    ASSERT_TRUE(area);
+    for (int z = 6; z <= 12; ++z) {
+      const std::vector<TileId> listed = s->tilesCovering(*area, z);
+      const tiling::TileRange range = s->rangeCovering(*area, z);
+      ASSERT_EQ(range.count(), listed.size());
+      for (std::size_t i = 0; i < listed.size(); ++i) EXPECT_EQ(s->tileAt(range, i), listed[i]);
+    }
+  }
+  // A whole world at zoom 24: counted, not listed.
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
+  const tiling::TileRange world = s->rangeCovering({-2.1e7, -2.1e7, 2.1e7, 2.1e7}, 24);
+  EXPECT_EQ(world.count(), std::uint64_t(1) << 48);
+  EXPECT_EQ(s->tileAt(world, world.count() - 1), (TileId{24, (1 << 24) - 1, (1 << 24) - 1}));
+}
+
 TEST(Schemes, NativeNeedsTheDemGrid) {
   EXPECT_THROW(tiling::makeScheme(SchemeKind::kNative, 256), std::invalid_argument);
   EXPECT_EQ(tiling::makeScheme(SchemeKind::kGeodetic, 512)->tileSize(), 512);

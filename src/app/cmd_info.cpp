@@ -8,6 +8,7 @@
 #include "app/key_flags.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "dem/dem_source.hpp"
 #include "pipeline/zoom_choice.hpp"
 #include "tiling/scheme.hpp"
@@ -46,7 +47,7 @@ void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   std::vector<std::string> counts;
   std::size_t total = 0;
   for (int z = min_zoom; z <= max_zoom; ++z) {
-    const std::size_t tiles = scheme.tilesCovering(area, z).size();
+    const std::size_t tiles = std::size_t(scheme.rangeCovering(area, z).count());
     total += tiles;
     counts.push_back("z" + std::to_string(z) + " " + std::to_string(tiles));
   }
@@ -103,14 +104,18 @@ Action addInfoCommand(CLI::App& app) {
   cmd->footer(std::string(kInfoExamples) + "\n\n" + kExitCodes);
   cmd->add_option("dem", options->dems, "DEM file(s), merged in priority order as `tile` merges them")
       ->required();
-  options->key_flags = std::make_unique<KeyFlags>(cmd, config::listKeys(), std::vector<std::string>{"tiling.tile_size"});
+  options->key_flags = std::make_unique<KeyFlags>(cmd, config::listKeys(), std::vector<std::string>{"tiling.tile_size", "heights.band"});
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     config::TileJob job;
     options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
       config::applyOverride(job, key, text, flag);
     });
-    printInfo(dem::DemSource(options->dems), job.tile_size);
+    dem::DemOptions dem_options;
+    dem_options.band = job.band;
+    const dem::DemSource dem(options->dems, dem_options);
+    for (const std::string& warning : dem.warnings()) log::warning(warning);
+    printInfo(dem, job.tile_size);
     return int(ExitCode::kOk);
   };
 }

@@ -8,6 +8,7 @@
 #include "app/key_flags.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "pipeline/tile_job_runner.hpp"
 
 namespace terrabake::app {
@@ -59,6 +60,10 @@ Action addTileCommand(CLI::App& app) {
     const pipeline::RunSummary summary = pipeline::runTileJob(job, options->run);
     std::printf("terrabake: wrote %d tiles to %s (%d skipped, %d empty, %d failed) in %.1f s\n", summary.written,
                 summary.layer_dir.c_str(), summary.skipped, summary.empty, summary.failed, summary.seconds);
+    if (!summary.nothing_made.empty()) {
+      log::warning(summary.nothing_made);
+      return int(ExitCode::kNothingMade);
+    }
     return int(summary.failed > 0 ? ExitCode::kTilesFailed : ExitCode::kOk);
   };
 }

@@ -13,7 +13,9 @@ using Action = std::function<int()>;  // returns the process exit code
 // a script writer looks. Keep in step with ExitCode in core/error.hpp.
 inline constexpr const char* kExitCodes =
     "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
-    "output or no GL context; 4 the run finished but some tiles failed.";
+    "output or no GL context; 4 the run finished but some tiles failed; 5 nothing to make:\n"
+    "no tile of the job has a valid DEM sample (the warning says why; a shard with no\n"
+    "tile of its own exits 0).";
 
 Action addTileCommand(CLI::App& app);
 Action addServeCommand(CLI::App& app);

@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForAllHelp& e) {
     return cli.exit(e);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "terrabake: error: " << oneLine(e.what()) << " (see terrabake --help)\n";
+    std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   }
   if (verbose) log::setLevel(log::Level::kDebug);
@@ -33,11 +33,14 @@ int main(int argc, char** argv) {
     if (cli.got_subcommand("serve")) return serve();
     if (cli.got_subcommand("info")) return info();
     return tile();
+  } catch (const NothingToMake& e) {
+    log::warning(shortened(oneLine(e.what()), kMaxMessageBytes));
+    return int(e.code());
   } catch (const Error& e) {
-    log::error(oneLine(e.what()));
+    log::error(shortened(oneLine(e.what()), kMaxMessageBytes));
     return int(e.code());
   } catch (const std::exception& e) {
-    log::error("unexpected: " + oneLine(e.what()));
+    log::error("unexpected: " + shortened(oneLine(e.what()), kMaxMessageBytes));
     return int(ExitCode::kInput);
   }
 }

@@ -13,6 +13,8 @@
 #include <optional>
 #include <sstream>
 
+#include <sys/stat.h>
+
 #include "core/error.hpp"
 #include "core/layer_name.hpp"
 #include "core/types.hpp"
@@ -25,8 +27,13 @@ namespace fs = std::filesystem;
 constexpr const char* kAuto = "auto";
 constexpr const char* kNoBox = "none";
 constexpr size_t kMaxSuggestionDistance = 2;
+// A job or serve file is a page of keys; anything larger is not one (a
+// device, a log given by mistake) and is refused before it fills memory.
+constexpr std::size_t kMaxConfigBytes = std::size_t(1) << 20;
+// Names longer than any key are not compared for suggestions.
+constexpr std::size_t kMaxSuggestedNameLength = 64;
 
-std::string quoted(const std::string& text) { return "'" + text + "'"; }
+std::string quoted(const std::string& text) { return "'" + shortened(text) + "'"; }
 
 std::string withArticle(std::string_view noun) {
   const bool vowel = std::string_view("aeiou").find(noun.front()) != std::string_view::npos;
@@ -67,6 +74,24 @@ std::optional<double> toDouble(std::string_view text) {
   return value;
 }
 
+// GDAL's virtual file systems that read an archive or compressed file from
+// a path of this machine: "/vsizip/dem.zip/dem.tif", "/vsigzip/dem.tif.gz".
+constexpr const char* kVsiArchivePrefixes[] = {"/vsizip/", "/vsitar/", "/vsigzip/", "/vsi7z/", "/vsirar/"};
+
+// A GDAL virtual path is GDAL's to read, so it is kept as written (no
+// normalising: "/vsicurl/https://host/x" must keep its "//"); only the local
+// archive inside an archive handler resolves against `base_dir` when relative.
+std::string resolveVsiPath(const fs::path& base_dir, const std::string& text) {
+  for (const char* prefix : kVsiArchivePrefixes) {
+    const std::string_view head(prefix);
+    if (text.rfind(head, 0) != 0) continue;
+    const std::string inner = text.substr(head.size());
+    if (inner.empty() || inner.front() == '/' || inner.front() == '{') return text;
+    return std::string(head) + (base_dir / inner).lexically_normal().string();
+  }
+  return text;
+}
+
 const KeySpec* findKey(std::string_view name, const std::vector<KeySpec>& specs) {
   const auto found = std::find_if(specs.begin(), specs.end(), [&](const KeySpec& key) { return key.name == name; });
   return found == specs.end() ? nullptr : &*found;
@@ -98,17 +123,41 @@ std::string_view lastPart(std::string_view name) {
   return dot == std::string_view::npos ? name : name.substr(dot + 1);
 }
 
+// What kind of file `mode` is, for a refusal.
+const char* fileKind(mode_t mode) {
+  if (S_ISDIR(mode)) return "a folder";
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
 std::string readFile(const std::string& path) {
-  std::error_code ignored;
-  // An ifstream opens a folder without complaint and then reads nothing.
-  if (fs::is_directory(path, ignored)) {
-    throw InputError("cannot read config '" + path + "': " + std::strerror(EISDIR));
+  // Only regular files: a FIFO would block the open, a device never ends.
+  struct stat status {};
+  if (::stat(path.c_str(), &status) != 0) {
+    throw InputError("cannot read config '" + shortened(path) + "': " + std::strerror(errno));
+  }
+  if (!S_ISREG(status.st_mode)) {
+    throw InputError("cannot read config '" + shortened(path) + "': it is " + fileKind(status.st_mode) +
+                     ", not a regular file");
+  }
+  if (std::size_t(status.st_size) > kMaxConfigBytes) {
+    throw UsageError(shortened(path) + ": the file holds " + std::to_string(status.st_size) +
+                     " bytes; a config file may hold at most " + std::to_string(kMaxConfigBytes));
   }
   std::ifstream in(path, std::ios::binary);
-  if (!in) throw InputError("cannot read config '" + path + "': " + std::strerror(errno));
-  std::ostringstream text;
-  text << in.rdbuf();
-  return text.str();
+  if (!in) throw InputError("cannot read config '" + shortened(path) + "': " + std::strerror(errno));
+  // Bounded even if the file grows after the check.
+  std::string text(kMaxConfigBytes + 1, '\0');
+  in.read(text.data(), std::streamsize(text.size()));
+  text.resize(std::size_t(in.gcount()));
+  if (text.size() > kMaxConfigBytes) {
+    throw UsageError(shortened(path) + ": a config file may hold at most " + std::to_string(kMaxConfigBytes) +
+                     " bytes");
+  }
+  return text;
 }
 
 struct FileContext {
@@ -136,6 +185,15 @@ std::string describe(const YAML::Node& node) {
   }
 }
 
+// A NUL written as an escape ("\\0") would cut a path short where the
+// system reads it: refused in any value.
+void checkScalar(const KeySpec& key, const std::string& text, const std::string& where) {
+  const std::size_t nul = text.find('\0');
+  if (nul != std::string::npos) {
+    fail(where, key.name, "the value holds a NUL character (\\0) after " + quoted(text.substr(0, nul)));
+  }
+}
+
 Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::Node& node,
                     const std::string& key_where) {
   Value value;
@@ -143,6 +201,7 @@ Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::
   value.where = node.IsNull() ? key_where : at(context, node.Mark(), key_where);
   value.base_dir = context.base_dir;
   if (node.IsScalar()) {
+    checkScalar(key, node.Scalar(), value.where);
     value.items.push_back({node.Scalar(), value.where});
   } else if (node.IsSequence()) {
     value.is_list = true;
@@ -151,6 +210,7 @@ Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::
       if (!item.IsScalar()) {
         fail(item_where, key.name, "list items must be plain values, got " + describe(item));
       }
+      checkScalar(key, item.Scalar(), item_where);
       value.items.push_back({item.Scalar(), item_where});
     }
   } else {
@@ -191,7 +251,7 @@ void readMap(FileContext& context, const YAML::Node& map, const std::string& pre
 
 [[noreturn]] void fail(const std::string& where, std::string_view key, const std::string& problem) {
   std::string message = where + ": ";
-  if (!key.empty()) message += std::string(key) + ": ";
+  if (!key.empty()) message += shortened(std::string(key)) + ": ";
   throw UsageError(oneLine(message + problem));
 }
 
@@ -201,7 +261,14 @@ void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& spec
   FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
   YAML::Node root;
   try {
-    root = YAML::Load(text);
+    std::vector<YAML::Node> documents = YAML::LoadAll(text);
+    // A second document would be ignored without a word: refused instead.
+    if (documents.size() > 1) {
+      fail(at(context, documents[1].Mark(), yaml_path), "",
+           "the file holds " + std::to_string(documents.size()) +
+               " YAML documents (separated by ---); a config file is one document");
+    }
+    if (!documents.empty()) root = documents.front();
   } catch (const YAML::Exception& error) {
     fail(at(context, error.mark, yaml_path), "", "YAML syntax error: " + error.msg);
   }
@@ -222,6 +289,7 @@ void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& spec
 // Nearest key or section within a small edit distance, else a key with the
 // same last part (a leaf written in the wrong section).
 std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>& specs) {
+  if (name.size() > kMaxSuggestedNameLength) return "unknown key";
   std::string_view best;
   size_t best_distance = kMaxSuggestionDistance + 1;
   for (const KeySpec& key : specs) {
@@ -346,6 +414,7 @@ std::vector<double> parseBox(const KeySpec& key, const Value& value) {
 
 std::string resolvePath(const fs::path& base_dir, const std::string& text) {
   if (text.empty()) return text;  // left for problem() to reject
+  if (text.rfind("/vsi", 0) == 0) return resolveVsiPath(base_dir, text);
   const fs::path path(text);
   fs::path normal = (path.is_absolute() ? path : base_dir / path).lexically_normal();
   if (!normal.has_filename() && normal.has_parent_path()) normal = normal.parent_path();

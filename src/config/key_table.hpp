@@ -74,7 +74,10 @@ ZoomRange parseZoom(const KeySpec& key, const Value& value);
 // [west, south, east, north] or "west,south,east,north"; "none" is no box.
 std::vector<double> parseBox(const KeySpec& key, const Value& value);
 
-// Lexically normal and absolute, but not through symlinks: messages stay readable.
+// Lexically normal and absolute, but not through symlinks: messages stay
+// readable. GDAL virtual paths (/vsizip/, /vsicurl/, ...) are kept as
+// written, but for the local archive of /vsizip/ and its kind, which
+// resolves against `base_dir` when relative.
 std::string resolvePath(const std::filesystem::path& base_dir, const std::string& text);
 
 // What is wrong with a value, or "" when it is fine.

@@ -26,6 +26,7 @@ struct TileJob {
   bool zoom_set = false;                          // tiling.zoom given at all (it is required)
   std::vector<double> bbox;                       // tiling.bbox: west, south, east, north (degrees); empty: all
   int tile_size = 256;                            // tiling.tile_size: texels a side
+  int band = 1;                                   // heights.band: the raster band that holds heights
   double z_scale = 1;                             // heights.z_scale: metres per DEM height unit
   double exaggeration = 1;                        // heights.exaggeration: vertical exaggeration
   int max_fill_px = 64;                           // nodata.max_fill_px: texels filled from a hole's edge

@@ -1,6 +1,7 @@
 #pragma once
 // Errors carry the process exit code they map to, so every layer can throw
 // and only main() decides how the process ends.
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 
@@ -12,6 +13,7 @@ enum class ExitCode : int {
   kUsage = 2,        // bad command line or configuration file
   kInput = 3,        // unreadable DEM, unwritable output, no GL context...
   kTilesFailed = 4,  // the run finished but some tiles could not be made
+  kNothingMade = 5,  // the job holds no tile with data: nothing was written (the reason is logged)
 };
 
 class Error : public std::runtime_error {
@@ -34,7 +36,22 @@ struct InputError : Error {
   explicit InputError(const std::string& message) : Error(ExitCode::kInput, message) {}
 };
 
+// A job that cannot make any tile, for a reason that is not an error of the
+// command line or of the files (all its DEM samples are voids, the DEM lies
+// beyond the scheme's latitudes, the bbox misses the DEM): main() logs the
+// reason as a warning and exits with kNothingMade.
+struct NothingToMake : Error {
+  explicit NothingToMake(const std::string& message) : Error(ExitCode::kNothingMade, message) {}
+};
+
 // Folds line breaks so that every error reaches the user as one line.
 std::string oneLine(std::string text);
+
+// `text` as quoted in a message: whole when short, else its start and how
+// long it was ("aaaa... (10485760 bytes)"), so no value floods a log line.
+std::string shortened(const std::string& text, std::size_t max_bytes = 160);
+
+// The longest message main() prints; longer ones are cut the same way.
+inline constexpr std::size_t kMaxMessageBytes = 2000;
 
 }  // namespace terrabake

@@ -1,16 +1,22 @@
 #include "dem/dem_file.hpp"
 
 #include <cpl_conv.h>
+#include <cpl_vsi.h>
 #include <gdal_priv.h>
+#include <gdal_vrt.h>
 #include <gdalwarper.h>
 #include <ogr_spatialref.h>
 
+#include <sys/stat.h>
+
+#include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
-#include <filesystem>
 #include <map>
 #include <optional>
+#include <tuple>
 
 #include "core/error.hpp"
 #include "dem/edge_extension.hpp"
@@ -40,13 +46,158 @@ struct GdalDatasetCloser {
 };
 using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
 
+// A file whose rows are stored south-up or whose columns run east to west
+// (a negative pixel height or width), seen north-up: one band, the chosen
+// one, read through a mirror, with the geotransform of the same pixels in
+// north-up order. Every later step then sees the terrain as in any north-up
+// file, so both give the same tiles.
+class MirroredDataset final : public GDALDataset {
+ public:
+  MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt);
+  CPLErr GetGeoTransform(double* gt) override {
+    std::copy(m_gt, m_gt + 6, gt);
+    return CE_None;
+  }
+  const OGRSpatialReference* GetSpatialRef() const override { return m_source->GetSpatialRef(); }
+
+ private:
+  DatasetPtr m_source;
+  double m_gt[6];
+};
+
+class MirroredBand final : public GDALRasterBand {
+ public:
+  MirroredBand(MirroredDataset* owner, GDALRasterBand* source, bool flip_x, bool flip_y)
+      : m_source(source), m_flip_x(flip_x), m_flip_y(flip_y) {
+    poDS = owner;
+    nBand = 1;
+    nRasterXSize = source->GetXSize();
+    nRasterYSize = source->GetYSize();
+    eDataType = source->GetRasterDataType();
+    nBlockXSize = std::min(nRasterXSize, 256);
+    nBlockYSize = std::min(nRasterYSize, 256);
+  }
+  double GetNoDataValue(int* has_nodata) override { return m_source->GetNoDataValue(has_nodata); }
+
+ protected:
+  CPLErr IReadBlock(int block_x, int block_y, void* data) override {
+    const int x = block_x * nBlockXSize, y = block_y * nBlockYSize;
+    const int w = std::min(nBlockXSize, nRasterXSize - x), h = std::min(nBlockYSize, nRasterYSize - y);
+    const int size = GDALGetDataTypeSizeBytes(eDataType);
+    return IRasterIO(GF_Read, x, y, w, h, data, w, h, eDataType, size, GSpacing(size) * nBlockXSize, nullptr);
+  }
+
+  // The mirrored window of the source, read into the buffer, then mirrored
+  // in place: columns reversed within each row, rows in reverse order.
+  CPLErr IRasterIO(GDALRWFlag flag, int x, int y, int w, int h, void* data, int buffer_w, int buffer_h,
+                   GDALDataType type, GSpacing pixel_space, GSpacing line_space, GDALRasterIOExtraArg*) override {
+    if (flag != GF_Read) return CE_Failure;
+    const int source_x = m_flip_x ? nRasterXSize - x - w : x;
+    const int source_y = m_flip_y ? nRasterYSize - y - h : y;
+    const CPLErr read = m_source->RasterIO(GF_Read, source_x, source_y, w, h, data, buffer_w, buffer_h, type,
+                                           pixel_space, line_space, nullptr);
+    if (read != CE_None) return read;
+    const std::size_t size = std::size_t(GDALGetDataTypeSizeBytes(type));
+    auto* bytes = static_cast<GByte*>(data);
+    unsigned char swap[16];
+    const auto exchange = [&](GByte* a, GByte* b) {
+      std::memcpy(swap, a, size);
+      std::memcpy(a, b, size);
+      std::memcpy(b, swap, size);
+    };
+    if (m_flip_x) {
+      for (int r = 0; r < buffer_h; ++r) {
+        GByte* row = bytes + r * line_space;
+        for (int a = 0, b = buffer_w - 1; a < b; ++a, --b) exchange(row + a * pixel_space, row + b * pixel_space);
+      }
+    }
+    if (m_flip_y) {
+      for (int a = 0, b = buffer_h - 1; a < b; ++a, --b) {
+        for (int c = 0; c < buffer_w; ++c) {
+          exchange(bytes + a * line_space + c * pixel_space, bytes + b * line_space + c * pixel_space);
+        }
+      }
+    }
+    return CE_None;
+  }
+
+ private:
+  GDALRasterBand* m_source;
+  bool m_flip_x, m_flip_y;
+};
+
+MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt)
+    : m_source(std::move(source)) {
+  nRasterXSize = m_source->GetRasterXSize();
+  nRasterYSize = m_source->GetRasterYSize();
+  std::copy(north_up_gt, north_up_gt + 6, m_gt);
+  SetBand(1, new MirroredBand(this, m_source->GetRasterBand(band), flip_x, flip_y));
+}
+
+// A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
+// in-memory VRT over `level`'s band `band`, covering the same extent.
+GDALDataset* decimatedView(GDALDataset& level, int band, int factor) {
+  const int width = level.GetRasterXSize(), height = level.GetRasterYSize();
+  const int w = std::max(1, (width + factor - 1) / factor), h = std::max(1, (height + factor - 1) / factor);
+  VRTDatasetH vrt = VRTCreate(w, h);
+  if (!vrt) return nullptr;
+  double gt[6];
+  level.GetGeoTransform(gt);
+  gt[1] *= double(width) / w;
+  gt[5] *= double(height) / h;
+  GDALSetGeoTransform(vrt, gt);
+  GDALSetProjection(vrt, level.GetProjectionRef());
+  GDALRasterBand* source = level.GetRasterBand(band);
+  VRTAddBand(vrt, source->GetRasterDataType(), nullptr);
+  if (VRTAddSimpleSource(GDALGetRasterBand(vrt, 1), GDALRasterBand::ToHandle(source), 0, 0, width, height, 0, 0,
+                         w, h, "near", VRT_NODATA_UNSET) != CE_None) {
+    GDALClose(vrt);
+    return nullptr;
+  }
+  return GDALDataset::FromHandle(vrt);
+}
+
+// Rasters no wider or taller than this: beyond, sizes overflow the integer
+// pixel coordinates GDAL's warper and VRTs use.
+constexpr long kMaxSidePixels = 1L << 30;
+// A read plan decimates where a texel spans more pixels than this of a level
+// of more than kDecimateAbovePixels pixels, down to kDecimatedPixelsPerCell.
+constexpr double kMaxPixelsPerCell = 16;
+constexpr double kDecimateAbovePixels = double(1L << 24);
+constexpr double kDecimatedPixelsPerCell = 8;
+
+const char* fileKind(unsigned mode) {
+  if (S_ISFIFO(mode)) return "a FIFO";
+  if (S_ISCHR(mode)) return "a character device";
+  if (S_ISBLK(mode)) return "a block device";
+  if (S_ISSOCK(mode)) return "a socket";
+  return "not a regular file";
+}
+
+// Through GDAL's virtual file layer, so /vsizip/, /vsicurl/ and the like are
+// checked as GDAL will read them; a FIFO or device would block or never end.
+void checkReadable(const std::string& path) {
+  VSIStatBufL status;
+  if (VSIStatExL(path.c_str(), &status, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG) != 0) {
+    throw InputError("dem: cannot open '" + shortened(path) + "': no such file");
+  }
+  const unsigned mode = unsigned(status.st_mode);
+  if (!S_ISREG(mode) && !S_ISDIR(mode)) {  // some formats are folders
+    throw InputError("dem: cannot read '" + shortened(path) + "': it is " + fileKind(mode) +
+                     ", not a regular file");
+  }
+}
+
+std::string colourName(GDALColorInterp interp) {
+  const char* name = GDALGetColorInterpretationName(interp);
+  return name ? name : "unknown";
+}
+
 // Runs on each chunk the warper has loaded, before it resamples: clears the
 // validity bit of every void source pixel, so no kernel mixes a void marker
 // into a height. (A pre-warp hook, because this GDAL never calls the
 // unified validity-mask callback.)
-CPLErr maskVoids(void* kernel, void* declared_nodata) {
-  auto& wk = *static_cast<GDALWarpKernel*>(kernel);
-  const auto& nodata = *static_cast<const std::optional<double>*>(declared_nodata);
+CPLErr maskVoids(GDALWarpKernel& wk, const VoidRule& voids) {
   if (wk.eWorkingDataType != GDT_Float32) return CE_Failure;
   const std::size_t count = std::size_t(wk.nSrcXSize) * wk.nSrcYSize;
   if (count == 0) return CE_None;
@@ -57,23 +208,29 @@ CPLErr maskVoids(void* kernel, void* declared_nodata) {
     std::memset(wk.panUnifiedSrcValid, 0xff, bytes);
   }
   const float* values = reinterpret_cast<const float*>(wk.papabySrcImage[0]);
+  long long implausible = 0;
   for (std::size_t i = 0; i < count; ++i) {
-    if (isVoid(values[i], nodata)) wk.panUnifiedSrcValid[i >> 5] &= ~(GUInt32(1) << (i & 31));
+    if (voids.isVoid(values[i])) {
+      wk.panUnifiedSrcValid[i >> 5] &= ~(GUInt32(1) << (i & 31));
+      if (voids.isImplausible(values[i])) ++implausible;
+    }
   }
+  voids.count(implausible);
   return CE_None;
 }
 
 // What the warp hooks of one read share: void pixels are masked, then the
 // edge of the data extended, before the kernel runs; coverage is restored after.
 struct WarpHooks {
-  const std::optional<double>* declared_nodata;
+  const VoidRule* voids;
   EdgeExtension edge;
 };
 
 CPLErr beforeWarp(void* kernel, void* hooks) {
   auto& h = *static_cast<WarpHooks*>(hooks);
-  const CPLErr masked = maskVoids(kernel, const_cast<std::optional<double>*>(h.declared_nodata));
-  return masked != CE_None ? masked : h.edge.extend(*static_cast<GDALWarpKernel*>(kernel));
+  auto& wk = *static_cast<GDALWarpKernel*>(kernel);
+  const CPLErr masked = maskVoids(wk, *h.voids);
+  return masked != CE_None ? masked : h.edge.extend(wk);
 }
 
 CPLErr afterWarp(void* kernel, void* hooks) {
@@ -89,8 +246,9 @@ struct WarpOptionsDeleter {
 // What reads a DEM level onto grids of one CRS: the level's own handle (an
 // overview opens as a dataset of its own) and the transformer to the grids.
 struct LevelReader {
-  DatasetPtr file;
-  DatasetPtr dataset;  // the file with EdgeExtension's void border
+  DatasetPtr file;       // an overview level's own handle; null for full resolution
+  DatasetPtr decimated;  // a decimated view of the level; null when read whole
+  DatasetPtr dataset;    // the level with EdgeExtension's void border
   std::string target_wkt;
   std::unique_ptr<LatticeTransformer> transformer;
 };
@@ -101,7 +259,7 @@ namespace {
 // transformer prepared for it), for texels as fine as the level's pixels or
 // finer. Nullopt when GDAL fails (its last error says why).
 std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const GridSpec& grid,
-                                              const std::optional<double>& nodata) {
+                                              const VoidRule& voids) {
   GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
   DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
   double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
@@ -119,7 +277,7 @@ std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const G
   options->eWorkingDataType = GDT_Float32;
   options->pfnTransformer = LatticeTransformer::transform;
   options->pTransformerArg = reader.transformer.get();
-  WarpHooks hooks{&nodata, {}};
+  WarpHooks hooks{&voids, {}};
   options->pfnPreWarpChunkProcessor = beforeWarp;
   options->pfnPostWarpChunkProcessor = afterWarp;
   options->pPreWarpProcessorArg = options->pPostWarpProcessorArg = &hooks;
@@ -153,114 +311,149 @@ std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const G
 
 }  // namespace
 
-struct DemFile::Impl {
-  DatasetPtr dataset;
-  OGRSpatialReference srs;
-  // Built on first use, per (overview level, target CRS).
-  std::map<std::pair<int, std::string>, LevelReader> readers;
-
-  LevelReader& readerFor(const std::string& path, int overview, const std::string& crs) {
-    auto it = readers.find({overview, crs});
-    if (it != readers.end()) return it->second;
-    LevelReader reader;
-    if (overview < 0) {
-      reader.file.reset(GDALDataset::FromHandle(GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
-                                                           nullptr, nullptr, nullptr)));
-    } else {
-      const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
-      const char* options[] = {level.c_str(), nullptr};
-      reader.file.reset(GDALDataset::FromHandle(
-          GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
-    }
-    if (!reader.file) throw InputError("dem: cannot reopen '" + path + "' (" + lastGdalError() + ")");
-    reader.dataset.reset(EdgeExtension::withVoidBorder(*reader.file));
-    if (!reader.dataset) throw InputError("dem: cannot read '" + path + "' (" + lastGdalError() + ")");
-    reader.target_wkt = toWkt(spatialReference(crs));
-    reader.transformer =
-        std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);
-    return readers.emplace(std::make_pair(overview, crs), std::move(reader)).first->second;
-  }
-};
-
-DemFile::DemFile(const std::string& path) : m_impl(std::make_unique<Impl>()) {
+FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   ensureGdalReady();
-  std::error_code ec;
-  if (!std::filesystem::exists(path, ec)) throw InputError("dem: cannot open '" + path + "': no such file");
+  const std::string name = "'" + shortened(path) + "'";
+  checkReadable(path);
   CPLErrorReset();
-  m_impl->dataset.reset(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
-  if (!m_impl->dataset) {
-    throw InputError("dem: '" + path + "' is not a raster GDAL can read (" + lastGdalError() + ")");
+  DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
+      path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!dataset) throw InputError("dem: " + name + " is not a raster GDAL can read (" + lastGdalError() + ")");
+  GDALDataset& ds = *dataset;
+  const int band_count = ds.GetRasterCount();
+  if (band_count < 1) throw InputError("dem: " + name + " has no raster band");
+  if (options.band > band_count) {
+    throw InputError("dem: " + name + " has " + std::to_string(band_count) + " band" +
+                     (band_count == 1 ? "" : "s") + ", heights.band asks for band " + std::to_string(options.band));
   }
-  GDALDataset& ds = *m_impl->dataset;
-  if (ds.GetRasterCount() < 1) throw InputError("dem: '" + path + "' has no raster band");
+  m_band = options.band;
+  GDALRasterBand* band = ds.GetRasterBand(m_band);
+  const GDALDataType type = band->GetRasterDataType();
+  if (GDALDataTypeIsComplex(type)) {
+    throw InputError("dem: band " + std::to_string(m_band) + " of " + name + " holds complex numbers (" +
+                     GDALGetDataTypeName(type) + "), not heights");
+  }
 
   const OGRSpatialReference* srs = ds.GetSpatialRef();
   if (!srs || srs->IsEmpty()) {
-    throw InputError("dem: '" + path + "' has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
+    throw InputError("dem: " + name + " has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
   }
-  m_impl->srs = *srs;
-  m_impl->srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  m_srs = *srs;
+  m_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
 
   double gt[6];
   if (ds.GetGeoTransform(gt) != CE_None) {
-    throw InputError("dem: '" + path + "' has no georeferencing (geotransform)");
+    throw InputError("dem: " + name + " has no georeferencing (geotransform)");
   }
-  if (gt[2] != 0.0 || gt[4] != 0.0 || gt[5] >= 0.0) {
-    throw InputError("dem: '" + path + "' is not north-up (rotated or flipped); warp it first with gdalwarp");
+  if (gt[2] != 0.0 || gt[4] != 0.0) {
+    throw InputError("dem: " + name +
+                     " is rotated (its geotransform turns or shears the pixel grid); warp it north-up first, "
+                     "e.g. gdalwarp in.tif out.tif");
+  }
+  if (!(std::isfinite(gt[1]) && std::isfinite(gt[5]) && gt[1] != 0.0 && gt[5] != 0.0 && std::isfinite(gt[0]) &&
+        std::isfinite(gt[3]))) {
+    throw InputError("dem: " + name + " has a geotransform without a pixel size");
+  }
+  const long width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
+  if (width > kMaxSidePixels || height > kMaxSidePixels) {
+    throw InputError("dem: " + name + " is " + std::to_string(width) + " x " + std::to_string(height) +
+                     " pixels; at most " + std::to_string(kMaxSidePixels) + " a side (split it, or tile a VRT of tiles)");
+  }
+  // Stored east-to-west or south-up: read through a mirror, north-up.
+  m_flip_x = gt[1] < 0;
+  m_flip_y = gt[5] > 0;
+  GridSpec& grid = m_info.grid;
+  grid.crs = toWkt(m_srs);
+  grid.cell_w = std::abs(gt[1]);
+  grid.cell_h = std::abs(gt[5]);
+  grid.origin_x = m_flip_x ? gt[0] + double(width) * gt[1] : gt[0];
+  grid.origin_y = m_flip_y ? gt[3] + double(height) * gt[5] : gt[3];
+  grid.width = int(width);
+  grid.height = int(height);
+  if (m_srs.IsGeographic()) {
+    // Half a pixel of slack: grids of pixel centres on the poles are common.
+    const double north = grid.origin_y, south = grid.origin_y - double(height) * grid.cell_h;
+    const double slack = grid.cell_h / 2 + 1e-9;
+    if (north > 90 + slack || south < -90 - slack) {
+      char text[160];
+      std::snprintf(text, sizeof text, "reaches latitudes %.8g to %.8g, beyond -90..90", south, north);
+      throw InputError("dem: " + name + " " + text + " (check its geotransform and CRS)");
+    }
+    if (double(width) * grid.cell_w > 360 + grid.cell_w + 1e-9) {
+      throw InputError("dem: " + name + " spans " + std::to_string(double(width) * grid.cell_w) +
+                       " degrees of longitude, more than the globe (check its geotransform and CRS)");
+    }
   }
 
   m_info.path = path;
-  m_info.grid.crs = toWkt(m_impl->srs);
-  m_info.grid.origin_x = gt[0];
-  m_info.grid.origin_y = gt[3];
-  m_info.grid.cell_w = gt[1];
-  m_info.grid.cell_h = -gt[5];
-  m_info.grid.width = ds.GetRasterXSize();
-  m_info.grid.height = ds.GetRasterYSize();
-  GDALRasterBand* band = ds.GetRasterBand(1);
+  m_info.band = m_band;
+  m_info.band_count = band_count;
   int has_nodata = 0;
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) m_info.nodata = nodata;
-  m_info.overview_count = band->GetOverviewCount();
-  m_info.data_type = GDALGetDataTypeName(band->GetRasterDataType());
-  m_info.crs_name = m_impl->srs.GetName() ? m_impl->srs.GetName() : "unnamed";
-  m_info.epsg = epsgCode(m_impl->srs);
+  // A mirrored file is read at full resolution: its overviews are stored flipped too.
+  if (!m_flip_x && !m_flip_y) {
+    for (int i = 0; i < band->GetOverviewCount(); ++i) m_overview_widths.push_back(band->GetOverview(i)->GetXSize());
+  }
+  m_info.overview_count = int(m_overview_widths.size());
+  m_info.data_type = GDALGetDataTypeName(type);
+  m_info.crs_name = m_srs.GetName() ? m_srs.GetName() : "unnamed";
+  m_info.epsg = epsgCode(m_srs);
   const char* unit = nullptr;  // owned by the spatial reference
-  if (m_impl->srs.IsGeographic()) {
-    m_impl->srs.GetAngularUnits(&unit);
+  if (m_srs.IsGeographic()) {
+    m_srs.GetAngularUnits(&unit);
   } else {
-    m_impl->srs.GetLinearUnits(&unit);
+    m_srs.GetLinearUnits(&unit);
   }
   m_info.crs_unit = unit ? unit : "unknown";
+
+  if (band_count > 1) {
+    std::string colours;
+    for (int b = 1; b <= band_count && b <= 4; ++b) {
+      colours += (b > 1 ? ", " : "") + colourName(ds.GetRasterBand(b)->GetColorInterpretation());
+    }
+    m_warnings.push_back("dem: " + name + " has " + std::to_string(band_count) + " bands (" + colours +
+                         (band_count > 4 ? ", ..." : "") + "); heights are read from band " +
+                         std::to_string(m_band) + " (heights.band)");
+  }
+  const GDALColorInterp interp = band->GetColorInterpretation();
+  if (interp != GCI_Undefined && interp != GCI_GrayIndex) {
+    m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " is an image's " +
+                         colourName(interp) + " channel (" + m_info.data_type + "); it is read as heights");
+  }
+  m_voids.nodata = m_info.nodata;
+  m_voids.min_height = options.min_height;
+  m_voids.max_height = options.max_height;
+  m_voids.implausible = &m_implausible;
 }
 
-DemFile::~DemFile() = default;
-
-Extent DemFile::boundsIn(const std::string& crs) const {
+Extent FileMeta::boundsIn(const std::string& crs) const {
+  std::lock_guard<std::mutex> lock(m_bounds_mutex);
+  const auto known = m_bounds.find(crs);
+  if (known != m_bounds.end()) return known->second;
   const GridSpec& g = m_info.grid;
-  const double west = g.origin_x, north = g.origin_y;
-  const double east = west + g.width * g.cell_w, south = north - g.height * g.cell_h;
+  const double west = g.origin_x, east = west + g.width * g.cell_w;
+  double north = g.origin_y, south = north - g.height * g.cell_h;
+  if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
   const OGRSpatialReference target = spatialReference(crs);
-  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_impl->srs, &target));
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_srs, &target));
   Extent out;
   constexpr int kDensifyPoints = 21;
   if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
                                   kDensifyPoints)) {
-    throw InputError("dem: cannot transform the extent of '" + m_info.path + "' to the tiling CRS (" +
+    throw InputError("dem: cannot transform the extent of '" + shortened(m_info.path) + "' to the tiling CRS (" +
                      lastGdalError() + ")");
   }
-  return out;
+  return m_bounds.emplace(crs, out).first->second;
 }
 
-FilePlan DemFile::planFor(const GridSpec& grid) const {
+FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file) const {
   // Size of one grid cell in DEM pixels, measured at the grid's centre.
-  const OGRSpatialReference source = spatialReference(grid.crs);
-  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&source, &m_impl->srs));
-  if (!ct) throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" + m_info.path + "'");
   const double cx = grid.centreX(grid.width / 2.0), cy = grid.centreY(grid.height / 2.0);
   double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
-  if (!ct->Transform(3, x, y)) throw InputError("dem: cannot transform a tile centre into '" + m_info.path + "'");
+  if (!to_file.Transform(3, x, y)) {
+    throw InputError("dem: cannot transform a tile centre into '" + shortened(m_info.path) + "'");
+  }
   const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
   const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
   const double pixels_per_cell = std::sqrt(du * dv);
@@ -268,24 +461,97 @@ FilePlan DemFile::planFor(const GridSpec& grid) const {
   FilePlan plan;
   plan.average = pixels_per_cell > 1.0;
   // The coarsest overview still at least as fine as a cell.
-  GDALRasterBand* band = m_impl->dataset->GetRasterBand(1);
-  for (int i = 0; i < m_info.overview_count; ++i) {
-    const double factor = double(m_info.grid.width) / band->GetOverview(i)->GetXSize();
-    if (factor <= pixels_per_cell) plan.overview = i;
+  double level_factor = 1;
+  for (std::size_t i = 0; i < m_overview_widths.size(); ++i) {
+    const double factor = double(m_info.grid.width) / m_overview_widths[i];
+    if (factor <= pixels_per_cell) plan.overview = int(i), level_factor = factor;
+  }
+  const double level_pixels =
+      double(m_info.grid.width) / level_factor * (double(m_info.grid.height) / level_factor);
+  const double level_ratio = pixels_per_cell / level_factor;
+  if (plan.average && level_ratio > kMaxPixelsPerCell && level_pixels > kDecimateAbovePixels) {
+    plan.decimate = int(std::min(level_ratio / kDecimatedPixelsPerCell, double(kMaxSidePixels)));
   }
   return plan;
 }
 
-void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) const {
-  LevelReader& reader = m_impl->readerFor(m_info.path, plan.overview, grid.crs);
+struct DemFile::Impl {
+  DatasetPtr dataset;  // the file, north-up (through a mirror when stored flipped)
+  int band = 1;        // of `dataset`
+  // Built on first use, per (overview level, decimation, target CRS).
+  std::map<std::tuple<int, int, std::string>, LevelReader> readers;
+
+  LevelReader& readerFor(const FileMeta& meta, int overview, int decimate, const std::string& crs) {
+    const auto key = std::make_tuple(overview, decimate, crs);
+    auto it = readers.find(key);
+    if (it != readers.end()) return it->second;
+    const std::string& path = meta.info().path;
+    LevelReader reader;
+    GDALDataset* level = dataset.get();
+    if (overview >= 0) {
+      const std::string option = "OVERVIEW_LEVEL=" + std::to_string(overview);
+      const char* options[] = {option.c_str(), nullptr};
+      reader.file.reset(GDALDataset::FromHandle(
+          GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
+      if (!reader.file) {
+        throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
+      }
+      level = reader.file.get();
+    }
+    int level_band = band;
+    if (decimate > 1) {
+      reader.decimated.reset(decimatedView(*level, level_band, decimate));
+      if (!reader.decimated) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
+      level = reader.decimated.get();
+      level_band = 1;
+    }
+    reader.dataset.reset(EdgeExtension::withVoidBorder(*level, level_band));
+    if (!reader.dataset) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
+    reader.target_wkt = toWkt(spatialReference(crs));
+    reader.transformer =
+        std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);
+    return readers.emplace(key, std::move(reader)).first->second;
+  }
+};
+
+DemFile::DemFile(std::shared_ptr<const FileMeta> meta) : m_meta(std::move(meta)), m_impl(std::make_unique<Impl>()) {
+  ensureGdalReady();
+  const std::string& path = m_meta->info().path;
+  CPLErrorReset();
+  DatasetPtr dataset(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
+  if (m_meta->flipX() || m_meta->flipY()) {
+    const GridSpec& g = m_meta->info().grid;
+    const double gt[6] = {g.origin_x, g.cell_w, 0, g.origin_y, 0, -g.cell_h};
+    m_impl->dataset.reset(new MirroredDataset(std::move(dataset), m_meta->band(), m_meta->flipX(), m_meta->flipY(), gt));
+    m_impl->band = 1;
+  } else {
+    m_impl->dataset = std::move(dataset);
+    m_impl->band = m_meta->band();
+  }
+}
+
+DemFile::~DemFile() = default;
+
+int DemFile::handles() const {
+  int count = 1;
+  for (const auto& [key, reader] : m_impl->readers) count += reader.file ? 1 : 0;
+  return count;
+}
+
+void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) {
+  LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs);
   reader.transformer->prepare(grid);
   CPLErrorReset();
+  const VoidRule& voids = m_meta->voids();
   const std::optional<Raster<float>> resampled =
       plan.average ? averageOverFootprints(GDALRasterBand::ToHandle(reader.dataset->GetRasterBand(1)),
-                                           *reader.transformer, grid, m_info.nodata)
-                   : interpolateCubic(reader, grid, m_info.nodata);
+                                           *reader.transformer, grid, voids)
+                   : interpolateCubic(reader, grid, voids);
   if (!resampled) {
-    throw InputError("dem: cannot read a window of '" + m_info.path + "' (" + lastGdalError() + ")");
+    throw InputError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" + lastGdalError() +
+                     ")");
   }
   for (std::size_t k = 0; k < heights.data.size(); ++k) {
     if (std::isnan(heights.data[k])) heights.data[k] = resampled->data[k];

@@ -1,38 +1,85 @@
 #pragma once
-// One raster file GDAL reads (band 1), internal to the dem module: DemSource
-// merges one or more of these.
+// One raster file GDAL reads, internal to the dem module: what it is (read
+// once, shared by every reader of a job) and its open handles (one set per
+// reading thread, opened when a read needs them). DemSource merges one or
+// more of these.
+#include <atomic>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <string>
+#include <vector>
+
+#include <ogr_spatialref.h>
 
 #include "core/types.hpp"
 #include "dem/dem_source.hpp"
+#include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
 
+// What one file is, learnt by opening it once; it is closed again after.
+class FileMeta {
+ public:
+  // Throws InputError naming the file: missing, not a regular file, not a
+  // raster, no such band, complex samples, no CRS, rotated, too large,
+  // latitudes beyond the poles.
+  FileMeta(const std::string& path, const DemOptions& options);
+
+  const DemInfo& info() const { return m_info; }
+  const OGRSpatialReference& srs() const { return m_srs; }
+  const std::string& srsWkt() const { return m_info.grid.crs; }
+  int band() const { return m_band; }
+  // Rows stored south-up, columns east-to-west: read through a mirror.
+  bool flipX() const { return m_flip_x; }
+  bool flipY() const { return m_flip_y; }
+  const VoidRule& voids() const { return m_voids; }
+  long long implausibleSamples() const { return m_implausible.load(); }
+  // Warnings about the file (several bands, an image's colours), for the log.
+  const std::vector<std::string>& warnings() const { return m_warnings; }
+
+  // The file's extent in another CRS, edges densified before transforming;
+  // computed once per CRS.
+  Extent boundsIn(const std::string& crs) const;
+
+  // How to read this file onto grids of the cell size `representative` has;
+  // `to_file` maps the grid's CRS to the file's.
+  FilePlan planFor(const GridSpec& representative, OGRCoordinateTransformation& to_file) const;
+
+ private:
+  DemInfo m_info;
+  OGRSpatialReference m_srs;
+  int m_band = 1;
+  bool m_flip_x = false, m_flip_y = false;
+  std::vector<int> m_overview_widths;
+  mutable std::atomic<long long> m_implausible{0};
+  VoidRule m_voids;
+  std::vector<std::string> m_warnings;
+  mutable std::mutex m_bounds_mutex;
+  mutable std::map<std::string, Extent> m_bounds;
+};
+
+// A file's open GDAL handles, for one thread.
 class DemFile {
  public:
-  // Throws InputError naming the file: missing, not a raster, no CRS, rotated.
-  explicit DemFile(const std::string& path);
+  // Opens the file; throws InputError when it no longer opens.
+  explicit DemFile(std::shared_ptr<const FileMeta> meta);
   ~DemFile();
   DemFile(const DemFile&) = delete;
   DemFile& operator=(const DemFile&) = delete;
 
-  const DemInfo& info() const { return m_info; }
-
-  // The file's extent in another CRS, edges densified before transforming.
-  Extent boundsIn(const std::string& crs) const;
-
-  // How to read this file onto grids of the cell size `representative` has.
-  FilePlan planFor(const GridSpec& representative) const;
+  const FileMeta& meta() const { return *m_meta; }
+  // GDAL datasets it holds open now (each holds about one file handle).
+  int handles() const;
 
   // Resamples the file onto `grid` and writes the result into the texels of
   // `heights` that are still NaN; void samples stay NaN.
-  void fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) const;
+  void fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights);
 
  private:
   struct Impl;
+  std::shared_ptr<const FileMeta> m_meta;
   std::unique_ptr<Impl> m_impl;
-  DemInfo m_info;
 };
 
 }  // namespace terrabake::dem

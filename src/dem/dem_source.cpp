@@ -1,24 +1,39 @@
 #include "dem/dem_source.hpp"
 
+#include <cpl_vsi.h>
 #include <glob.h>
+#include <sys/resource.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
-#include <filesystem>
+#include <cstdio>
+#include <map>
+#include <utility>
 
 #include "core/error.hpp"
 #include "dem/dem_file.hpp"
+#include "dem/gdal_util.hpp"
 
 namespace terrabake::dem {
 namespace {
 
+// Open datasets of every reader in the process together, against
+// DemSource::openDatasetLimit().
+std::atomic<int> g_open_handles{0};
+
+bool exists(const std::string& path) {
+  VSIStatBufL status;
+  return VSIStatExL(path.c_str(), &status, VSI_STAT_EXISTS_FLAG) == 0;
+}
+
 // A path that names no file but holds a wildcard is expanded; one that names
-// a file is taken as it is, wildcard characters and all.
+// a file is taken as it is, wildcard characters and all. GDAL's virtual
+// paths (/vsi...) go to GDAL as written.
 std::vector<std::string> expandGlobs(const std::vector<std::string>& paths) {
   std::vector<std::string> expanded;
   for (const std::string& path : paths) {
-    std::error_code ec;
-    if (path.find_first_of("*?[") == std::string::npos || std::filesystem::exists(path, ec)) {
+    if (path.find_first_of("*?[") == std::string::npos || path.rfind("/vsi", 0) == 0 || exists(path)) {
       expanded.push_back(path);
       continue;
     }
@@ -28,20 +43,21 @@ std::vector<std::string> expandGlobs(const std::vector<std::string>& paths) {
       for (std::size_t i = 0; i < matches.gl_pathc; ++i) expanded.emplace_back(matches.gl_pathv[i]);
     }
     globfree(&matches);
-    if (status != 0) throw InputError("dem: no file matches '" + path + "'");
+    if (status != 0) throw InputError("dem: no file matches '" + shortened(path) + "'");
   }
   return expanded;
 }
 
+Extent unite(const Extent& a, const Extent& b) {
+  return {std::min(a.min_x, b.min_x), std::min(a.min_y, b.min_y), std::max(a.max_x, b.max_x),
+          std::max(a.max_y, b.max_y)};
+}
+
 // The first file's pixel grid, grown to cover every file.
-GridSpec mergedGrid(const std::vector<std::unique_ptr<DemFile>>& files) {
+GridSpec mergedGrid(const std::vector<std::shared_ptr<const FileMeta>>& files) {
   GridSpec grid = files.front()->info().grid;
   Extent all = files.front()->boundsIn(grid.crs);
-  for (std::size_t i = 1; i < files.size(); ++i) {
-    const Extent e = files[i]->boundsIn(grid.crs);
-    all = {std::min(all.min_x, e.min_x), std::min(all.min_y, e.min_y), std::max(all.max_x, e.max_x),
-           std::max(all.max_y, e.max_y)};
-  }
+  for (std::size_t i = 1; i < files.size(); ++i) all = unite(all, files[i]->boundsIn(grid.crs));
   const double west = grid.origin_x + std::floor((all.min_x - grid.origin_x) / grid.cell_w) * grid.cell_w;
   const double north = grid.origin_y - std::floor((grid.origin_y - all.max_y) / grid.cell_h) * grid.cell_h;
   grid.width = int(std::ceil((all.max_x - west) / grid.cell_w - 1e-9));
@@ -51,46 +67,206 @@ GridSpec mergedGrid(const std::vector<std::unique_ptr<DemFile>>& files) {
   return grid;
 }
 
-}  // namespace
+// The cells of `grid` that `file` may fill, as [col0, col1) x [row0, row1):
+// its extent in the grid's CRS, with a margin for kernels and curved edges.
+// Empty when it misses the grid; the whole grid when unsure.
+struct CellWindow {
+  int col0 = 0, col1 = 0, row0 = 0, row1 = 0;
+  bool empty() const { return col0 >= col1 || row0 >= row1; }
+};
 
-DemSource::DemSource(const std::vector<std::string>& paths) {
-  const std::vector<std::string> expanded = expandGlobs(paths);
-  if (expanded.empty()) throw InputError("dem: no DEM file given");
-  for (const std::string& path : expanded) m_files.push_back(std::make_unique<DemFile>(path));
-  m_info = m_files.front()->info();
-  if (m_files.size() > 1) {
-    for (std::size_t i = 1; i < m_files.size(); ++i) m_info.path += ", " + m_files[i]->info().path;
-    m_info.grid = mergedGrid(m_files);
+CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
+  const CellWindow whole{0, grid.width, 0, grid.height};
+  Extent bounds;
+  try {
+    bounds = file.boundsIn(grid.crs);
+  } catch (const InputError&) {
+    return whole;
   }
+  if (!(bounds.min_x <= bounds.max_x) || !(bounds.min_y <= bounds.max_y)) return whole;  // across the antimeridian
+  const double margin_x = 0.05 * bounds.width() + 4 * grid.cell_w;
+  const double margin_y = 0.05 * bounds.height() + 4 * grid.cell_h;
+  const auto clampTo = [](double v, int high) { return int(std::clamp(v, 0.0, double(high))); };
+  CellWindow window;
+  window.col0 = clampTo(std::floor((bounds.min_x - margin_x - grid.origin_x) / grid.cell_w), grid.width);
+  window.col1 = clampTo(std::ceil((bounds.max_x + margin_x - grid.origin_x) / grid.cell_w), grid.width);
+  window.row0 = clampTo(std::floor((grid.origin_y - bounds.max_y - margin_y) / grid.cell_h), grid.height);
+  window.row1 = clampTo(std::ceil((grid.origin_y - bounds.min_y + margin_y) / grid.cell_h), grid.height);
+  return window;
 }
 
-DemSource::~DemSource() = default;
-DemSource::DemSource(DemSource&&) noexcept = default;
-DemSource& DemSource::operator=(DemSource&&) noexcept = default;
+}  // namespace
+
+struct DemSource::Shared {
+  std::vector<std::shared_ptr<const FileMeta>> files;
+  DemInfo info;
+};
+
+int DemSource::openDatasetLimit() {
+  rlimit limit{};
+  long files = 1024;
+  if (::getrlimit(RLIMIT_NOFILE, &limit) == 0 && limit.rlim_cur != RLIM_INFINITY) files = long(limit.rlim_cur);
+  // Half of what is left after the rest of the process (GL, outputs,
+  // threads, SQLite) takes its share: a dataset may hold an overview file too.
+  return int(std::clamp((files - 128) / 2, 8L, 4096L));
+}
+
+DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& options) {
+  ensureGdalReady();
+  const std::vector<std::string> expanded = expandGlobs(paths);
+  if (expanded.empty()) throw InputError("dem: no DEM file given");
+  auto shared = std::make_shared<Shared>();
+  for (const std::string& path : expanded) shared->files.push_back(std::make_shared<const FileMeta>(path, options));
+  shared->info = shared->files.front()->info();
+  if (shared->files.size() > 1) {
+    for (std::size_t i = 1; i < shared->files.size(); ++i) shared->info.path += ", " + shared->files[i]->info().path;
+    shared->info.grid = mergedGrid(shared->files);
+  }
+  m_shared = std::move(shared);
+  m_open.resize(m_shared->files.size());
+}
+
+DemSource::~DemSource() { g_open_handles -= m_counted_handles; }
+DemSource::DemSource(DemSource&& other) noexcept
+    : m_shared(std::move(other.m_shared)),
+      m_open(std::move(other.m_open)),
+      m_recent(std::move(other.m_recent)),
+      m_counted_handles(std::exchange(other.m_counted_handles, 0)) {}
+DemSource& DemSource::operator=(DemSource&& other) noexcept {
+  if (this != &other) {
+    g_open_handles -= m_counted_handles;
+    m_shared = std::move(other.m_shared);
+    m_open = std::move(other.m_open);
+    m_recent = std::move(other.m_recent);
+    m_counted_handles = std::exchange(other.m_counted_handles, 0);
+  }
+  return *this;
+}
+
+DemSource DemSource::reader() const {
+  DemSource copy;
+  copy.m_shared = m_shared;
+  copy.m_open.resize(m_shared->files.size());
+  return copy;
+}
+
+const DemInfo& DemSource::info() const { return m_shared->info; }
+
+std::size_t DemSource::fileCount() const { return m_shared->files.size(); }
 
 Extent DemSource::boundsIn(const std::string& crs) const {
-  Extent all = m_files.front()->boundsIn(crs);
-  for (std::size_t i = 1; i < m_files.size(); ++i) {
-    const Extent e = m_files[i]->boundsIn(crs);
-    all = {std::min(all.min_x, e.min_x), std::min(all.min_y, e.min_y), std::max(all.max_x, e.max_x),
-           std::max(all.max_y, e.max_y)};
-  }
+  const auto& files = m_shared->files;
+  Extent all = files.front()->boundsIn(crs);
+  for (std::size_t i = 1; i < files.size(); ++i) all = unite(all, files[i]->boundsIn(crs));
   return all;
 }
 
 ReadPlan DemSource::planFor(const GridSpec& representative) const {
   ReadPlan plan;
-  for (const auto& file : m_files) plan.files.push_back(file->planFor(representative));
+  // One transformation per distinct file CRS: a glob of tiles shares one.
+  const OGRSpatialReference source = spatialReference(representative.crs);
+  std::map<std::string, std::unique_ptr<OGRCoordinateTransformation>> transforms;
+  for (const auto& file : m_shared->files) {
+    auto& ct = transforms[file->srsWkt()];
+    if (!ct) ct.reset(OGRCreateCoordinateTransformation(&source, &file->srs()));
+    if (!ct) {
+      throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" +
+                       shortened(file->info().path) + "'");
+    }
+    plan.files.push_back(file->planFor(representative, *ct));
+  }
   return plan;
+}
+
+void DemSource::recount(DemFile& file, int before) const {
+  const int delta = file.handles() - before;
+  m_counted_handles += delta;
+  g_open_handles += delta;
+}
+
+void DemSource::closeLeastRecent() const {
+  const std::size_t index = m_recent.back();
+  m_recent.pop_back();
+  const int handles = m_open[index]->handles();
+  m_open[index].reset();
+  m_counted_handles -= handles;
+  g_open_handles -= handles;
+}
+
+DemFile& DemSource::open(std::size_t index) const {
+  if (m_open[index]) {
+    m_recent.remove(index);
+    m_recent.push_front(index);
+    return *m_open[index];
+  }
+  // Room in the process's budget, made by closing this reader's least
+  // recently read files; a reader with none open may still open one.
+  static const int limit = openDatasetLimit();
+  while (!m_recent.empty() && g_open_handles.load() + 1 > limit) closeLeastRecent();
+  m_open[index] = std::make_unique<DemFile>(m_shared->files[index]);
+  m_recent.push_front(index);
+  recount(*m_open[index], 0);
+  return *m_open[index];
 }
 
 Raster<float> DemSource::read(const GridSpec& grid, const ReadPlan& plan) const {
   Raster<float> heights(grid.width, grid.height, NAN);
-  for (std::size_t i = 0; i < m_files.size(); ++i) {
-    m_files[i]->fillVoids(grid, plan.files[i], heights);
+  const auto& files = m_shared->files;
+  for (std::size_t i = 0; i < files.size(); ++i) {
+    const CellWindow window = reachOf(*files[i], grid);
+    if (window.empty()) continue;  // never opened
+    DemFile& file = open(i);
+    const int before = file.handles();
+    if (files.size() == 1 || (window.col1 - window.col0 == grid.width && window.row1 - window.row0 == grid.height)) {
+      file.fillVoids(grid, plan.files[i], heights);
+    } else {
+      // Of a mosaic of many files, each is read onto the part of the grid it
+      // reaches only, so a read costs what the files cover, not files x grid.
+      // A texel's height depends only on where it is (the lattice of the
+      // reprojection is anchored at the CRS origin), not on the window.
+      GridSpec part = grid;
+      part.origin_x = grid.origin_x + window.col0 * grid.cell_w;
+      part.origin_y = grid.origin_y - window.row0 * grid.cell_h;
+      part.width = window.col1 - window.col0;
+      part.height = window.row1 - window.row0;
+      Raster<float> sub(part.width, part.height);
+      for (int r = 0; r < part.height; ++r) {
+        for (int c = 0; c < part.width; ++c) sub.at(c, r) = heights.at(window.col0 + c, window.row0 + r);
+      }
+      file.fillVoids(part, plan.files[i], sub);
+      for (int r = 0; r < part.height; ++r) {
+        for (int c = 0; c < part.width; ++c) heights.at(window.col0 + c, window.row0 + r) = sub.at(c, r);
+      }
+    }
+    recount(file, before);
     if (std::none_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); })) break;
   }
   return heights;
+}
+
+void DemSource::closeFiles() const {
+  while (!m_recent.empty()) closeLeastRecent();
+}
+
+std::vector<std::string> DemSource::warnings() const {
+  std::vector<std::string> all;
+  for (const auto& file : m_shared->files) all.insert(all.end(), file->warnings().begin(), file->warnings().end());
+  return all;
+}
+
+std::vector<std::string> DemSource::implausibleReport() const {
+  std::vector<std::string> lines;
+  for (const auto& file : m_shared->files) {
+    const long long samples = file->implausibleSamples();
+    if (samples == 0) continue;
+    const VoidRule& voids = file->voids();
+    char range[96];
+    std::snprintf(range, sizeof range, "%.6g..%.6g", voids.min_height, voids.max_height);
+    lines.push_back("dem: '" + shortened(file->info().path) + "' holds heights that are infinite or beyond " +
+                    range + " (the plausible range in its units): " + std::to_string(samples) +
+                    " samples read were treated as voids");
+  }
+  return lines;
 }
 
 }  // namespace terrabake::dem

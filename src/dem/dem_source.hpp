@@ -1,7 +1,11 @@
 #pragma once
-// The DEM a job tiles: one raster GDAL reads (band 1 of a GeoTIFF, HGT, VRT
-// ...), or several merged in priority order, and windows of it resampled onto
-// a tile's texel grid in any CRS.
+// The DEM a job tiles: one raster GDAL reads (a band of a GeoTIFF, HGT, VRT
+// ..., any path GDAL opens, /vsizip/ and /vsicurl/ included), or several
+// merged in priority order, and windows of it resampled onto a tile's texel
+// grid in any CRS.
+#include <cstdint>
+#include <limits>
+#include <list>
 #include <memory>
 #include <optional>
 #include <string>
@@ -16,7 +20,9 @@ struct DemInfo {
   GridSpec grid;                 // pixel grid and CRS (WKT); merged: the first file's, over all
   std::optional<double> nodata;  // as the (first) file declares it
   int overview_count = 0;
-  std::string data_type;         // of band 1, as GDAL names it: "Int16", "Float32", ...
+  std::string data_type;         // of the band read, as GDAL names it: "Int16", "Float32", ...
+  int band = 1;                  // the band heights are read from
+  int band_count = 1;
   std::string crs_name;          // "WGS 84 / UTM zone 32N"
   std::optional<int> epsg;       // when the CRS is, or matches, an EPSG code
   std::string crs_unit;          // of the grid's axes: "metre", "degree", ...
@@ -27,9 +33,28 @@ struct DemInfo {
 // texel's footprint (footprint_average.hpp), from an overview when the file
 // has one no finer than needed. Decided once per zoom so every tile of a
 // level reads the same way and neighbours match at their edges.
+// Where a texel spans more than kMaxPixelsPerCell pixels of the finest level
+// available and that level is large, it is read decimated (GDAL's nearest
+// sampling onto a coarser grid) before the footprint mean, so the work of a
+// read follows the texels, not the DEM's size.
 struct FilePlan {
   bool average = false;
   int overview = -1;  // -1: full resolution, else GDAL overview index
+  int decimate = 1;   // read every decimate-th pixel of that level
+};
+
+// Heights of terrain on Earth, in metres: the deepest trench is 10,935 m
+// below sea level, the highest summit 8,849 m above. Heights beyond are voids.
+inline constexpr double kMinPlausibleHeightM = -12000;
+inline constexpr double kMaxPlausibleHeightM = 10000;
+
+// How a job reads its DEM files.
+struct DemOptions {
+  int band = 1;  // of every file
+  // Heights beyond this range, in DEM units, are voids (the plausible range
+  // divided by heights.z_scale).
+  double min_height = kMinPlausibleHeightM;
+  double max_height = kMaxPlausibleHeightM;
 };
 
 struct ReadPlan {
@@ -37,18 +62,28 @@ struct ReadPlan {
 };
 
 class DemFile;
+class FileMeta;
 
 class DemSource {
  public:
   // `paths` in priority order: where an earlier file has no valid sample,
   // the next one shows through. A path with * ? or [ that names no file is a
-  // glob, expanded in sorted order. Throws InputError naming the culprit.
-  explicit DemSource(const std::vector<std::string>& paths);
+  // glob, expanded in sorted order. Every path goes to GDAL as written
+  // (/vsizip/..., /vsicurl/...); files that are not regular files (FIFOs,
+  // devices) are refused. Each file is opened once here to learn what it is
+  // and closed; reads open the files they reach, keeping a bounded number
+  // open. Throws InputError naming the culprit.
+  explicit DemSource(const std::vector<std::string>& paths, const DemOptions& options = {});
   ~DemSource();
   DemSource(DemSource&&) noexcept;
   DemSource& operator=(DemSource&&) noexcept;
 
-  const DemInfo& info() const { return m_info; }
+  // Another reader of the same files, for another thread: it shares what
+  // the files are and opens its own handles when it reads.
+  DemSource reader() const;
+
+  const DemInfo& info() const;
+  std::size_t fileCount() const;
 
   // The union of the files' extents in another CRS.
   Extent boundsIn(const std::string& crs) const;
@@ -57,13 +92,37 @@ class DemSource {
   ReadPlan planFor(const GridSpec& representative) const;
 
   // Heights on `grid`, NaN where no valid sample of any file reaches. Void
-  // samples are the declared nodata value, NaN, infinities and the void
-  // markers -32768 and -32767 (SRTM), declared or not.
+  // samples are the declared nodata value, NaN, infinities, the void markers
+  // -32768 and -32767 (SRTM), declared or not, and heights beyond the
+  // options' plausible range. Files whose extent the grid misses are not opened.
   Raster<float> read(const GridSpec& grid, const ReadPlan& plan) const;
 
+  // Closes every file this reader holds open (they reopen when read again).
+  void closeFiles() const;
+
+  // Warnings about the files (several bands, an image), once each.
+  std::vector<std::string> warnings() const;
+  // One line per file whose reads met implausible heights (infinite or
+  // beyond the range), with how many samples were read as voids; empty when
+  // none did. Counts every read of this source and its readers.
+  std::vector<std::string> implausibleReport() const;
+
+  // How many GDAL datasets all readers of the process may hold open at once:
+  // from the open-file limit (RLIMIT_NOFILE), leaving room for the rest.
+  static int openDatasetLimit();
+
  private:
-  std::vector<std::unique_ptr<DemFile>> m_files;
-  DemInfo m_info;
+  struct Shared;
+  DemSource() = default;
+  DemFile& open(std::size_t index) const;
+  void closeLeastRecent() const;
+  void recount(DemFile& file, int before) const;
+
+  std::shared_ptr<const Shared> m_shared;
+  // The handles of this reader (one thread's): opened by reads, so mutable.
+  mutable std::vector<std::unique_ptr<DemFile>> m_open;  // by file index; null while closed
+  mutable std::list<std::size_t> m_recent;                // open files, most recently read first
+  mutable int m_counted_handles = 0;                      // what it holds of the process budget
 };
 
 }  // namespace terrabake::dem

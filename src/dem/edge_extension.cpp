@@ -51,7 +51,7 @@ std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
 
 }  // namespace
 
-GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file) {
+GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   const int width = file.GetRasterXSize(), height = file.GetRasterYSize();
   VRTDatasetH vrt = VRTCreate(width + 2 * kPixels, height + 2 * kPixels);
   if (!vrt) return nullptr;
@@ -65,7 +65,7 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file) {
   GDALRasterBandH band = GDALGetRasterBand(vrt, 1);
   // Where no source reaches, a VRT reads its nodata value: NaN, a void.
   GDALSetRasterNoDataValue(band, NAN);
-  if (VRTAddSimpleSource(band, GDALRasterBand::ToHandle(file.GetRasterBand(1)), 0, 0, width, height, kPixels,
+  if (VRTAddSimpleSource(band, GDALRasterBand::ToHandle(file.GetRasterBand(band_index)), 0, 0, width, height, kPixels,
                          kPixels, width, height, nullptr, VRT_NODATA_UNSET) != CE_None) {
     GDALClose(vrt);
     return nullptr;

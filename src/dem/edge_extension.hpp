@@ -35,11 +35,11 @@ class EdgeExtension {
   // behind the second ring.
   static constexpr int kSourceExtra = kPixels + 3;
 
-  // `file` (band 1, as Float32) inside a border of kPixels void pixels, as a
+  // `file` (band `band`, as Float32) inside a border of kPixels void pixels, as a
   // new in-memory VRT over it that the caller closes: beyond the file's edge
   // the warper then loads pixels that extend() can fill. `file` must outlive
   // it. Returns nullptr when GDAL cannot make it.
-  static GDALDataset* withVoidBorder(GDALDataset& file);
+  static GDALDataset* withVoidBorder(GDALDataset& file, int band = 1);
 
   // Pre-warp step, once void pixels are marked invalid in the chunk's
   // unified validity mask: void pixels within kPixels of data get

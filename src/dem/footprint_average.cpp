@@ -98,7 +98,7 @@ std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const G
 }  // namespace
 
 std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const LatticeTransformer& to_source,
-                                                  const GridSpec& grid, const std::optional<double>& nodata) {
+                                                  const GridSpec& grid, const VoidRule& voids) {
   Raster<float> heights(grid.width, grid.height, NAN);
   const std::vector<Footprint> footprints = footprintsOf(to_source, grid);
 
@@ -141,7 +141,12 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
       return std::nullopt;
     }
     data.resize(count);
-    for (std::size_t i = 0; i < count; ++i) data[i] = !isVoid(strip[i], nodata);
+    long long implausible = 0;
+    for (std::size_t i = 0; i < count; ++i) {
+      data[i] = !voids.isVoid(strip[i]);
+      if (!data[i] && voids.isImplausible(strip[i])) ++implausible;
+    }
+    voids.count(implausible);
     valid = data;
     extendIntoVoids(strip.data(), valid, int(cols), rows);
     for (std::size_t k = 0; k < footprints.size(); ++k) {

@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "core/types.hpp"
+#include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
 
@@ -26,6 +27,6 @@ class LatticeTransformer;
 // Reads the level in strips of bounded size, whatever the texels span.
 // Nullopt when GDAL cannot read the band (its last error says why).
 std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const LatticeTransformer& to_source,
-                                                  const GridSpec& grid, const std::optional<double>& nodata);
+                                                  const GridSpec& grid, const VoidRule& voids);
 
 }  // namespace terrabake::dem

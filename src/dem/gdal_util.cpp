@@ -24,6 +24,13 @@ void ensureGdalReady() {
   std::call_once(once, [] {
     GDALAllRegister();
     CPLSetErrorHandler(routeGdalMessage);
+    // GDAL lists a file's folder on every open to find its side files; with
+    // thousands of DEM tiles in one folder that is most of the work. Side
+    // files (.ovr, .aux.xml, .msk) are then probed one by one instead. A
+    // setting in the environment wins.
+    if (!CPLGetConfigOption("GDAL_DISABLE_READDIR_ON_OPEN", nullptr)) {
+      CPLSetConfigOption("GDAL_DISABLE_READDIR_ON_OPEN", "TRUE");
+    }
   });
 }
 

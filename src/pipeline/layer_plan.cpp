@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "dem/crs_transform.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
@@ -29,19 +30,54 @@ std::string lonLatText(const Extent& e) {
   return text;
 }
 
+// The DEM's lon/lat box as pieces that each lie within -180..180: two when
+// it crosses the antimeridian (GDAL gives west > east then, or a longitude
+// beyond 180 for a geographic DEM stored past it).
+std::vector<Extent> lonLatPieces(const Extent& box) {
+  Extent e = box;
+  if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
+  if (e.min_x < -180) e.min_x += 360, e.max_x += 360;
+  if (e.max_x - e.min_x >= 360 || e.max_x <= 180) {
+    return {{std::max(e.min_x, -180.0), e.min_y, std::min(e.max_x, 180.0), e.max_y}};
+  }
+  return {{e.min_x, e.min_y, 180, e.max_y}, {-180, e.min_y, e.max_x - 360, e.max_y}};
+}
+
 // What the layer covers in longitude / latitude: the DEM's bounds, within the
-// latitudes the scheme reaches and within the job's bbox.
-Extent lonLatCover(const config::TileJob& job, const tiling::Scheme& scheme, const dem::DemSource& dem) {
-  Extent cover = dem.boundsIn(kLonLat);
-  cover.min_y = std::max(cover.min_y, -scheme.maxLatDeg());
-  cover.max_y = std::min(cover.max_y, scheme.maxLatDeg());
+// latitudes the scheme reaches and within the job's bbox, in one piece or
+// two (across the antimeridian). Throws NothingToMake when nothing is left.
+std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme& scheme,
+                                const dem::DemSource& dem) {
+  const Extent bounds = dem.boundsIn(kLonLat);
+  std::vector<Extent> cover;
+  for (Extent piece : lonLatPieces(bounds)) {
+    piece.min_y = std::max(piece.min_y, -scheme.maxLatDeg());
+    piece.max_y = std::min(piece.max_y, scheme.maxLatDeg());
+    if (piece.min_y < piece.max_y) cover.push_back(piece);
+  }
+  if (cover.empty()) {
+    char lat[96];
+    std::snprintf(lat, sizeof lat, "lat %.8g to %.8g", bounds.min_y, bounds.max_y);
+    throw NothingToMake("nothing to make: '" + shortened(dem.info().path) + "' (" + lat + ") lies beyond the " +
+                        "latitudes " + scheme.name() + " tiles reach (" + std::to_string(scheme.maxLatDeg()) +
+                        " north and south); use --scheme geodetic or native");
+  }
   if (job.bbox.empty()) return cover;
   const Extent box{job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]};
-  if (!box.intersects(cover)) {
-    throw UsageError("tiling.bbox: " + lonLatText(box) + " does not overlap '" + dem.info().path + "' (" +
-                     lonLatText(cover) + ")");
+  std::vector<Extent> inside;
+  for (const Extent& piece : cover) {
+    if (box.intersects(piece)) inside.push_back(intersection(piece, box));
   }
-  return intersection(cover, box);
+  if (inside.empty()) {
+    Extent all = cover.front();
+    for (const Extent& piece : cover) {
+      all = {std::min(all.min_x, piece.min_x), std::min(all.min_y, piece.min_y), std::max(all.max_x, piece.max_x),
+             std::max(all.max_y, piece.max_y)};
+    }
+    throw NothingToMake("tiling.bbox: " + lonLatText(box) + " does not overlap '" + shortened(dem.info().path) +
+                        "' (" + lonLatText(all) + "): nothing to make");
+  }
+  return inside;
 }
 
 // The job's zooms with "auto" resolved, checked against the scheme.
@@ -123,35 +159,82 @@ std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Sch
 
 LayerPlan planLayer(const config::TileJob& job) {
   config::validate(job, "job");
-  const dem::DemSource dem(job.dems);
+  dem::DemOptions options;
+  options.band = job.band;
+  options.min_height = dem::kMinPlausibleHeightM / job.z_scale;
+  options.max_height = dem::kMaxPlausibleHeightM / job.z_scale;
+  const auto dem = std::make_shared<const dem::DemSource>(job.dems, options);
+  for (const std::string& warning : dem->warnings()) log::warning(warning);
   LayerPlan plan;
   plan.dem_paths = job.dems;
-  plan.scheme = tiling::makeScheme(job.scheme, job.tile_size, &dem.info().grid);
+  plan.dem = dem;
+  plan.scheme = tiling::makeScheme(job.scheme, job.tile_size, &dem->info().grid);
   plan.settings = tileSettings(job);
-  const Extent dem_area = dem.boundsIn(plan.scheme->crs());
-  std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, dem);
+  const std::vector<Extent> lon_lat = lonLatCover(job, *plan.scheme, *dem);
+  // Across the antimeridian a global scheme takes the pieces each side; else
+  // the DEM's extent transformed straight into the scheme's CRS.
+  std::vector<Extent> pieces;
+  for (const Extent& piece : lonLatPieces(dem->boundsIn(kLonLat))) {
+    if (const auto area = plan.scheme->fromLonLat(piece)) pieces.push_back(*area);
+  }
+  const bool across = pieces.size() > 1;
+  const Extent dem_area = across ? pieces.front() : dem->boundsIn(plan.scheme->crs());
+  std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);
   }
-  const Extent lon_lat = lonLatCover(job, *plan.scheme, dem);
-  plan.area = job.bbox.empty()
-                  ? dem_area
-                  : intersection(dem_area, dem::transformExtent(lon_lat, kLonLat, plan.scheme->crs()));
+  if (across) {
+    for (const Extent& piece : lon_lat) plan.areas.push_back(*plan.scheme->fromLonLat(piece));
+    plan.area = plan.areas.front();
+  } else {
+    plan.area = job.bbox.empty()
+                    ? dem_area
+                    : intersection(dem_area, dem::transformExtent(lon_lat.front(), kLonLat, plan.scheme->crs()));
+    plan.areas = {plan.area};
+  }
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
     // Judged at a tile in the middle of the DEM, the same for the whole zoom
     // whatever the bbox, so a bbox run writes the bytes a whole run does.
-    const auto tiles = plan.scheme->tilesCovering(dem_area, z);
-    plan.read_plans[z] = dem.planFor(plan.scheme->texelGrid(tiles[tiles.size() / 2], plan.settings.apron));
+    const tiling::TileRange tiles = plan.scheme->rangeCovering(dem_area, z);
+    const TileId middle = plan.scheme->tileAt(tiles, tiles.count() / 2);
+    plan.read_plans[z] = dem->planFor(plan.scheme->texelGrid(middle, plan.settings.apron));
   }
-  plan.backdrop = std::make_shared<const dem::Backdrop>(dem, plan.scheme->crs());
+  plan.backdrop = std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs());
+  dem->closeFiles();  // the workers open their own
   plan.backend = job.backend;
   plan.workers = job.workers > 0 ? job.workers : int(std::max(1u, std::thread::hardware_concurrency()));
   plan.layer_name = job.layer;
   plan.format = job.format;
   plan.location = io::layerLocation(job.output_dir, job.layer, job.format);
   plan.fingerprint = config::layerFingerprint(job);
-  plan.tilejson = io::tileJson(tileJsonInfo(job, plan, lon_lat));
+  Extent bounds = lon_lat.front();
+  if (lon_lat.size() > 1) bounds.max_x = lon_lat.back().max_x;  // west > east: across the antimeridian
+  plan.tilejson = io::tileJson(tileJsonInfo(job, plan, bounds));
   return plan;
+}
+
+TileList::TileList(const LayerPlan& plan) : m_scheme(plan.scheme) {
+  for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
+    for (const Extent& area : plan.areas) {
+      const tiling::TileRange range = plan.scheme->rangeCovering(area, z);
+      if (range.count() == 0) continue;
+      m_ranges.push_back(range);
+      m_starts.push_back(m_size);
+      m_size += range.count();
+    }
+  }
+}
+
+std::uint64_t TileList::sizeAt(int zoom) const {
+  std::uint64_t count = 0;
+  for (const tiling::TileRange& range : m_ranges) count += range.zoom == zoom ? range.count() : 0;
+  return count;
+}
+
+TileId TileList::at(std::uint64_t index) const {
+  const auto next = std::upper_bound(m_starts.begin(), m_starts.end(), index);
+  const std::size_t k = std::size_t(next - m_starts.begin()) - 1;
+  return m_scheme->tileAt(m_ranges[k], index - m_starts[k]);
 }
 
 }  // namespace terrabake::pipeline

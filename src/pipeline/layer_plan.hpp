@@ -5,6 +5,7 @@
 // The batch runner and the tile server both start from it, so a tile baked
 // on demand has the bytes a batch run writes; nothing downstream reads the
 // job again.
+#include <cstdint>
 #include <map>
 #include <memory>
 #include <string>
@@ -36,10 +37,16 @@ struct TileSettings {
 
 struct LayerPlan {
   std::vector<std::string> dem_paths;  // in priority order
+  // The DEM files as the plan learnt them, shared by every worker, which
+  // reads through its own DemSource::reader().
+  std::shared_ptr<const dem::DemSource> dem;
   std::shared_ptr<const tiling::Scheme> scheme;
   int min_zoom = 0;  // the job's zooms, "auto" resolved
   int max_zoom = 0;
   Extent area;  // what the run covers in the scheme's CRS: the DEM's extent, within tiling.bbox
+  // The same as one or more boxes: two for a DEM across the antimeridian,
+  // one each side, so the run makes only the tiles it covers.
+  std::vector<Extent> areas;
   std::map<int, dem::ReadPlan> read_plans;  // per zoom of the job
   std::shared_ptr<const dem::Backdrop> backdrop;
   TileSettings settings;
@@ -54,9 +61,25 @@ struct LayerPlan {
   std::string tilejson;     // tile URLs relative to the layer folder
 };
 
-// Validates the job and opens its DEM. Throws UsageError for a bad job,
-// zooms the scheme does not have or a bbox beside the DEM, InputError for a
-// DEM that cannot be read.
+// Validates the job and opens its DEM. Throws UsageError for a bad job or
+// zooms the scheme does not have, InputError for a DEM that cannot be read,
+// NothingToMake for a DEM beyond the scheme's latitudes or a bbox beside it.
 LayerPlan planLayer(const config::TileJob& job);
+
+// The tiles of a job, zoom by zoom in the order runs make them, counted and
+// indexed without listing them (a world at zoom 16 is 4 billion tiles).
+class TileList {
+ public:
+  explicit TileList(const LayerPlan& plan);
+  std::uint64_t size() const { return m_size; }
+  std::uint64_t sizeAt(int zoom) const;
+  TileId at(std::uint64_t index) const;
+
+ private:
+  std::shared_ptr<const tiling::Scheme> m_scheme;
+  std::vector<tiling::TileRange> m_ranges;
+  std::vector<std::uint64_t> m_starts;  // index of each range's first tile
+  std::uint64_t m_size = 0;
+};
 
 }  // namespace terrabake::pipeline

@@ -33,30 +33,42 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   // Everything that can fail for the whole run fails here, before any tile.
   const auto plan = std::make_shared<const LayerPlan>(planLayer(job));
+  const TileList all(*plan);
+  const std::uint64_t first = std::uint64_t(options.shard - 1), step = std::uint64_t(options.shard_count);
+  const std::uint64_t mine = all.size() > first ? (all.size() - first - 1) / step + 1 : 0;
+  if (mine > kMaxTilesPerRun) {
+    std::string zooms;
+    for (int z = plan->min_zoom; z <= plan->max_zoom; ++z) {
+      zooms += (zooms.empty() ? "" : ", ") + std::string("z") + std::to_string(z) + " " +
+               std::to_string(all.sizeAt(z));
+    }
+    throw UsageError("tiling: the job makes " + std::to_string(mine) + " tiles (" + zooms + "), more than " +
+                     std::to_string(kMaxTilesPerRun) +
+                     " in one run; narrow it with --bbox or --zoom, or split it with --shard");
+  }
   const std::unique_ptr<TileSink> sink = openSink(*plan);
   sink->claim(plan->fingerprint, options.force);
   RunSummary summary;
   summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.
-  std::vector<TileId> all;
   for (int z = plan->min_zoom; z <= plan->max_zoom; ++z) {
-    const auto level = plan->scheme->tilesCovering(plan->area, z);
-    log::info("zoom " + std::to_string(z) + ": " + std::to_string(level.size()) + " tiles");
-    all.insert(all.end(), level.begin(), level.end());
+    log::info("zoom " + std::to_string(z) + ": " + std::to_string(all.sizeAt(z)) + " tiles");
   }
-  const std::vector<TileId> tiles = shardTiles(all, options.shard, options.shard_count);
   if (options.shard_count > 1) {
     log::info("shard " + std::to_string(options.shard) + "/" + std::to_string(options.shard_count) + ": " +
-              std::to_string(tiles.size()) + " of " + std::to_string(all.size()) + " tiles");
+              std::to_string(mine) + " of " + std::to_string(all.size()) + " tiles");
   }
+  // This run's i-th tile, without listing them.
+  const auto tileOf = [&](std::uint64_t i) { return all.at(first + i * step); };
+  const std::size_t count = std::size_t(mine);
 
-  const int workers = std::max(1, std::min(plan->workers, int(tiles.size())));
+  const int workers = int(std::max<std::uint64_t>(1, std::min<std::uint64_t>(std::uint64_t(plan->workers), mine)));
   std::atomic<std::size_t> next{0};
   std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
   std::once_flag renderer_logged;
-  Progress progress(tiles.size(), ::isatty(STDERR_FILENO));
+  Progress progress(count, ::isatty(STDERR_FILENO));
 
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
@@ -65,15 +77,15 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     } catch (...) {
       std::lock_guard<std::mutex> lock(fatal_mutex);
       if (!fatal) fatal = std::current_exception();
-      next = tiles.size();  // stop the other workers
+      next = count;  // stop the other workers
       return;
     }
     std::call_once(renderer_logged, [&] {
       summary.renderer = maker->bakerDescription();
       log::info("baking with " + summary.renderer);
     });
-    for (std::size_t i = next++; i < tiles.size(); i = next++) {
-      const TileId& tile = tiles[i];
+    for (std::size_t i = next++; i < count; i = next++) {
+      const TileId tile = tileOf(i);
       try {
         if (options.resume && sink->hasTile(tile)) {
           ++skipped;
@@ -103,6 +115,20 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   summary.empty = empty;
   summary.failed = failed;
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  for (const std::string& line : plan->dem->implausibleReport()) log::warning(line);
+  if (count == 0) {
+    log::info("shard " + std::to_string(options.shard) + "/" + std::to_string(options.shard_count) +
+              ": no tile of its own (the job has " + std::to_string(all.size()) + ")");
+  } else if (summary.written == 0 && summary.skipped == 0 && summary.failed == 0) {
+    const std::string reason = "no tile written: none of the " + std::to_string(count) +
+                               " tiles of the " + (options.shard_count > 1 ? "shard" : "job") +
+                               " holds a valid DEM sample (every sample is nodata, NaN or implausible there)";
+    if (options.shard_count > 1) {
+      log::warning(reason);  // other shards may still make theirs
+    } else {
+      summary.nothing_made = reason;
+    }
+  }
   return summary;
 }
 

@@ -1,6 +1,7 @@
 #pragma once
 // Runs a `terrabake tile` job: every tile of every requested zoom, on N
 // worker threads, written atomically into <output.dir>/<output.layer>/.
+#include <cstdint>
 #include <string>
 #include <vector>
 
@@ -26,7 +27,15 @@ struct RunSummary {
   int empty = 0;    // no valid DEM sample: not written
   int failed = 0;   // each one logged with its tile id
   double seconds = 0;
+  // Why nothing was made, when a job (not a shard) wrote no tile, skipped
+  // none and failed none: every tile it covers was empty. Empty otherwise.
+  std::string nothing_made;
 };
+
+// The most tiles one run (one shard) makes: a job beyond is refused before
+// any work, with its tile count, so a mistyped zoom does not start a run of
+// years. A planet at zoom 13 is 67,108,864 tiles.
+inline constexpr std::uint64_t kMaxTilesPerRun = std::uint64_t(1) << 26;
 
 // The tiles of a job at every zoom, in the order runs make them; a shard
 // makes every shard_count-th of them, so shards never share a tile.
@@ -34,7 +43,9 @@ std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int 
 
 // Throws UsageError / InputError for problems that stop the whole run
 // (unreadable DEM, unwritable output, no GL context, a layer another job
-// made); a failing tile is counted and logged, and the run goes on.
+// made, more than kMaxTilesPerRun tiles), NothingToMake when the job covers
+// no tile (see planLayer); a failing tile is counted and logged, and the
+// run goes on.
 RunSummary runTileJob(const config::TileJob& job, const RunOptions& options = {});
 
 }  // namespace terrabake::pipeline

@@ -85,7 +85,7 @@ struct TileMaker::Impl {
   std::unique_ptr<bake::Baker> baker;
 
   explicit Impl(std::shared_ptr<const LayerPlan> p)
-      : dem(p->dem_paths),
+      : dem(p->dem->reader()),
         plan(std::move(p)),
         scheme(*plan->scheme),
         settings(plan->settings),

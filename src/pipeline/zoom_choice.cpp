@@ -50,7 +50,7 @@ int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::Dem
 
 int oneTileZoom(const tiling::Scheme& scheme, const Extent& area, int max_zoom) {
   int zoom = 0;
-  for (int z = 0; z <= max_zoom && scheme.tilesCovering(area, z).size() == 1; ++z) zoom = z;
+  for (int z = 0; z <= max_zoom && scheme.rangeCovering(area, z).count() == 1; ++z) zoom = z;
   return zoom;
 }
 

@@ -31,16 +31,31 @@ Extent Scheme::tileExtent(const TileId& tile) const {
           g.west + (tile.x + 1) * g.tile_w, g.north - row_from_north * g.tile_h};
 }
 
-std::vector<TileId> Scheme::tilesCovering(const Extent& area, int zoom) const {
+TileRange Scheme::rangeCovering(const Extent& area, int zoom) const {
   const LevelGrid g = levelGrid(zoom);
-  const int x0 = std::clamp(int(std::floor((area.min_x - g.west) / g.tile_w)), 0, g.cols - 1);
-  const int x1 = std::clamp(int(std::ceil((area.max_x - g.west) / g.tile_w)) - 1, 0, g.cols - 1);
-  const int r0 = std::clamp(int(std::floor((g.north - area.max_y) / g.tile_h)), 0, g.rows - 1);
-  const int r1 = std::clamp(int(std::ceil((g.north - area.min_y) / g.tile_h)) - 1, 0, g.rows - 1);
+  // Clamped in floating point first, so an area far beyond the grid cannot overflow an int.
+  const auto index = [](double v, int high) { return int(std::clamp(v, 0.0, double(high))); };
+  TileRange range;
+  range.zoom = zoom;
+  range.x0 = index(std::floor((area.min_x - g.west) / g.tile_w), g.cols - 1);
+  range.x1 = index(std::ceil((area.max_x - g.west) / g.tile_w) - 1, g.cols - 1);
+  range.r0 = index(std::floor((g.north - area.max_y) / g.tile_h), g.rows - 1);
+  range.r1 = index(std::ceil((g.north - area.min_y) / g.tile_h) - 1, g.rows - 1);
+  return range;
+}
+
+TileId Scheme::tileAt(const TileRange& range, std::uint64_t index) const {
+  const std::uint64_t cols = std::uint64_t(range.x1 - range.x0 + 1);
+  const int r = range.r0 + int(index / cols);
+  const int x = range.x0 + int(index % cols);
+  return {range.zoom, x, tmsRows() ? levelGrid(range.zoom).rows - 1 - r : r};
+}
+
+std::vector<TileId> Scheme::tilesCovering(const Extent& area, int zoom) const {
+  const TileRange range = rangeCovering(area, zoom);
   std::vector<TileId> tiles;
-  for (int r = r0; r <= r1; ++r) {
-    for (int x = x0; x <= x1; ++x) tiles.push_back({zoom, x, tmsRows() ? g.rows - 1 - r : r});
-  }
+  tiles.reserve(std::size_t(range.count()));
+  for (std::uint64_t i = 0; i < range.count(); ++i) tiles.push_back(tileAt(range, i));
   return tiles;
 }
 

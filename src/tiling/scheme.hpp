@@ -2,6 +2,7 @@
 // Tiling schemes (docs/CONTRACT.md §2): which tiles exist at a zoom, where
 // each lies in the scheme's CRS, and the texel grid of a tile. A scheme owns
 // its tile size and, for the global schemes, its lon/lat <-> CRS mapping.
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <string>
@@ -11,6 +12,18 @@
 #include "core/types.hpp"
 
 namespace terrabake::tiling {
+
+// The tiles of one zoom that overlap an area, without listing them: columns
+// x0..x1 and rows r0..r1 counted from the north, in row-major order from the
+// north-west. Empty when x1 < x0.
+struct TileRange {
+  int zoom = 0;
+  int x0 = 0, x1 = -1;
+  int r0 = 0, r1 = -1;
+  std::uint64_t count() const {
+    return x1 < x0 || r1 < r0 ? 0 : std::uint64_t(x1 - x0 + 1) * std::uint64_t(r1 - r0 + 1);
+  }
+};
 
 // The tiles of one zoom level: a regular grid in the scheme's CRS.
 struct LevelGrid {
@@ -49,6 +62,10 @@ class Scheme {
   // Tiles at `zoom` whose extent overlaps `area` (in the scheme's CRS), in
   // row-major order from the north-west.
   std::vector<TileId> tilesCovering(const Extent& area, int zoom) const;
+  // The same tiles as a range: counted and indexed without listing them.
+  TileRange rangeCovering(const Extent& area, int zoom) const;
+  // Tile `index` (< range.count()) of the range, in tilesCovering's order.
+  TileId tileAt(const TileRange& range, std::uint64_t index) const;
   // Whether `tile` is one of tilesCovering(area, tile.z), without listing the zoom.
   bool covers(const Extent& area, const TileId& tile) const;
 

@@ -1,0 +1,395 @@
+// Inputs as users give them, through the real executable: paths GDAL opens
+// (/vsizip/), many files under the default open-file limit, DEMs stored
+// flipped, implausible heights, images and complex rasters, DEMs the job
+// cannot use (a whole world at zoom 16, a raster 2^31 pixels wide, a FIFO,
+// beyond the scheme's latitudes, across the antimeridian), and jobs that
+// make nothing, each with its documented exit code.
+#include <gtest/gtest.h>
+
+#include <cpl_vsi.h>
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+#include <sys/stat.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <map>
+#include <memory>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "child_process.hpp"
+#include "test_helpers.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using test::caseDir;
+using test::snapshot;
+using test::writeText;
+
+// The documented exit codes (README.md), written out: they are the contract.
+constexpr int kExitOk = 0;
+constexpr int kExitUsage = 2;
+constexpr int kExitInput = 3;
+constexpr int kExitNothingMade = 5;
+
+struct RunResult {
+  int exit_code = -1;
+  bool timed_out = false;
+  double seconds = 0;
+  std::string out, err;
+};
+
+std::string describe(const RunResult& r) {
+  std::ostringstream s;
+  s << "exit code " << r.exit_code << (r.timed_out ? " (timed out)" : "") << " after " << r.seconds
+    << " s\n--- stdout:\n"
+    << r.out << "--- stderr:\n"
+    << r.err << "---";
+  return s.str();
+}
+
+RunResult run(const std::vector<std::string>& args, const test::ChildLimits& limits = {},
+              std::chrono::seconds limit = std::chrono::seconds(120)) {
+  const auto start = Clock::now();
+  test::ChildProcess child(args, limits);
+  RunResult r;
+  r.exit_code = child.wait(limit);
+  r.timed_out = child.timedOut();
+  r.seconds = std::chrono::duration<double>(Clock::now() - start).count();
+  r.out = child.out();
+  r.err = child.err();
+  return r;
+}
+
+bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+
+// A smooth terrain of `width` x `height` samples in EPSG:4326 (or `epsg`),
+// written with the geotransform `gt`; `height_at(col, row)` in storage order.
+void writeDem(const fs::path& path, int width, int height, const double (&gt)[6],
+              const std::function<float(int, int)>& height_at, int epsg = 4326, int bands = 1,
+              GDALDataType type = GDT_Float32) {
+  GDALAllRegister();
+  GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+  ASSERT_NE(driver, nullptr);
+  std::unique_ptr<GDALDataset> ds(driver->Create(path.c_str(), width, height, bands, type, nullptr));
+  ASSERT_NE(ds, nullptr) << path;
+  double transform[6];
+  std::copy(gt, gt + 6, transform);
+  ds->SetGeoTransform(transform);
+  OGRSpatialReference srs;
+  srs.importFromEPSG(epsg);
+  ds->SetSpatialRef(&srs);
+  std::vector<float> values(std::size_t(width) * std::size_t(height));
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) values[std::size_t(r) * std::size_t(width) + std::size_t(c)] = height_at(c, r);
+  }
+  for (int b = 1; b <= bands; ++b) {
+    ASSERT_EQ(ds->GetRasterBand(b)->RasterIO(GF_Write, 0, 0, width, height, values.data(), width, height,
+                                             GDT_Float32, 0, 0),
+              CE_None);
+  }
+}
+
+// Hills near 46 N, 10 E: 200 x 200 samples of 0.001 degrees, north-up.
+constexpr int kHillPixels = 200;
+constexpr double kHillWest = 10.0, kHillNorth = 46.0, kHillPixelDeg = 0.001;
+
+float hill(int col, int row) {
+  return float(500 + 80 * std::sin(col / 13.0) * std::cos(row / 17.0) + 0.5 * col);
+}
+
+void writeHills(const fs::path& path, const std::function<float(int, int)>& height_at = hill) {
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(path, kHillPixels, kHillPixels, gt, height_at);
+}
+
+std::vector<std::string> tileArgs(const fs::path& dem, const fs::path& out, const std::string& layer,
+                                  const std::string& zoom = "12") {
+  return {"tile", "--dem", dem.string(), "--zoom", zoom, "--out", out.string(), "--layer", layer,
+          "--backend", "cpu", "--workers", "2"};
+}
+
+// The tiles of a layer, .png and .glb, by name.
+std::map<std::string, std::string> tilesOf(const fs::path& layer) {
+  std::map<std::string, std::string> tiles;
+  for (const auto& [name, bytes] : snapshot(layer)) {
+    const std::string ext = fs::path(name).extension().string();
+    if (ext == ".png" || ext == ".glb") tiles[name] = bytes;
+  }
+  return tiles;
+}
+
+void expectSameTiles(const fs::path& a, const fs::path& b) {
+  const auto tiles_a = tilesOf(a), tiles_b = tilesOf(b);
+  ASSERT_FALSE(tiles_a.empty()) << a;
+  ASSERT_EQ(tiles_a.size(), tiles_b.size());
+  for (const auto& [name, bytes] : tiles_a) {
+    const auto other = tiles_b.find(name);
+    ASSERT_NE(other, tiles_b.end()) << name;
+    EXPECT_TRUE(bytes == other->second) << name << " differs";
+  }
+}
+
+// ------------------------------------------------------------ paths GDAL opens
+
+TEST(Inputs, DemInsideAZipTilesLikeTheUnzippedFile) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "dem.tif");
+  // The zip written through GDAL's own /vsizip/ writer.
+  const std::string bytes = test::readBytes(dir / "dem.tif");
+  const std::string zipped = "/vsizip/" + (dir / "dem.zip").string() + "/dem.tif";
+  VSILFILE* file = VSIFOpenL(zipped.c_str(), "wb");
+  ASSERT_NE(file, nullptr);
+  ASSERT_EQ(VSIFWriteL(bytes.data(), 1, bytes.size(), file), bytes.size());
+  VSIFCloseL(file);
+  fs::remove(dir / "dem.tif.aux.xml");
+
+  const RunResult plain = run(tileArgs(dir / "dem.tif", dir / "out", "plain"));
+  ASSERT_EQ(plain.exit_code, kExitOk) << describe(plain);
+  // As GDAL users write it, in a config file next to the zip (relative) and as a flag (absolute).
+  writeText(dir / "job.yaml", "dem: /vsizip/dem.zip/dem.tif\ntiling:\n  zoom: 12\noutput:\n  dir: out\n  layer: "
+                              "zipped\nbake:\n  backend: cpu\n  workers: 2\n");
+  const RunResult from_config = run({"tile", "--config", (dir / "job.yaml").string()});
+  ASSERT_EQ(from_config.exit_code, kExitOk) << describe(from_config);
+  expectSameTiles(dir / "out" / "plain", dir / "out" / "zipped");
+  const RunResult from_flag = run(tileArgs(zipped, dir / "out", "zipped_flag"));
+  ASSERT_EQ(from_flag.exit_code, kExitOk) << describe(from_flag);
+  expectSameTiles(dir / "out" / "plain", dir / "out" / "zipped_flag");
+
+  const RunResult missing = run(tileArgs("/vsizip/" + (dir / "dem.zip").string() + "/nothing.tif", dir / "out", "x"));
+  EXPECT_EQ(missing.exit_code, kExitInput) << describe(missing);
+  EXPECT_TRUE(contains(missing.err, "no such file")) << describe(missing);
+}
+
+// 1,100 files of 8 x 8 samples under one glob, 16 workers, and the default
+// limit of 1024 open files: more files than the limit, and every worker
+// reads many of them.
+TEST(Inputs, ThousandsOfFilesWorkUnderTheDefaultOpenFileLimit) {
+  const fs::path dir = caseDir();
+  constexpr int kFiles = 1100, kSide = 34, kPixels = 8;
+  constexpr double kPixelDeg = 0.002;
+  fs::create_directories(dir / "dems");
+  for (int i = 0; i < kFiles; ++i) {
+    const int r = i / kSide, c = i % kSide;
+    const double gt[6] = {10 + c * kPixels * kPixelDeg, kPixelDeg, 0, 46 - r * kPixels * kPixelDeg, 0, -kPixelDeg};
+    char name[32];
+    std::snprintf(name, sizeof name, "t%05d.tif", i);
+    writeDem(dir / "dems" / name, kPixels, kPixels, gt, [&](int col, int row) {
+      return float(300 + 20 * std::sin((c * kPixels + col) / 9.0) + 10 * std::cos((r * kPixels + row) / 7.0));
+    });
+    if (HasFatalFailure()) return;
+  }
+  std::vector<std::string> args = tileArgs(dir / "dems" / "*.tif", dir / "out", "many", "11");
+  args.back() = "16";  // workers
+  test::ChildLimits limits;
+  limits.open_files = 1024;
+  const RunResult r = run(args, limits);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_FALSE(contains(r.err, "Too many open files")) << describe(r);
+  EXPECT_GE(tilesOf(dir / "out" / "many").size(), 2u * 16) << describe(r);
+}
+
+// ------------------------------------------------------ work bounded by the job
+
+// A whole world of 0.1 degree samples: 3600 x 1800.
+fs::path worldDem() {
+  return test::sharedFixture("world_3600x1800.tif", [](const fs::path& path) {
+    const double gt[6] = {-180, 0.1, 0, 90, 0, -0.1};
+    writeDem(path, 3600, 1800, gt, [](int c, int r) { return float(1000 * std::sin(c / 180.0) * std::cos(r / 90.0)); });
+  });
+}
+
+TEST(Inputs, WorldDemTilesAHundredMetreBoxAtZoom16Quickly) {
+  const fs::path dir = caseDir();
+  test::ChildLimits limits;
+  limits.address_space = std::size_t(3) << 30;
+  std::vector<std::string> args = tileArgs(worldDem(), dir / "out", "world", "16");
+  args.insert(args.end(), {"--bbox", "10,45,10.0009,45.0009"});
+  const RunResult r = run(args, limits);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_LT(r.seconds, 20) << describe(r);
+  EXPECT_EQ(tilesOf(dir / "out" / "world").size(), 2u) << "one tile: .png and .glb\n" << describe(r);
+}
+
+TEST(Inputs, WorldDemAtZoom16WithoutABoxIsRefusedAtOnceWithItsTileCount) {
+  const fs::path dir = caseDir();
+  const fs::path dem = worldDem();
+  test::ChildLimits limits;
+  limits.address_space = std::size_t(3) << 30;
+  const RunResult r = run(tileArgs(dem, dir / "out", "world", "16"), limits);
+  EXPECT_EQ(r.exit_code, kExitUsage) << describe(r);
+  EXPECT_TRUE(contains(r.err, "4294967296 tiles")) << describe(r);
+  EXPECT_TRUE(contains(r.err, "--bbox")) << describe(r);
+  EXPECT_LT(r.seconds, 5) << describe(r);
+  EXPECT_FALSE(fs::exists(dir / "out" / "world" / "16")) << describe(r);
+}
+
+TEST(Inputs, VrtTwoToTheThirtyOnePixelsWideIsRefusedFast) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "dem.tif");
+  writeText(dir / "wide.vrt",
+            "<VRTDataset rasterXSize=\"2147483647\" rasterYSize=\"4\">\n"
+            "  <SRS>EPSG:4326</SRS>\n"
+            "  <GeoTransform>-180, 1e-7, 0, 46, 0, -0.001</GeoTransform>\n"
+            "  <VRTRasterBand dataType=\"Float32\" band=\"1\">\n"
+            "    <SimpleSource><SourceFilename relativeToVRT=\"1\">dem.tif</SourceFilename>"
+            "<SourceBand>1</SourceBand></SimpleSource>\n"
+            "  </VRTRasterBand>\n</VRTDataset>\n");
+  test::ChildLimits limits;
+  limits.address_space = std::size_t(3) << 30;
+  const RunResult r = run(tileArgs(dir / "wide.vrt", dir / "out", "wide", "3"), limits, std::chrono::seconds(60));
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  EXPECT_TRUE(contains(r.err, "2147483647 x 4 pixels")) << describe(r);
+  EXPECT_LT(r.seconds, 5) << describe(r);
+}
+
+TEST(Inputs, FifoAsDemOrConfigIsRefusedAtOnce) {
+  const fs::path dir = caseDir();
+  const fs::path fifo = dir / "pipe";
+  ASSERT_EQ(::mkfifo(fifo.c_str(), 0600), 0);
+  const RunResult dem = run(tileArgs(fifo, dir / "out", "fifo"), {}, std::chrono::seconds(10));
+  EXPECT_EQ(dem.exit_code, kExitInput) << describe(dem);
+  EXPECT_TRUE(contains(dem.err, "FIFO")) << describe(dem);
+  EXPECT_LT(dem.seconds, 5) << describe(dem);
+  const RunResult config = run({"tile", "--config", fifo.string()}, {}, std::chrono::seconds(10));
+  EXPECT_EQ(config.exit_code, kExitInput) << describe(config);
+  EXPECT_TRUE(contains(config.err, "FIFO")) << describe(config);
+  EXPECT_LT(config.seconds, 5) << describe(config);
+  const RunResult device = run({"tile", "--config", "/dev/zero"}, {}, std::chrono::seconds(10));
+  EXPECT_EQ(device.exit_code, kExitInput) << describe(device);
+  EXPECT_TRUE(contains(device.err, "character device")) << describe(device);
+}
+
+// ------------------------------------------------------------ garbage refused
+
+TEST(Inputs, FlippedDemsGiveTheTilesOfTheNorthUpOne) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "north_up.tif");
+  const int n = kHillPixels;
+  const double south = kHillNorth - n * kHillPixelDeg, east = kHillWest + n * kHillPixelDeg;
+  const double south_up[6] = {kHillWest, kHillPixelDeg, 0, south, 0, kHillPixelDeg};
+  writeDem(dir / "south_up.tif", n, n, south_up, [&](int c, int r) { return hill(c, n - 1 - r); });
+  const double east_west[6] = {east, -kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "east_west.tif", n, n, east_west, [&](int c, int r) { return hill(n - 1 - c, r); });
+  const double both[6] = {east, -kHillPixelDeg, 0, south, 0, kHillPixelDeg};
+  writeDem(dir / "both.tif", n, n, both, [&](int c, int r) { return hill(n - 1 - c, n - 1 - r); });
+  for (const std::string name : {"north_up", "south_up", "east_west", "both"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name, "11-12"));
+    ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
+  }
+  for (const std::string name : {"south_up", "east_west", "both"}) {
+    SCOPED_TRACE(name);
+    expectSameTiles(dir / "out" / "north_up", dir / "out" / name);
+  }
+}
+
+TEST(Inputs, RotatedDemIsRefusedByName) {
+  const fs::path dir = caseDir();
+  const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};
+  writeDem(dir / "rotated.tif", 50, 50, rotated, hill);
+  const RunResult r = run(tileArgs(dir / "rotated.tif", dir / "out", "rotated"));
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  EXPECT_TRUE(contains(r.err, "rotated")) << describe(r);
+}
+
+TEST(Inputs, ImplausibleHeightsAreVoidsWithAWarning) {
+  const fs::path dir = caseDir();
+  const auto in_block = [](int c, int r) { return c >= 60 && c < 80 && r >= 90 && r < 110; };
+  writeHills(dir / "huge.tif", [&](int c, int r) { return in_block(c, r) ? 1e30f : hill(c, r); });
+  writeHills(dir / "nan.tif", [&](int c, int r) { return in_block(c, r) ? NAN : hill(c, r); });
+  const RunResult huge = run(tileArgs(dir / "huge.tif", dir / "out", "huge"));
+  ASSERT_EQ(huge.exit_code, kExitOk) << describe(huge);
+  EXPECT_TRUE(contains(huge.err, "warning: dem: '" + (dir / "huge.tif").string() + "' holds heights")) << describe(huge);
+  EXPECT_TRUE(contains(huge.err, "treated as voids")) << describe(huge);
+  const RunResult nan = run(tileArgs(dir / "nan.tif", dir / "out", "nan"));
+  ASSERT_EQ(nan.exit_code, kExitOk) << describe(nan);
+  EXPECT_FALSE(contains(nan.err, "warning")) << describe(nan);
+  // 1e30 is a void exactly like NaN: no normal leans on it.
+  expectSameTiles(dir / "out" / "nan", dir / "out" / "huge");
+}
+
+TEST(Inputs, ImageBandsAreWarnedAboutAndComplexBandsRefused) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "rgb.tif", 64, 64, gt, [](int c, int r) { return float((c + r) % 256); }, 4326, 3, GDT_Byte);
+  const RunResult rgb = run(tileArgs(dir / "rgb.tif", dir / "out", "rgb"));
+  EXPECT_EQ(rgb.exit_code, kExitOk) << describe(rgb);
+  EXPECT_TRUE(contains(rgb.err, "has 3 bands")) << describe(rgb);
+  std::vector<std::string> band2 = tileArgs(dir / "rgb.tif", dir / "out", "rgb2");
+  band2.insert(band2.end(), {"--band", "4"});
+  const RunResult missing_band = run(band2);
+  EXPECT_EQ(missing_band.exit_code, kExitInput) << describe(missing_band);
+  EXPECT_TRUE(contains(missing_band.err, "asks for band 4")) << describe(missing_band);
+
+  writeDem(dir / "complex.tif", 16, 16, gt, [](int, int) { return 1.0f; }, 4326, 1, GDT_CFloat32);
+  const RunResult complex = run(tileArgs(dir / "complex.tif", dir / "out", "complex"));
+  EXPECT_EQ(complex.exit_code, kExitInput) << describe(complex);
+  EXPECT_TRUE(contains(complex.err, "complex")) << describe(complex);
+}
+
+TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {10, 0.1, 0, 95, 0, -0.1};
+  writeDem(dir / "beyond.tif", 50, 50, gt, hill);
+  const RunResult r = run(tileArgs(dir / "beyond.tif", dir / "out", "beyond"));
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
+}
+
+// 0.2 degrees across the antimeridian at 50 N, stored from 179.9 to 180.1:
+// zoom 12 has 4 tiles a side there (1 or 2 columns each side), not 4096.
+TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {179.9, kHillPixelDeg, 0, 50, 0, -kHillPixelDeg};
+  writeDem(dir / "across.tif", kHillPixels, kHillPixels, gt, hill);
+  const RunResult r = run(tileArgs(dir / "across.tif", dir / "out", "across"));
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.err, "zoom 12: 16 tiles")) << describe(r);
+  const auto tiles = tilesOf(dir / "out" / "across");
+  bool west = false, east = false;  // both sides of the antimeridian
+  for (const auto& [name, bytes] : tiles) {
+    west = west || name.rfind("12/4095/", 0) == 0;
+    east = east || name.rfind("12/0/", 0) == 0;
+  }
+  EXPECT_TRUE(west && east) << describe(r);
+}
+
+// ---------------------------------------------------------- nothing to make
+
+TEST(Inputs, JobsThatMakeNothingSayWhyWithTheirExitCode) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "void.tif", [](int, int) { return NAN; });
+  const RunResult all_void = run(tileArgs(dir / "void.tif", dir / "out", "void"));
+  EXPECT_EQ(all_void.exit_code, kExitNothingMade) << describe(all_void);
+  EXPECT_TRUE(contains(all_void.err, "warning: no tile written")) << describe(all_void);
+
+  const double polar[6] = {10, 0.01, 0, 89, 0, -0.01};
+  writeDem(dir / "polar.tif", 100, 100, polar, hill);
+  const RunResult beyond = run(tileArgs(dir / "polar.tif", dir / "out", "polar"));
+  EXPECT_EQ(beyond.exit_code, kExitNothingMade) << describe(beyond);
+  EXPECT_TRUE(contains(beyond.err, "beyond the latitudes webmercator tiles reach")) << describe(beyond);
+
+  writeHills(dir / "dem.tif");
+  std::vector<std::string> args = tileArgs(dir / "dem.tif", dir / "out", "box");
+  args.insert(args.end(), {"--bbox", "20,40,21,41"});
+  const RunResult box = run(args);
+  EXPECT_EQ(box.exit_code, kExitNothingMade) << describe(box);
+  EXPECT_TRUE(contains(box.err, "warning: tiling.bbox: lon 20 to 21, lat 40 to 41 does not overlap")) << describe(box);
+
+  // A shard with no tile of its own is a success: the job has at most 2 tiles at zoom 10.
+  std::vector<std::string> shard = tileArgs(dir / "dem.tif", dir / "out", "shard", "10");
+  shard.insert(shard.end(), {"--shard", "5/5"});
+  const RunResult empty_shard = run(shard);
+  EXPECT_EQ(empty_shard.exit_code, kExitOk) << describe(empty_shard);
+}
+
+}  // namespace
+}  // namespace terrabake
