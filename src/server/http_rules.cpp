@@ -4,7 +4,6 @@
 #include <cctype>
 #include <cstdint>
 #include <cstdio>
-#include <regex>
 #include <string_view>
 
 namespace terrabake::server {
@@ -72,11 +71,6 @@ bool noneMatchHits(const std::string& if_none_match, const std::string& etag) {
     rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
   }
   return false;
-}
-
-bool isPlausibleHost(const std::string& host) {
-  static const std::regex kHost(R"((?:[A-Za-z0-9.-]+|\[[0-9A-Fa-f:.]+\])(?::[0-9]{1,5})?)");
-  return host.size() <= 255 && std::regex_match(host, kHost);
 }
 
 std::string requestPath(const std::string& target) {

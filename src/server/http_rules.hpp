@@ -41,9 +41,6 @@ std::string contentEtag(const std::string& bytes);
 // matches `etag`. RFC 9110 compares weakly here: W/"x" matches "x".
 bool noneMatchHits(const std::string& if_none_match, const std::string& etag);
 
-// A Host header fit to build URLs from: host or [IPv6] with an optional port.
-bool isPlausibleHost(const std::string& host);
-
 // A comma-separated list of header names, safe to echo in
 // Access-Control-Allow-Headers.
 bool isHeaderNameList(const std::string& text);
