@@ -5,6 +5,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "core/error.hpp"
 #include "server/http_rules.hpp"
 
 namespace terrabake::server {
@@ -122,7 +123,13 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
       // and this thread goes on to other requests.
       const auto waiting = std::make_shared<const HttpRequest>(request);
       const LayerSource::Later later = [this, waiting, route, respond](TileAnswer answer) {
-        HttpReply late = fromTile(*waiting, route, answer);
+        HttpReply late;
+        try {
+          late = fromTile(*waiting, route, answer);
+        } catch (const std::exception& e) {
+          // The request must be answered: it waits with no timeout of its own.
+          late = text(500, "tile " + route.tile.str() + ": " + oneLine(e.what()));
+        }
         finish(late);
         respond(std::move(late));
       };

@@ -52,6 +52,19 @@ std::string hostPort(const std::string& host, int port) {
   return (ipv6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
 }
 
+// Runs `context` until it has no more work; a handler that throws is logged
+// and the thread goes on serving.
+void runContext(net::io_context& context) {
+  for (int failures = 0; failures < 1000000; ++failures) {
+    try {
+      context.run();
+      return;
+    } catch (const std::exception& e) {
+      log::error("http: " + oneLine(e.what()));
+    }
+  }
+}
+
 std::vector<std::unique_ptr<net::io_context>> makeContexts(int count) {
   std::vector<std::unique_ptr<net::io_context>> contexts;
   for (int i = 0; i < count; ++i) contexts.push_back(std::make_unique<net::io_context>(1));
@@ -205,10 +218,16 @@ class Session : public std::enable_shared_from_this<Session> {
     m_unread_body = in.has_body;
     m_busy = true;
     m_stream.expires_never();  // waiting for a bake is not the client's delay
-    m_server.handler.handle(in, [self = shared_from_this()](HttpReply reply) {
-      net::dispatch(self->m_stream.get_executor(),
-                    [self, reply = std::move(reply)]() mutable { self->write(std::move(reply)); });
-    });
+    try {
+      m_server.handler.handle(in, [self = shared_from_this()](HttpReply reply) {
+        net::dispatch(self->m_stream.get_executor(),
+                      [self, reply = std::move(reply)]() mutable { self->write(std::move(reply)); });
+      });
+    } catch (const std::exception& e) {
+      // Nothing was sent yet (the handler answers last): a 500 instead of a lost thread.
+      log::error(in.method + " " + in.path + ": " + oneLine(e.what()));
+      answerAndClose(m_server.handler.refusal(500, "internal error"));
+    }
   }
 
   void answerAndClose(HttpReply reply) {
@@ -374,9 +393,9 @@ void Server::run() {
   m_impl->accept();
   std::vector<std::thread> helpers;
   for (std::size_t i = 1; i < m_impl->contexts.size(); ++i) {
-    helpers.emplace_back([this, i] { m_impl->contexts[i]->run(); });
+    helpers.emplace_back([this, i] { runContext(*m_impl->contexts[i]); });
   }
-  m_impl->contexts[0]->run();
+  runContext(*m_impl->contexts[0]);
   for (std::thread& helper : helpers) helper.join();
 }
 
