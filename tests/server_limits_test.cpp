@@ -200,12 +200,11 @@ TEST(ServeLimits, IdleAndSlowHeaderClientsDoNotDelayAnOrdinaryRequest) {
   Sockets slow;
   for (int i = 0; i < 16; ++i) slow.fds.push_back(connectTo(running.port()));
   const std::string head = "GET /fake/3/1/1.png HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
-  // The slow clients send a byte a second; the ordinary request comes once
-  // they have each sent two.
-  for (std::size_t byte = 0; byte < 2; ++byte) {
-    for (const int fd : slow.fds) sendAll(fd, head.substr(byte, 1));
-    std::this_thread::sleep_for(std::chrono::milliseconds(1000));
-  }
+  // The slow clients send a byte a second: the ordinary request comes after
+  // the first second, their heads still unfinished.
+  for (const int fd : slow.fds) sendAll(fd, head.substr(0, 1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  for (const int fd : slow.fds) sendAll(fd, head.substr(1, 1));
   const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png");
   EXPECT_EQ(answer.status, 200);
   EXPECT_EQ(answer.body, world.cached_png);
@@ -219,42 +218,52 @@ TEST(ServeLimits, SlowHeadersAndIdleConnectionsAreClosedOnTime) {
   ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
   world.gate.open();
 
+  // Three clients at once, each timed from its start: when the server closed it.
+  double trickled_ms = -1, silent_ms = -1, kept_ms = -1;
+  int kept_status = -1;
+  bool kept_open_after_answer = false;
   // A head sent a byte every 100 ms never ends in time: closed after about 1 s.
-  {
+  std::thread trickle([&] {
     const int fd = connectTo(running.port());
-    ASSERT_GE(fd, 0);
     const auto start = Clock::now();
     const std::string head = "GET /fake/3/1/1.png HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
-    double closed_ms = -1;
-    for (std::size_t i = 0; closed_ms < 0 && msSince(start) < 5000; ++i) {
-      if (!sendAll(fd, std::string(1, i < head.size() ? head[i] : 'x'))) break;
-      closed_ms = msUntilClosed(fd, start, int(msSince(start)) + 100);
+    for (std::size_t i = 0; trickled_ms < 0 && msSince(start) < 5000; ++i) {
+      if (!sendAll(fd, std::string(1, i < head.size() ? head[i] : 'x'))) {
+        trickled_ms = msSince(start);  // reset by the server
+        break;
+      }
+      trickled_ms = msUntilClosed(fd, start, int(msSince(start)) + 100);
     }
-    if (closed_ms < 0) closed_ms = msSince(start);
     ::close(fd);
-    EXPECT_GT(closed_ms, 800);
-    EXPECT_LT(closed_ms, 3500) << "a byte-by-byte head kept its connection";
-  }
+  });
   // A connection that never sends anything: the same read timeout.
-  {
+  std::thread silent([&] {
     const int fd = connectTo(running.port());
-    const double ms = msUntilClosed(fd, Clock::now(), 5000);
+    silent_ms = msUntilClosed(fd, Clock::now(), 5000);
     ::close(fd);
-    EXPECT_GT(ms, 800);
-    EXPECT_LT(ms, 3500);
-  }
+  });
   // A kept-alive connection after its answer: the idle timeout.
-  {
+  std::thread kept([&] {
     const int fd = connectTo(running.port());
-    ASSERT_TRUE(sendAll(fd, "GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n"));
-    const RawAnswer answer = readAnswer(fd, false, Clock::now());
-    EXPECT_EQ(answer.status, 200);
-    EXPECT_FALSE(answer.closed);
-    const double ms = msUntilClosed(fd, Clock::now(), 5000);
+    if (sendAll(fd, "GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")) {
+      const RawAnswer answer = readAnswer(fd, false, Clock::now());
+      kept_status = answer.status;
+      kept_open_after_answer = !answer.closed;
+      kept_ms = msUntilClosed(fd, Clock::now(), 5000);
+    }
     ::close(fd);
-    EXPECT_GT(ms, 800);
-    EXPECT_LT(ms, 3500);
-  }
+  });
+  trickle.join();
+  silent.join();
+  kept.join();
+  EXPECT_GT(trickled_ms, 800);
+  EXPECT_LT(trickled_ms, 3500) << "a byte-by-byte head kept its connection";
+  EXPECT_GT(silent_ms, 800);
+  EXPECT_LT(silent_ms, 3500) << "a silent connection was kept";
+  EXPECT_EQ(kept_status, 200);
+  EXPECT_TRUE(kept_open_after_answer);
+  EXPECT_GT(kept_ms, 800);
+  EXPECT_LT(kept_ms, 3500) << "an idle kept-alive connection was kept";
 }
 
 TEST(ServeLimits, ConnectionsBeyondTheLimitAreRefusedAtOnce) {

@@ -98,6 +98,13 @@ struct Listener {
   std::chrono::seconds idle_timeout;
   std::uint32_t max_header_bytes = 0;
   int max_connections = 0;
+  std::atomic<bool> stopping{false};
+
+  // Open connections, for the limit and for stop(). Before the contexts:
+  // connections still queued in a context unregister when it is destroyed.
+  std::atomic<int> live{0};
+  std::mutex sessions_mutex;
+  std::unordered_map<Session*, std::weak_ptr<Session>> sessions;
 
   // One io_context per thread, each serving its share of the connections: no
   // lock shared by every request, no strand needed (a connection's handlers
@@ -107,12 +114,6 @@ struct Listener {
   tcp::acceptor acceptor;  // on contexts[0]
   net::steady_timer accept_retry;
   std::vector<net::executor_work_guard<net::io_context::executor_type>> work;
-  std::atomic<bool> stopping{false};
-
-  // Open connections, for the limit and for stop().
-  std::atomic<int> live{0};
-  std::mutex sessions_mutex;
-  std::unordered_map<Session*, std::weak_ptr<Session>> sessions;
 
   Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
   void accept();
