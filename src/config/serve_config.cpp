@@ -56,7 +56,7 @@ const kt::KeyTable<ServeConfig>& table() {
        text(&ServeConfig::public_url, kt::parseWord, publicUrlProblem, writeUrl)},
       {"viewer.dir", "", "path", "folder of the web viewer: index.html, viewer.js, node_modules/three",
        text(&ServeConfig::viewer_dir, kt::parsePath, kt::pathProblem, kt::writeText)},
-      {"bake.queue_size", "", "integer", "on-demand bakes waiting per layer before requests get 503, 1..65536",
+      {"bake.queue_size", "", "integer", "on-demand bakes waiting per layer; a request for another missing tile then gets 503 at once, 1..65536",
        number(&ServeConfig::queue_size, 1, 65536)},
       {"bake.retry_after_s", "", "integer", "Retry-After of a 503 for a full bake queue, seconds, 1..3600",
        number(&ServeConfig::retry_after_s, 1, 3600)},

@@ -1,6 +1,6 @@
 #pragma once
 // Tiles baked on request, on dedicated worker threads fed by a bounded queue:
-// the HTTP threads only wait. Requests for a tile already queued or baking
+// the HTTP threads never wait, they are called back when a bake is done. Requests for a tile already queued or baking
 // share that one bake. What a bake does is given as a function, so the queue
 // knows nothing of DEMs or GL, and tests can hand it slow or failing bakes.
 #include <condition_variable>

@@ -44,8 +44,9 @@ class LayerSource {
   virtual const std::string& name() const = 0;
   virtual bool bakesOnDemand() const = 0;
 
-  // tilejson.json with its relative URLs ("./{z}/{x}/{y}.png") made absolute
-  // against `layer_url` ("http://host:port/<layer>/").
+  // tilejson.json as served (io::servedTileJson): its relative URLs
+  // ("./{z}/{x}/{y}.png") made absolute against `layer_url`
+  // ("http://host:port/<layer>/"), its sources reduced to file names.
   virtual std::string tileJson(const std::string& layer_url) const = 0;
 
   // Called with the final answer of a tile that was kPending, once, from a
