@@ -5,6 +5,8 @@
 
 #include <atomic>
 #include <memory>
+#include <mutex>
+#include <string>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -131,6 +133,63 @@ TEST(BakeQueue, AWorkerThatCannotStartFailsTheConstructor) {
     return [](const TileId&) { return bakedTile(); };
   };
   EXPECT_THROW(server::BakeQueue(2, 4, make), InputError);
+}
+
+TEST(BakeQueue, CallbacksTellEveryWaiterOnceWithoutBlockingAnyone) {
+  Gate gate;
+  server::BakeQueue queue(1, 1, [&] {
+    return [&](const TileId& tile) {
+      gate.pass();
+      if (tile.x == 1) throw std::runtime_error("injected");
+      return bakedTile();
+    };
+  });
+  std::mutex mutex;
+  std::vector<std::string> told;
+  const auto tell = [&](const std::string& who) {
+    return [&, who](const server::BakeOutcome& outcome) {
+      std::lock_guard<std::mutex> lock(mutex);
+      told.push_back(who + ":" + std::to_string(int(outcome.status)));
+    };
+  };
+  EXPECT_EQ(queue.request({1, 0, 0}, queue.finishedCount(), tell("a")).kind, server::BakeQueue::Ticket::Kind::kWait);
+  ASSERT_TRUE(gate.waitEntered(1));
+  EXPECT_EQ(queue.request({1, 0, 0}, queue.finishedCount(), tell("b")).kind, server::BakeQueue::Ticket::Kind::kWait);
+  EXPECT_EQ(queue.request({1, 1, 0}, queue.finishedCount(), tell("c")).kind, server::BakeQueue::Ticket::Kind::kWait);
+  // Full: refused at once, and the callback is never called.
+  EXPECT_EQ(queue.request({1, 2, 0}, queue.finishedCount(), tell("x")).kind, server::BakeQueue::Ticket::Kind::kFull);
+  EXPECT_TRUE(told.empty()) << "nothing is told before its bake ends";
+  gate.open();
+  ASSERT_TRUE(waitFor([&] {
+    std::lock_guard<std::mutex> lock(mutex);
+    return told.size() == 3;
+  }));
+  const auto baked = std::to_string(int(server::BakeOutcome::Status::kBaked));
+  const auto failed = std::to_string(int(server::BakeOutcome::Status::kFailed));
+  EXPECT_EQ(told, (std::vector<std::string>{"a:" + baked, "b:" + baked, "c:" + failed}));
+}
+
+TEST(BakeQueue, StopTellsTheWaitersOfAbandonedBakes) {
+  Gate gate;
+  server::BakeQueue queue(1, 4, [&] {
+    return [&](const TileId&) {
+      gate.pass();
+      return bakedTile();
+    };
+  });
+  std::atomic<int> abandoned{0}, baked{0};
+  const server::BakeQueue::Done count = [&](const server::BakeOutcome& outcome) {
+    ++(outcome.status == server::BakeOutcome::Status::kAbandoned ? abandoned : baked);
+  };
+  queue.request({2, 0, 0}, queue.finishedCount(), count);
+  ASSERT_TRUE(gate.waitEntered(1));
+  queue.request({2, 0, 1}, queue.finishedCount(), count);
+  queue.request({2, 0, 1}, queue.finishedCount(), count);
+  std::thread stopper([&] { queue.stop(); });
+  EXPECT_TRUE(waitFor([&] { return abandoned == 2; })) << "queued bakes are answered at once";
+  gate.open();
+  stopper.join();
+  EXPECT_EQ(baked, 1) << "the running bake finishes and is told";
 }
 
 }  // namespace

@@ -20,7 +20,7 @@ namespace {
 namespace fs = std::filesystem;
 using namespace test;
 
-// SIGTERM to exit: the keep-alive timeout (2 s) plus room for a loaded machine.
+// SIGTERM to exit: idle connections close at once; room for a loaded machine.
 constexpr auto kStopLimit = std::chrono::seconds(10);
 
 // `terrabake serve` as a child process.

@@ -92,17 +92,20 @@ TEST(ServeHttp, APortInUseIsAnError) {
   EXPECT_THROW(server::Server(second, {}), InputError);
 }
 
-TEST(ServeHttp, LayerListPointsAtEachTileJsonFromTheHostHeader) {
+TEST(ServeHttp, LayerListPointsAtEachTileJsonNeverFromTheHostHeader) {
   const Case c = makeCase();
   ServerThread running(c.config);
-  const auto reply = get(running.port(), "/layers.json", {{"Host", "tiles.example.org:8443"}});
+  // A forged Host would point every URL, and every cache keeping the answer, elsewhere.
+  const auto reply = get(running.port(), "/layers.json", {{"Host", "evil.example:666"}});
   ASSERT_TRUE(reply);
   EXPECT_EQ(reply->status, 200);
   EXPECT_EQ(reply->get_header_value("Content-Type"), "application/json");
+  EXPECT_EQ(reply->body.find("evil.example"), std::string::npos) << reply->body;
   const Json body = Json::parse(reply->body);
   ASSERT_EQ(body["layers"].size(), 2u);
   EXPECT_EQ(body["layers"][0]["name"], "live");
-  EXPECT_EQ(body["layers"][0]["tilejson"], "http://tiles.example.org:8443/live/tilejson.json");
+  EXPECT_EQ(body["layers"][0]["tilejson"],
+            "http://127.0.0.1:" + std::to_string(running.port()) + "/live/tilejson.json");
   EXPECT_EQ(body["layers"][0]["on_demand"], true);
   EXPECT_EQ(body["layers"][1]["name"], "static");
   EXPECT_EQ(body["layers"][1]["on_demand"], false);

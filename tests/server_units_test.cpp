@@ -7,9 +7,12 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
 #include "core/types.hpp"
+#include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
 #include "server/route.hpp"
 #include "test_helpers.hpp"
@@ -154,13 +157,80 @@ TEST(ServeHttpRules, ContentTypes) {
   EXPECT_EQ(server::contentTypeFor("x.bin"), "application/octet-stream");
 }
 
-TEST(ServeHttpRules, OnlyPlausibleHostsBuildUrls) {
-  for (const char* host : {"127.0.0.1:8080", "example.org", "[::1]:80", "tiles.example.org:443"}) {
-    EXPECT_TRUE(server::isPlausibleHost(host)) << host;
+TEST(ServeHttpRules, RequestPathsArePercentDecodedWithoutTheQuery) {
+  EXPECT_EQ(server::requestPath("/a%20b/c.png?x=1"), "/a b/c.png");
+  EXPECT_EQ(server::requestPath("/viewer/%2e%2E/x#frag"), "/viewer/../x");
+  EXPECT_EQ(server::requestPath("/a%2fb"), "/a/b");
+  EXPECT_EQ(server::requestPath("/a%00b"), std::string("/a\0b", 4));  // the router refuses it
+  EXPECT_EQ(server::requestPath("/100%/x%4"), "/100%/x%4");            // not an escape: left as it is
+  EXPECT_EQ(server::requestPath("/x%zz"), "/x%zz");
+}
+
+TEST(ServeHttpRules, SingleByteRanges) {
+  using Kind = server::ByteRange::Kind;
+  const auto range = [](const std::string& text, std::size_t length) { return server::parseRange(text, length); };
+  const auto part = [](const server::ByteRange& r) { return std::to_string(r.first) + "-" + std::to_string(r.last); };
+  EXPECT_EQ(part(range("bytes=0-9", 100)), "0-9");
+  EXPECT_EQ(range("bytes=0-9", 100).kind, Kind::kPart);
+  EXPECT_EQ(part(range("bytes=90-", 100)), "90-99");
+  EXPECT_EQ(part(range("bytes=-10", 100)), "90-99");
+  EXPECT_EQ(part(range("bytes=-1000", 100)), "0-99");
+  EXPECT_EQ(part(range("bytes=50-5000", 100)), "50-99");
+  EXPECT_EQ(part(range(" Bytes=3-4 ", 100)), "3-4");
+  EXPECT_EQ(part(range("bytes=99-99", 100)), "99-99");
+  for (const char* past : {"bytes=100-", "bytes=100-200", "bytes=-0"}) {
+    EXPECT_EQ(range(past, 100).kind, Kind::kUnsatisfiable) << past;
   }
-  for (const char* host : {"", "a b", "evil\"host", "x/y", "h:port", "[::1"}) {
-    EXPECT_FALSE(server::isPlausibleHost(host)) << host;
+  EXPECT_EQ(range("bytes=0-", 0).kind, Kind::kUnsatisfiable);
+  EXPECT_EQ(range("bytes=-5", 0).kind, Kind::kUnsatisfiable);
+  // Several ranges, other units, nonsense, overflow: the whole body.
+  for (const char* whole : {"", "bytes=0-1,5-6", "items=0-1", "bytes=", "bytes=-", "bytes=a-b", "bytes=5-2",
+                            "bytes=1-2-3", "bytes=99999999999999999999-", "bytes=+1-2", "0-9"}) {
+    EXPECT_EQ(range(whole, 100).kind, Kind::kWhole) << whole;
   }
+}
+
+TEST(ServeHttpRules, IfRangeComparesStrongly) {
+  EXPECT_TRUE(server::ifRangeHolds("\"abc-12\"", "\"abc-12\""));
+  EXPECT_TRUE(server::ifRangeHolds(" \"abc-12\" ", "\"abc-12\""));
+  EXPECT_FALSE(server::ifRangeHolds("W/\"abc-12\"", "\"abc-12\""));
+  EXPECT_FALSE(server::ifRangeHolds("\"abc-13\"", "\"abc-12\""));
+  EXPECT_FALSE(server::ifRangeHolds("Wed, 21 Oct 2015 07:28:00 GMT", "\"abc-12\""));
+  EXPECT_FALSE(server::ifRangeHolds("", "\"abc-12\""));
+}
+
+TEST(ServeConfig, LimitsAndThePublicUrl) {
+  const config::ServeConfig defaults;
+  EXPECT_EQ(defaults.public_url, "");
+  EXPECT_GE(defaults.max_connections, 1024) << "room for hundreds of idle clients beside the real ones";
+  EXPECT_LE(defaults.read_timeout_s, 30);
+  EXPECT_LE(defaults.idle_timeout_s, defaults.read_timeout_s);
+  config::ServeConfig config;
+  for (const char* url : {"https://tiles.example.org/", "http://127.0.0.1:8080", "https://a.example/b/c/", "http://[::1]:80/"}) {
+    EXPECT_NO_THROW(config::applyOverride(config, "server.public_url", url, "--public-url")) << url;
+    EXPECT_NO_THROW(config::validate(config, "test")) << url;
+  }
+  for (const char* url : {"tiles.example.org", "ftp://x/", "https://", "https://x/?q=1", "https://x/\"<script>",
+                          "javascript:alert(1)"}) {
+    EXPECT_THROW(config::applyOverride(config, "server.public_url", url, "--public-url"), UsageError) << url;
+  }
+  config = {};
+  EXPECT_THROW(config::applyOverride(config, "http.max_connections", "8", "test"), UsageError);
+  config::applyOverride(config, "http.max_connections", "20000", "test");
+  EXPECT_EQ(config.max_connections, 20000);
+}
+
+TEST(ServeTileJson, ServedSourcesAreFileNamesOnly) {
+  const std::string text = R"({"tilejson": "3.0.0", "tiles": ["./{z}/{x}/{y}.png"],
+    "terrabake": {"mesh": "./{z}/{x}/{y}.glb", "sources": ["/srv/dems/alps.tif", "dems/*.hgt", "plain.tif"]}})";
+  const std::string served = io::servedTileJson(text, "http://127.0.0.1:8080/alps/");
+  EXPECT_EQ(served.find("/srv/dems"), std::string::npos) << served;
+  const nlohmann::json doc = nlohmann::json::parse(served);
+  EXPECT_EQ(doc["terrabake"]["sources"], nlohmann::json::array({"alps.tif", "*.hgt", "plain.tif"}));
+  EXPECT_EQ(doc["tiles"][0], "http://127.0.0.1:8080/alps/{z}/{x}/{y}.png");
+  // Whatever "sources" holds that terrabake never writes is not passed on.
+  const std::string odd = io::servedTileJson(R"({"terrabake": {"sources": "/srv/dems/alps.tif"}})", "http://h/l/");
+  EXPECT_EQ(odd.find("/srv/dems"), std::string::npos) << odd;
 }
 
 }  // namespace

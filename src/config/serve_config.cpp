@@ -1,5 +1,8 @@
 #include "config/serve_config.hpp"
 
+#include <regex>
+#include <string>
+
 #include "config/key_table.hpp"
 
 namespace terrabake::config {
@@ -12,6 +15,16 @@ using kt::text;
 constexpr int kMaxPort = 65535;
 constexpr int kYearS = 365 * 24 * 3600;  // the longest max-age caches are asked to honour
 
+// A base URL: http:// or https://, a host, an optional port and path, no query; "" = none.
+std::string publicUrlProblem(const std::string& url) {
+  static const std::regex kUrl(
+      R"(https?://(?:[A-Za-z0-9.-]+|\[[0-9A-Fa-f:.]+\])(?::[0-9]{1,5})?(?:/[A-Za-z0-9._~!$&'()*+,;=:@%/-]*)?)");
+  if (url.empty() || std::regex_match(url, kUrl)) return {};
+  return "must be an http:// or https:// URL: host, optional port and path, no query, got '" + url + "'";
+}
+
+std::string writeUrl(const std::string& url) { return url.empty() ? "\"\"" : url; }
+
 // The one table of keys of a serve file; config_test checks config/README.md against it.
 const kt::KeyTable<ServeConfig>& table() {
   static const kt::KeyTable<ServeConfig> kTable({
@@ -23,12 +36,27 @@ const kt::KeyTable<ServeConfig>& table() {
       {"http.bind", "--bind", "host", "address to listen on: an IP address or a host name",
        text(&ServeConfig::bind, kt::parseWord, kt::hostProblem, kt::writeText)},
       {"http.port", "--port", "integer", "TCP port, 0 = any free port, 0..65535", number(&ServeConfig::port, 0, kMaxPort)},
-      {"http.threads", "", "integer", "requests handled at once, 1..256", number(&ServeConfig::threads, 1, 256)},
+      {"http.threads", "", "integer", "threads answering requests (a request waiting for a bake holds none), 1..256",
+       number(&ServeConfig::threads, 1, 256)},
+      {"http.max_connections", "", "integer",
+       "connections open at once; beyond that a new one gets 503 and is closed, 16..100000",
+       number(&ServeConfig::max_connections, 16, 100000)},
+      {"http.read_timeout_s", "", "integer",
+       "seconds a client has to send a request's line and headers, and to take an answer, 1..3600",
+       number(&ServeConfig::read_timeout_s, 1, 3600)},
+      {"http.idle_timeout_s", "", "integer", "seconds a kept-alive connection may wait for its next request, 1..3600",
+       number(&ServeConfig::idle_timeout_s, 1, 3600)},
+      {"http.max_header_bytes", "", "integer", "bytes of a request's line and headers; more get 431, 1024..1048576",
+       number(&ServeConfig::max_header_bytes, 1024, 1048576)},
       {"http.tile_max_age_s", "", "integer", "seconds browsers may keep a tile without asking again, 0..31536000",
        number(&ServeConfig::tile_max_age_s, 0, kYearS)},
+      {"server.public_url", "--public-url", "URL",
+       "base of the tile URLs in tilejson and layers.json (https://tiles.example.org/); \"\" = the address the "
+       "client connected to",
+       text(&ServeConfig::public_url, kt::parseWord, publicUrlProblem, writeUrl)},
       {"viewer.dir", "", "path", "folder of the web viewer: index.html, viewer.js, node_modules/three",
        text(&ServeConfig::viewer_dir, kt::parsePath, kt::pathProblem, kt::writeText)},
-      {"bake.queue_size", "", "integer", "on-demand bakes waiting per layer before requests get 503, 1..65536",
+      {"bake.queue_size", "", "integer", "on-demand bakes waiting per layer; a request for another missing tile then gets 503 at once, 1..65536",
        number(&ServeConfig::queue_size, 1, 65536)},
       {"bake.retry_after_s", "", "integer", "Retry-After of a 503 for a full bake queue, seconds, 1..3600",
        number(&ServeConfig::retry_after_s, 1, 3600)},

@@ -16,7 +16,12 @@ struct ServeConfig {
   std::vector<std::string> layer_jobs;       // layers: tile-job files baked on demand
   std::string bind = "127.0.0.1";            // http.bind
   int port = 8080;                           // http.port: 0 = any free port
-  int threads = 8;                           // http.threads: requests handled at once
+  int threads = 8;                           // http.threads: threads answering requests
+  int max_connections = 1024;                // http.max_connections: open at once; more are refused
+  int read_timeout_s = 10;                   // http.read_timeout_s: to send a request head, to take an answer
+  int idle_timeout_s = 5;                    // http.idle_timeout_s: a kept connection with no request
+  int max_header_bytes = 16384;              // http.max_header_bytes: request line and headers
+  std::string public_url;                    // server.public_url: base of tilejson URLs; "" = the listen address
   int tile_max_age_s = 3600;                 // http.tile_max_age_s: Cache-Control max-age of tiles
   std::string viewer_dir = defaultViewerDir();  // viewer.dir
   int queue_size = 64;                       // bake.queue_size: bakes waiting, per layer

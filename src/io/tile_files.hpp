@@ -84,10 +84,12 @@ struct TileJsonSummary {
 };
 TileJsonSummary readTileJson(const std::string& text);
 
-// `text` with each relative URL in "tiles" and "terrabake.mesh" resolved
-// against `layer_url` ("http://host:port/<layer>/"); other URLs stay as they
-// are. Relative URLs would resolve against the viewer page, not the
-// tilejson, in many clients.
-std::string withAbsoluteUrls(const std::string& text, const std::string& layer_url);
+// `text` as served over HTTP: each relative URL in "tiles" and
+// "terrabake.mesh" resolved against `layer_url` ("http://host:port/<layer>/";
+// other URLs stay as they are: relative URLs would resolve against the viewer
+// page, not the tilejson, in many clients), and "terrabake.sources" reduced
+// to file names (a glob to its last part), so no local path of the machine
+// reaches a web page.
+std::string servedTileJson(const std::string& text, const std::string& layer_url);
 
 }  // namespace terrabake::io

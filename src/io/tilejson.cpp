@@ -113,7 +113,7 @@ TileJsonSummary readTileJson(const std::string& text) {
   return summary;
 }
 
-std::string withAbsoluteUrls(const std::string& text, const std::string& layer_url) {
+std::string servedTileJson(const std::string& text, const std::string& layer_url) {
   Json doc = parseObject(text);
   const auto tiles = doc.find("tiles");
   if (tiles != doc.end() && tiles->is_array()) {
@@ -125,6 +125,17 @@ std::string withAbsoluteUrls(const std::string& text, const std::string& layer_u
   if (terrabake != doc.end() && terrabake->is_object()) {
     const auto mesh = terrabake->find("mesh");
     if (mesh != terrabake->end() && mesh->is_string()) *mesh = resolve(mesh->get<std::string>(), layer_url);
+    const auto sources = terrabake->find("sources");
+    if (sources != terrabake->end() && sources->is_array()) {
+      for (Json& source : *sources) {
+        if (!source.is_string()) continue;
+        const std::string path = source.get<std::string>();
+        const std::size_t slash = path.find_last_of("/\\");
+        source = slash == std::string::npos ? path : path.substr(slash + 1);
+      }
+    } else if (sources != terrabake->end()) {
+      terrabake->erase(sources);  // not what terrabake writes: nothing of it is passed on
+    }
   }
   return doc.dump(2) + "\n";
 }

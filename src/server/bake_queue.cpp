@@ -31,11 +31,12 @@ std::uint64_t BakeQueue::finishedCount() const {
   return m_finished;
 }
 
-BakeQueue::Ticket BakeQueue::request(const TileId& tile, std::uint64_t finished_seen) {
+BakeQueue::Ticket BakeQueue::request(const TileId& tile, std::uint64_t finished_seen, Done done) {
   std::lock_guard<std::mutex> lock(m_mutex);
   const auto found = m_in_flight.find(tile);
   if (found != m_in_flight.end()) {
     ++m_counters.joined;
+    if (done) found->second.done.push_back(std::move(done));
     return {Ticket::Kind::kWait, found->second.outcome};
   }
   if (m_finished != finished_seen) return {Ticket::Kind::kLookAgain, {}};
@@ -45,24 +46,37 @@ BakeQueue::Ticket BakeQueue::request(const TileId& tile, std::uint64_t finished_
   }
   InFlight& entry = m_in_flight[tile];
   entry.outcome = entry.promise.get_future().share();
+  if (done) entry.done.push_back(std::move(done));
   m_waiting.push_back(tile);
   m_wake.notify_one();
   return {Ticket::Kind::kWait, entry.outcome};
 }
 
+void BakeQueue::settle(InFlight& entry, const BakeOutcome& outcome) {
+  entry.promise.set_value(outcome);
+  for (const Done& done : entry.done) {
+    try {
+      done(outcome);
+    } catch (...) {
+      // A waiter that cannot take its answer (out of memory) must not take the worker down with it.
+    }
+  }
+}
+
 void BakeQueue::stop() {
-  std::vector<std::promise<BakeOutcome>> abandoned;
+  std::vector<InFlight> abandoned;
   {
     std::lock_guard<std::mutex> lock(m_mutex);
     m_stopping = true;
     for (const TileId& tile : m_waiting) {
-      abandoned.push_back(std::move(m_in_flight.at(tile).promise));
+      abandoned.push_back(std::move(m_in_flight.at(tile)));
       m_in_flight.erase(tile);
     }
     m_waiting.clear();
   }
   m_wake.notify_all();
-  for (auto& promise : abandoned) promise.set_value({BakeOutcome::Status::kAbandoned, nullptr, "shutting down"});
+  const BakeOutcome outcome{BakeOutcome::Status::kAbandoned, nullptr, "shutting down"};
+  for (InFlight& entry : abandoned) settle(entry, outcome);
   std::lock_guard<std::mutex> lock(m_join_mutex);  // stop() may run on two threads
   for (std::thread& worker : m_workers) {
     if (worker.joinable()) worker.join();
@@ -109,10 +123,10 @@ void BakeQueue::work(const BakeFactory& make_bake, std::promise<void>& ready) {
 }
 
 void BakeQueue::finish(const TileId& tile, BakeOutcome outcome) {
-  std::promise<BakeOutcome> promise;
+  InFlight entry;
   {
     std::lock_guard<std::mutex> lock(m_mutex);
-    promise = std::move(m_in_flight.at(tile).promise);
+    entry = std::move(m_in_flight.at(tile));
     // Gone from the map and counted in one step: request() then either
     // joins this bake or sees m_finished move and looks on disk again.
     m_in_flight.erase(tile);
@@ -123,7 +137,7 @@ void BakeQueue::finish(const TileId& tile, BakeOutcome outcome) {
       default: ++m_counters.failed; break;
     }
   }
-  promise.set_value(std::move(outcome));
+  settle(entry, outcome);
 }
 
 }  // namespace terrabake::server

@@ -1,6 +1,6 @@
 #pragma once
 // Tiles baked on request, on dedicated worker threads fed by a bounded queue:
-// the HTTP threads only wait. Requests for a tile already queued or baking
+// the HTTP threads never wait, they are called back when a bake is done. Requests for a tile already queued or baking
 // share that one bake. What a bake does is given as a function, so the queue
 // knows nothing of DEMs or GL, and tests can hand it slow or failing bakes.
 #include <condition_variable>
@@ -67,8 +67,14 @@ class BakeQueue {
   // noticed, not repeated.
   std::uint64_t finishedCount() const;
 
-  // Joins the bake of `tile` in flight, or queues one if there is room.
-  Ticket request(const TileId& tile, std::uint64_t finished_seen);
+  // Called once with the outcome of the bake a kWait ticket waits for, on the
+  // worker thread that finished it (or the thread that stopped the queue).
+  using Done = std::function<void(const BakeOutcome&)>;
+
+  // Joins the bake of `tile` in flight, or queues one if there is room. With
+  // `done`, a kWait ticket also calls it when the bake is over, so that the
+  // caller need not block on the ticket's future.
+  Ticket request(const TileId& tile, std::uint64_t finished_seen, Done done = {});
 
   // Refuses new requests, abandons queued bakes, lets running ones finish,
   // joins the workers. Safe to call more than once.
@@ -80,7 +86,11 @@ class BakeQueue {
   struct InFlight {
     std::promise<BakeOutcome> promise;
     std::shared_future<BakeOutcome> outcome;
+    std::vector<Done> done;
   };
+
+  // Hands `outcome` to everyone who waits on `entry`; outside the lock.
+  static void settle(InFlight& entry, const BakeOutcome& outcome);
 
   void work(const BakeFactory& make_bake, std::promise<void>& ready);
   void finish(const TileId& tile, BakeOutcome outcome);

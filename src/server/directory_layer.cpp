@@ -22,10 +22,10 @@ DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& fo
       m_coverage(coverageOf(io::readTileJson(m_tilejson))) {}
 
 std::string DirectoryLayer::tileJson(const std::string& layer_url) const {
-  return io::withAbsoluteUrls(m_tilejson, layer_url);
+  return io::servedTileJson(m_tilejson, layer_url);
 }
 
-TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format) {
+TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }

@@ -19,7 +19,7 @@ class DirectoryLayer : public LayerSource {
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return false; }
   std::string tileJson(const std::string& layer_url) const override;
-  TileAnswer tile(const TileId& tile, io::TileFormat format) override;
+  TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
 
  private:
   std::string m_name;

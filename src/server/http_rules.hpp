@@ -1,9 +1,34 @@
 #pragma once
 // Small rules of HTTP the request handler applies: media types, ETags and
 // their comparison, which header values may be trusted or echoed.
+#include <cstddef>
 #include <string>
 
 namespace terrabake::server {
+
+// The path of a request target ("/a%20b/c.png?x=1" -> "/a b/c.png"): the part
+// before '?' or '#', with each %XX decoded (%00 included: the router refuses
+// what it must not see); a '%' not followed by two hex digits stays as it is.
+std::string requestPath(const std::string& target);
+
+// What a Range header asks of a body of `length` bytes (RFC 9110 14.2), for a
+// single range: "bytes=a-b", "bytes=a-" or "bytes=-n".
+struct ByteRange {
+  enum class Kind {
+    kWhole,          // no Range, one the server may ignore (not bytes, malformed), or several ranges
+    kPart,           // bytes first..last, inclusive, both within the body
+    kUnsatisfiable,  // starts past the end (or "-0"): 416
+  };
+  Kind kind = Kind::kWhole;
+  std::size_t first = 0;
+  std::size_t last = 0;
+};
+ByteRange parseRange(const std::string& range, std::size_t length);
+
+// An If-Range value that lets a Range apply: the very `etag`, compared
+// strongly (a weak tag or a date never matches, so the whole body is sent).
+bool ifRangeHolds(const std::string& if_range, const std::string& etag);
+
 
 // Content-Type for a file by its extension; application/octet-stream when unknown.
 std::string contentTypeFor(const std::string& file_name);
@@ -15,9 +40,6 @@ std::string contentEtag(const std::string& bytes);
 // True when an If-None-Match value ("*", or a list of tags, weak or strong)
 // matches `etag`. RFC 9110 compares weakly here: W/"x" matches "x".
 bool noneMatchHits(const std::string& if_none_match, const std::string& etag);
-
-// A Host header fit to build URLs from: host or [IPv6] with an optional port.
-bool isPlausibleHost(const std::string& host);
 
 // A comma-separated list of header names, safe to echo in
 // Access-Control-Allow-Headers.

@@ -3,6 +3,7 @@
 // run wrote, a folder filled on demand from the DEM, or an MBTiles file.
 // The HTTP side sees only this interface.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -18,6 +19,7 @@ struct TileAnswer {
     kNotFound,  // outside the layer, or no DEM sample in it
     kBusy,      // the bake queue is full or shutting down: try again later
     kFailed,    // the bake failed; nothing was kept
+    kPending,   // a bake is under way: the answer comes later, through the callback
   };
   Status status = Status::kNotFound;
   std::shared_ptr<const FileContent> content;  // kFound only
@@ -42,12 +44,19 @@ class LayerSource {
   virtual const std::string& name() const = 0;
   virtual bool bakesOnDemand() const = 0;
 
-  // tilejson.json with its relative URLs ("./{z}/{x}/{y}.png") made absolute
-  // against `layer_url` ("http://host:port/<layer>/").
+  // tilejson.json as served (io::servedTileJson): its relative URLs
+  // ("./{z}/{x}/{y}.png") made absolute against `layer_url`
+  // ("http://host:port/<layer>/"), its sources reduced to file names.
   virtual std::string tileJson(const std::string& layer_url) const = 0;
 
-  // Called from many HTTP threads at once.
-  virtual TileAnswer tile(const TileId& tile, io::TileFormat format) = 0;
+  // Called with the final answer of a tile that was kPending, once, from a
+  // bake worker thread.
+  using Later = std::function<void(TileAnswer)>;
+
+  // Called from many HTTP threads at once; never waits for a bake. Answers at
+  // once, or returns kPending when the answer needs a bake and hands it to
+  // `later` when the bake is done (layers that never bake never do).
+  virtual TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) = 0;
 
   virtual BakeCounters bakeCounters() const { return {}; }
 

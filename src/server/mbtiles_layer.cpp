@@ -33,10 +33,10 @@ MbtilesLayer::MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> fi
 }
 
 std::string MbtilesLayer::tileJson(const std::string& layer_url) const {
-  return io::withAbsoluteUrls(m_tilejson, layer_url);
+  return io::servedTileJson(m_tilejson, layer_url);
 }
 
-TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format) {
+TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }

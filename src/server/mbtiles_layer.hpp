@@ -23,7 +23,7 @@ class MbtilesLayer : public LayerSource {
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return false; }
   std::string tileJson(const std::string& layer_url) const override;
-  TileAnswer tile(const TileId& tile, io::TileFormat format) override;
+  TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
 
  private:
   MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file);

@@ -55,14 +55,16 @@ OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile
       }) {}
 
 std::string OnDemandLayer::tileJson(const std::string& layer_url) const {
-  return io::withAbsoluteUrls(m_tilejson, layer_url);
+  return io::servedTileJson(m_tilejson, layer_url);
 }
 
-TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format) {
+TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const Later& later) {
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or area"};
   }
   const std::string relative = io::relativeTilePath(tile, format);
+  // Called when the bake is over; the ticket's future is not waited on.
+  BakeQueue::Done done = [later, format](const BakeOutcome& outcome) { later(answerOf(outcome, format)); };
   BakeQueue::Ticket ticket;
   do {
     const std::uint64_t finished = m_queue.finishedCount();
@@ -72,13 +74,16 @@ TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format) {
     if (format == io::TileFormat::kHighResGlb && !m_high_res_mesh) {
       return {TileAnswer::Status::kNotFound, nullptr, "this layer makes no high-res meshes"};
     }
-    ticket = m_queue.request(tile, finished);
+    // `done` is only taken by a kWait ticket: for kLookAgain it is still here.
+    ticket = m_queue.request(tile, finished, done);
   } while (ticket.kind == BakeQueue::Ticket::Kind::kLookAgain);
   if (ticket.kind == BakeQueue::Ticket::Kind::kFull) {
     return {TileAnswer::Status::kBusy, nullptr, "the bake queue is full"};
   }
+  return {TileAnswer::Status::kPending, nullptr, {}};
+}
 
-  const BakeOutcome& outcome = ticket.outcome.get();
+TileAnswer OnDemandLayer::answerOf(const BakeOutcome& outcome, io::TileFormat format) {
   switch (outcome.status) {
     case BakeOutcome::Status::kBaked: {
       const auto found = outcome.tile->find(format);

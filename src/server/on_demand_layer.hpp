@@ -44,11 +44,13 @@ class OnDemandLayer : public LayerSource {
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return true; }
   std::string tileJson(const std::string& layer_url) const override;
-  TileAnswer tile(const TileId& tile, io::TileFormat format) override;
+  TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   BakeCounters bakeCounters() const override { return m_queue.counters(); }
   void stop() override { m_queue.stop(); }
 
  private:
+  // What a finished bake answers for `format`.
+  static TileAnswer answerOf(const BakeOutcome& outcome, io::TileFormat format);
   // Runs on a bake worker: make, write through, keep the bytes with their ETags.
   std::shared_ptr<const BakedTile> bake(const MakeTile& make_tile, const TileId& tile) const;
 

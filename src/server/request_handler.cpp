@@ -1,9 +1,11 @@
 #include "server/request_handler.hpp"
 
 #include <filesystem>
+#include <memory>
 
 #include <nlohmann/json.hpp>
 
+#include "core/error.hpp"
 #include "server/http_rules.hpp"
 
 namespace terrabake::server {
@@ -27,17 +29,33 @@ HttpReply text(int status, const std::string& message) {
   return reply;
 }
 
-// 200 with the body, or 304 when the client holds this very version.
+// 200 with the body, 304 when the client holds this very version, 206 with
+// the part a single Range asks for (416 past the end).
 HttpReply validated(const HttpRequest& request, std::string content_type, std::string body, const std::string& etag,
                     const std::string& cache_control) {
   HttpReply reply;
   reply.headers.emplace_back("ETag", etag);
   reply.headers.emplace_back("Cache-Control", cache_control);
+  // If-None-Match first (RFC 9110 13.2.2): a client holding the version wants no part of it.
   if (noneMatchHits(request.if_none_match, etag)) {
-    // No body. httplib adds "Content-Length: 0", which caches ignore on a 304
-    // (RFC 9111 3.2); the real length would make some clients wait for a body.
+    // No body, and no Content-Length: the real length would make some clients wait for a body.
     reply.status = 304;
     return reply;
+  }
+  reply.headers.emplace_back("Accept-Ranges", "bytes");
+  const bool range_applies = !request.range.empty() && (request.if_range.empty() || ifRangeHolds(request.if_range, etag));
+  const ByteRange range = range_applies ? parseRange(request.range, body.size()) : ByteRange{};
+  const std::string length = std::to_string(body.size());
+  if (range.kind == ByteRange::Kind::kUnsatisfiable) {
+    HttpReply refused = text(416, "range not satisfiable: the body is " + length + " bytes");
+    refused.headers.emplace_back("Content-Range", "bytes */" + length);
+    return refused;
+  }
+  if (range.kind == ByteRange::Kind::kPart) {
+    reply.status = 206;
+    reply.headers.emplace_back("Content-Range", "bytes " + std::to_string(range.first) + "-" +
+                                                    std::to_string(range.last) + "/" + length);
+    body = body.substr(range.first, range.last - range.first + 1);
   }
   reply.content_type = std::move(content_type);
   reply.body = std::move(body);
@@ -52,9 +70,12 @@ HttpReply staticFile(const HttpRequest& request, const ServedFolder& folder, con
 
 const char* contentTypeOf(io::TileFormat format) { return format == io::TileFormat::kPng ? "image/png" : "model/gltf-binary"; }
 
-// "http://host:port/" as the client reached us.
-std::string baseUrl(const HttpRequest& request) {
-  return "http://" + (isPlausibleHost(request.host) ? request.host : request.local_address) + "/";
+// Every answer carries these, errors included.
+void finish(HttpReply& reply) {
+  // So browser viewers on other origins can read tiles (nothing served names a local path).
+  reply.headers.emplace_back("Access-Control-Allow-Origin", "*");
+  reply.headers.emplace_back("Access-Control-Expose-Headers", "ETag, Retry-After, Content-Range, Accept-Ranges");
+  reply.headers.emplace_back("X-Content-Type-Options", "nosniff");
 }
 
 }  // namespace
@@ -62,6 +83,8 @@ std::string baseUrl(const HttpRequest& request) {
 RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
     : m_viewer(config.viewer_dir),
       m_three(std::filesystem::path(config.viewer_dir) / "node_modules" / "three"),
+      m_public_url(config.public_url.empty() || config.public_url.back() == '/' ? config.public_url
+                                                                                 : config.public_url + "/"),
       m_tile_cache_control("public, max-age=" + std::to_string(config.tile_max_age_s)),
       m_retry_after_s(std::to_string(config.retry_after_s)) {
   for (auto& layer : layers) {
@@ -74,9 +97,15 @@ void RequestHandler::stopLayers() {
   for (auto& [name, layer] : m_layers) layer->stop();
 }
 
-HttpReply RequestHandler::handle(const HttpRequest& request) const {
+void RequestHandler::handle(const HttpRequest& request, const Respond& respond) const {
   HttpReply reply;
-  if (request.method == "OPTIONS") {
+  if (request.method != "GET" && request.method != "HEAD" && request.method != "OPTIONS") {
+    // Decided on the request line and headers alone: a body is never read.
+    reply = text(405, "method not allowed: " + request.method);
+    reply.headers.emplace_back("Allow", kAllowedMethods);
+  } else if (request.has_body) {
+    reply = text(413, "content too large: no request here takes a body");
+  } else if (request.method == "OPTIONS") {
     // A CORS preflight: say yes to reading anything, for any origin.
     reply.status = 204;
     reply.headers.emplace_back("Access-Control-Allow-Methods", kAllowedMethods);
@@ -84,20 +113,49 @@ HttpReply RequestHandler::handle(const HttpRequest& request) const {
       reply.headers.emplace_back("Access-Control-Allow-Headers", request.cors_request_headers);
     }
     reply.headers.emplace_back("Access-Control-Max-Age", kPreflightMaxAgeS);
-  } else if (request.method == "GET" || request.method == "HEAD") {
-    reply = answerGet(request, parseRoute(request.path));
   } else {
-    reply = text(405, "method not allowed: " + request.method);
-    reply.headers.emplace_back("Allow", kAllowedMethods);
+    const Route route = parseRoute(request.path);
+    const auto layer = route.kind == Route::Kind::kTile ? m_layers.find(route.layer) : m_layers.end();
+    if (layer == m_layers.end()) {
+      reply = answerNow(request, route);
+    } else {
+      // The answer may need a bake: then it comes later, from the bake worker,
+      // and this thread goes on to other requests.
+      const auto waiting = std::make_shared<const HttpRequest>(request);
+      const LayerSource::Later later = [this, waiting, route, respond](TileAnswer answer) {
+        HttpReply late;
+        try {
+          late = fromTile(*waiting, route, answer);
+        } catch (const std::exception& e) {
+          // The request must be answered: it waits with no timeout of its own.
+          late = text(500, "tile " + route.tile.str() + ": " + oneLine(e.what()));
+        }
+        finish(late);
+        respond(std::move(late));
+      };
+      const TileAnswer answer = layer->second->tile(route.tile, route.format, later);
+      if (answer.status == TileAnswer::Status::kPending) return;
+      reply = fromTile(request, route, answer);
+    }
   }
-  // Every answer, errors included, so browser viewers on other origins can read them.
-  reply.headers.emplace_back("Access-Control-Allow-Origin", "*");
-  reply.headers.emplace_back("Access-Control-Expose-Headers", "ETag, Retry-After");
-  reply.headers.emplace_back("X-Content-Type-Options", "nosniff");
+  finish(reply);
+  respond(std::move(reply));
+}
+
+HttpReply RequestHandler::refusal(int status, const std::string& message) const {
+  HttpReply reply = text(status, message);
+  if (status == 503) reply.headers.emplace_back("Retry-After", m_retry_after_s);
+  finish(reply);
   return reply;
 }
 
-HttpReply RequestHandler::answerGet(const HttpRequest& request, const Route& route) const {
+std::string RequestHandler::baseUrl(const HttpRequest& request) const {
+  // Never from the Host header: a forged one would point the URLs, and every
+  // cache keeping the answer, elsewhere.
+  return m_public_url.empty() ? "http://" + request.local_address + "/" : m_public_url;
+}
+
+HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& route) const {
   switch (route.kind) {
     case Route::Kind::kViewerPage:
       return staticFile(request, m_viewer, "index.html");
@@ -117,7 +175,7 @@ HttpReply RequestHandler::answerGet(const HttpRequest& request, const Route& rou
       return validated(request, "application/json", std::move(body), etag, kRevalidate);
     }
     case Route::Kind::kTile:
-      return tile(request, route);
+      return text(404, "not found: no layer '" + route.layer + "'");
     case Route::Kind::kBadRequest:
       return text(400, "bad request: " + route.problem);
     case Route::Kind::kNotFound:
@@ -126,10 +184,7 @@ HttpReply RequestHandler::answerGet(const HttpRequest& request, const Route& rou
   return text(404, "not found: " + route.problem);
 }
 
-HttpReply RequestHandler::tile(const HttpRequest& request, const Route& route) const {
-  const auto layer = m_layers.find(route.layer);
-  if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-  const TileAnswer answer = layer->second->tile(route.tile, route.format);
+HttpReply RequestHandler::fromTile(const HttpRequest& request, const Route& route, const TileAnswer& answer) const {
   switch (answer.status) {
     case TileAnswer::Status::kFound:
       return validated(request, contentTypeOf(route.format), answer.content->bytes, answer.content->etag,
@@ -141,6 +196,8 @@ HttpReply RequestHandler::tile(const HttpRequest& request, const Route& route) c
     }
     case TileAnswer::Status::kFailed:
       return text(500, "tile " + route.tile.str() + ": " + answer.reason);
+    case TileAnswer::Status::kPending:  // not an answer: the layer broke its promise
+      return text(500, "tile " + route.tile.str() + ": no answer from the layer");
     case TileAnswer::Status::kNotFound:
       break;
   }

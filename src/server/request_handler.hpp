@@ -1,7 +1,8 @@
 #pragma once
-// Answers requests: routes, status codes, caching and CORS headers, in plain
-// structs, so HTTP behaviour is decided here and the HTTP library only moves
-// bytes (server.cpp).
+// Answers requests: routes, status codes, ranges, caching and CORS headers, in
+// plain structs, so HTTP behaviour is decided here and the HTTP library only
+// moves bytes and enforces the connection limits (server.cpp).
+#include <functional>
 #include <map>
 #include <memory>
 #include <string>
@@ -18,10 +19,12 @@ namespace terrabake::server {
 struct HttpRequest {
   std::string method;
   std::string path;           // percent-decoded, without the query
-  std::string host;           // the Host header; "" when absent
-  std::string local_address;  // "127.0.0.1:8080": used when Host is absent or unusable
+  std::string local_address;  // "127.0.0.1:8080", where the client reached us: the base of URLs without a public_url
   std::string if_none_match;
+  std::string range;     // the Range header
+  std::string if_range;  // the If-Range header
   std::string cors_request_headers;  // Access-Control-Request-Headers of a preflight
+  bool has_body = false;  // a Content-Length above 0 or a chunked body, which is never read
 };
 
 struct HttpReply {
@@ -33,23 +36,35 @@ struct HttpReply {
 
 class RequestHandler {
  public:
+  // Receives the answer to one request, exactly once.
+  using Respond = std::function<void(HttpReply)>;
+
   RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
 
-  // Called from many HTTP threads at once.
-  HttpReply handle(const HttpRequest& request) const;
+  // Called from many HTTP threads at once, never waits for a bake: calls
+  // `respond` before it returns, or, for a tile a bake is making, later from
+  // the bake worker that made it (or from the thread that stops the layers).
+  void handle(const HttpRequest& request, const Respond& respond) const;
+
+  // The answer to a request the server refuses before it reaches handle():
+  // 400 (unparseable), 408 (too slow), 431 (headers too large), 503 (too many
+  // connections), with the headers every answer carries.
+  HttpReply refusal(int status, const std::string& message) const;
 
   // Stops every layer's background work (LayerSource::stop).
   void stopLayers();
 
  private:
-  HttpReply answerGet(const HttpRequest& request, const Route& route) const;
-  HttpReply tile(const HttpRequest& request, const Route& route) const;
+  HttpReply answerNow(const HttpRequest& request, const Route& route) const;
+  HttpReply fromTile(const HttpRequest& request, const Route& route, const TileAnswer& answer) const;
   HttpReply layerList(const HttpRequest& request) const;
   HttpReply health() const;
+  std::string baseUrl(const HttpRequest& request) const;
 
   std::map<std::string, std::unique_ptr<LayerSource>> m_layers;
   ServedFolder m_viewer;
   ServedFolder m_three;
+  std::string m_public_url;  // ending in '/'; "" when not set
   std::string m_tile_cache_control;
   std::string m_retry_after_s;
 };

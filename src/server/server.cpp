@@ -1,25 +1,50 @@
 #include "server/server.hpp"
 
-#include <httplib.h>
-#include <sys/socket.h>
+#include <sys/resource.h>
 
+#include <algorithm>
 #include <atomic>
-#include <cerrno>
-#include <cstring>
+#include <chrono>
+#include <cstdint>
+#include <limits>
+#include <mutex>
+#include <optional>
 #include <thread>
+#include <unordered_map>
+
+#include <boost/asio/dispatch.hpp>
+#include <boost/asio/executor_work_guard.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/asio/post.hpp>
+#include <boost/asio/steady_timer.hpp>
+#include <boost/asio/write.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "server/http_rules.hpp"
 #include "server/request_handler.hpp"
 
 namespace terrabake::server {
 namespace {
 
-// httplib's stop() waits for idle keep-alive connections to time out: keep
-// that short so a stopping server exits within a couple of seconds.
-constexpr time_t kKeepAliveTimeoutS = 2;
-// Every path, newlines included (%0A decodes to one): our router decides.
-constexpr const char* kAnyPath = R"([\s\S]*)";
+namespace beast = boost::beast;
+namespace http = beast::http;
+namespace net = boost::asio;
+using tcp = net::ip::tcp;
+
+// After an answer to a request whose body was not read, the connection is
+// closed; until then, for at most this long and this many bytes, what the
+// client still sends is read and dropped, so the close does not reset the
+// connection before the client has read the answer.
+constexpr auto kLingerTime = std::chrono::seconds(1);
+constexpr std::size_t kLingerBytes = 256 * 1024;
+// A failed accept (out of file descriptors) is tried again after this pause.
+constexpr auto kAcceptRetry = std::chrono::milliseconds(50);
+// File descriptors beyond the connections: layers, GDAL, MBTiles, logs.
+constexpr rlim_t kSpareFiles = 256;
 
 // "host:port", with brackets around an IPv6 address.
 std::string hostPort(const std::string& host, int port) {
@@ -27,84 +52,330 @@ std::string hostPort(const std::string& host, int port) {
   return (ipv6 ? "[" + host + "]" : host) + ":" + std::to_string(port);
 }
 
-}  // namespace
+// Runs `context` until it has no more work; a handler that throws is logged
+// and the thread goes on serving.
+void runContext(net::io_context& context) {
+  for (int failures = 0; failures < 1000000; ++failures) {
+    try {
+      context.run();
+      return;
+    } catch (const std::exception& e) {
+      log::error("http: " + oneLine(e.what()));
+    }
+  }
+}
 
-struct Server::Impl {
+std::vector<std::unique_ptr<net::io_context>> makeContexts(int count) {
+  std::vector<std::unique_ptr<net::io_context>> contexts;
+  for (int i = 0; i < count; ++i) contexts.push_back(std::make_unique<net::io_context>(1));
+  return contexts;
+}
+
+// Lets the process keep `connections` sockets open, as far as the hard limit allows.
+void raiseFileLimit(int connections) {
+  rlimit limit{};
+  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0) return;
+  const rlim_t wanted = rlim_t(connections) + kSpareFiles;
+  if (limit.rlim_cur != RLIM_INFINITY && limit.rlim_cur < wanted) {
+    limit.rlim_cur = limit.rlim_max == RLIM_INFINITY ? wanted : std::min(wanted, limit.rlim_max);
+    ::setrlimit(RLIMIT_NOFILE, &limit);
+    if (limit.rlim_cur < wanted) {
+      log::warning("http: at most " + std::to_string(limit.rlim_cur) + " open files (ulimit -n): fewer than " +
+                std::to_string(connections) + " connections may be served");
+    }
+  }
+}
+
+class Session;
+
+// The listening socket, the io_context's threads, the open connections.
+struct Listener {
   RequestHandler handler;
-  httplib::Server http;
   std::string bind;
   int port = 0;
-  // run() and stop() meet through these two (see stop()).
+  int threads = 1;
+  std::chrono::seconds read_timeout;
+  std::chrono::seconds idle_timeout;
+  std::uint32_t max_header_bytes = 0;
+  int max_connections = 0;
   std::atomic<bool> stopping{false};
-  std::atomic<bool> in_run{false};
 
-  Impl(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
-      : handler(config, std::move(layers)), bind(config.bind) {
-    const int threads = config.threads;
-    http.new_task_queue = [threads] { return new httplib::ThreadPool(std::size_t(threads)); };
-    http.set_keep_alive_timeout(kKeepAliveTimeoutS);
-    // The keep-alive limit stays httplib's 5 requests a connection: with a
-    // thread per connection, longer-lived ones starve those queued behind them
-    // (measured with 32 connections on 8 threads: p99 200 ms at 50, 13 ms at 5).
-    // httplib writes headers and body separately: without this, Nagle's
-    // algorithm and delayed ACKs hold every response back about 40 ms.
-    http.set_tcp_nodelay(true);
-    // httplib's default adds SO_REUSEPORT, with which a second server binds a
-    // port in use and silently takes half its connections: a busy port must
-    // be an error. SO_REUSEADDR alone still allows a quick restart.
-    http.set_socket_options([](socket_t socket) {
-      const int yes = 1;
-      ::setsockopt(socket, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
-    });
-    const auto serve = [this](const httplib::Request& request, httplib::Response& response) {
-      answer(request, response);
-    };
-    http.Get(kAnyPath, serve);  // also HEAD: httplib answers it from GET and drops the body
-    http.Options(kAnyPath, serve);
-    http.Post(kAnyPath, serve);
-    http.Put(kAnyPath, serve);
-    http.Patch(kAnyPath, serve);
-    http.Delete(kAnyPath, serve);
-    http.set_exception_handler([](const httplib::Request& request, httplib::Response& response, std::exception_ptr e) {
-      std::string what = "unknown error";
-      try {
-        std::rethrow_exception(e);
-      } catch (const std::exception& error) {
-        what = error.what();
-      } catch (...) {
-      }
-      log::error(request.method + " " + request.path + ": " + oneLine(what));
-      response.status = 500;
-      response.set_content("internal error\n", "text/plain; charset=utf-8");
-      response.set_header("Access-Control-Allow-Origin", "*");
-    });
+  // Open connections, for the limit and for stop(). Before the contexts:
+  // connections still queued in a context unregister when it is destroyed.
+  std::atomic<int> live{0};
+  std::mutex sessions_mutex;
+  std::unordered_map<Session*, std::weak_ptr<Session>> sessions;
 
-    errno = 0;
-    port = config.port == 0 ? http.bind_to_any_port(config.bind)
-                            : (http.bind_to_port(config.bind, config.port) ? config.port : -1);
-    if (port < 0) {
-      const int error = errno;
-      throw InputError("http: cannot listen on " + hostPort(config.bind, config.port) + ": " +
-                       (error ? std::strerror(error) : "not an address of this machine"));
-    }
+  // One io_context per thread, each serving its share of the connections: no
+  // lock shared by every request, no strand needed (a connection's handlers
+  // run on its context's one thread).
+  std::vector<std::unique_ptr<net::io_context>> contexts;
+  std::size_t next_context = 0;
+  tcp::acceptor acceptor;  // on contexts[0]
+  net::steady_timer accept_retry;
+  std::vector<net::executor_work_guard<net::io_context::executor_type>> work;
+
+  Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
+  void accept();
+  void refuse(tcp::socket& socket);
+};
+
+// One connection: reads request heads (never a body), answers them in order,
+// keeps the connection while the client wants it and the timeouts allow.
+// Everything it does runs on its io_context's thread; answers made on bake
+// workers are dispatched there.
+class Session : public std::enable_shared_from_this<Session> {
+ public:
+  Session(tcp::socket socket, Listener& server) : m_stream(std::move(socket)), m_server(server) {
+    ++m_server.live;
+    beast::error_code ec;
+    m_stream.socket().set_option(tcp::no_delay(true), ec);
+    const tcp::endpoint local = m_stream.socket().local_endpoint(ec);
+    if (!ec) m_local_address = hostPort(local.address().to_string(), local.port());
   }
 
-  void answer(const httplib::Request& request, httplib::Response& response) const {
+  ~Session() {
+    {
+      std::lock_guard<std::mutex> lock(m_server.sessions_mutex);
+      m_server.sessions.erase(this);
+    }
+    --m_server.live;
+  }
+
+  Session(const Session&) = delete;
+  Session& operator=(const Session&) = delete;
+
+  void start() {
+    {
+      std::lock_guard<std::mutex> lock(m_server.sessions_mutex);
+      m_server.sessions.emplace(this, weak_from_this());
+    }
+    net::dispatch(m_stream.get_executor(), [self = shared_from_this()] {
+      // A connection's first request head must come within the read timeout.
+      self->readHead();
+    });
+  }
+
+  net::any_io_executor executor() { return m_stream.get_executor(); }
+
+  // From stop(), on the connection's thread: a connection waiting for a request closes now,
+  // one with a request under way after its answer.
+  void stopWhenIdle() {
+    m_closing = true;
+    if (!m_busy) m_stream.close();
+  }
+
+ private:
+  void readHead() {
+    if (m_closing || m_server.stopping) return m_stream.close();
+    m_parser.emplace();
+    m_parser->header_limit(m_server.max_header_bytes);
+    // No body is ever read, so none is too large to be announced: the answer (405 or 413) comes first.
+    m_parser->body_limit(std::numeric_limits<std::uint64_t>::max());
+    m_stream.expires_after(m_server.read_timeout);
+    http::async_read_header(m_stream, m_buffer, *m_parser,
+                            [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onHead(ec); });
+  }
+
+  // Between requests on a kept connection: the idle timeout until the next
+  // request begins, then the read timeout for its head.
+  void awaitNext() {
+    if (m_closing || m_server.stopping) return m_stream.close();
+    if (m_buffer.size() > 0) return readHead();  // pipelined: it has begun
+    m_stream.expires_after(m_server.idle_timeout);
+    m_stream.async_read_some(m_buffer.prepare(4096),
+                             [self = shared_from_this()](beast::error_code ec, std::size_t got) {
+                               if (ec) return self->m_stream.close();
+                               self->m_buffer.commit(got);
+                               self->readHead();
+                             });
+  }
+
+  void onHead(beast::error_code ec) {
+    if (ec == http::error::header_limit) {
+      return answerAndClose(m_server.handler.refusal(431, "request header fields too large"));
+    }
+    if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted ||
+        ec == net::error::eof || ec == net::error::connection_reset) {
+      return m_stream.close();  // gone, too slow, or stopped: nobody to answer
+    }
+    if (ec) return answerAndClose(m_server.handler.refusal(400, "bad request: " + ec.message()));
+
+    const auto& request = m_parser->get();
     HttpRequest in;
-    in.method = request.method;
-    in.path = request.path;
-    in.host = request.get_header_value("Host");
-    in.local_address = hostPort(request.local_addr, request.local_port);
-    in.if_none_match = request.get_header_value("If-None-Match");
-    in.cors_request_headers = request.get_header_value("Access-Control-Request-Headers");
-    HttpReply out = handler.handle(in);
-    response.status = out.status;
-    for (const auto& [name, value] : out.headers) response.set_header(name, value);
-    if (!out.content_type.empty()) {
-      response.set_header("Content-Type", out.content_type);
-      response.body = std::move(out.body);
+    in.method = std::string(request.method_string());
+    in.path = requestPath(std::string(request.target()));
+    in.local_address = m_local_address;
+    in.if_none_match = std::string(request[http::field::if_none_match]);
+    in.range = std::string(request[http::field::range]);
+    in.if_range = std::string(request[http::field::if_range]);
+    in.cors_request_headers = std::string(request[http::field::access_control_request_headers]);
+    const auto length = m_parser->content_length();
+    in.has_body = m_parser->chunked() || (length && *length > 0);
+    m_head = request.method() == http::verb::head;
+    m_version = request.version();
+    // A body is never read: after answering, its connection is closed.
+    m_keep_alive = request.keep_alive() && !in.has_body;
+    m_unread_body = in.has_body;
+    m_busy = true;
+    m_stream.expires_never();  // waiting for a bake is not the client's delay
+    try {
+      m_server.handler.handle(in, [self = shared_from_this()](HttpReply reply) {
+        net::dispatch(self->m_stream.get_executor(),
+                      [self, reply = std::move(reply)]() mutable { self->write(std::move(reply)); });
+      });
+    } catch (const std::exception& e) {
+      // Nothing was sent yet (the handler answers last): a 500 instead of a lost thread.
+      log::error(in.method + " " + in.path + ": " + oneLine(e.what()));
+      answerAndClose(m_server.handler.refusal(500, "internal error"));
     }
   }
+
+  void answerAndClose(HttpReply reply) {
+    m_keep_alive = false;
+    m_unread_body = true;  // whatever is left of the request stays unread
+    m_head = false;
+    m_version = 11;
+    m_busy = true;
+    write(std::move(reply));
+  }
+
+  void write(HttpReply reply) {
+    auto response = std::make_shared<http::response<http::string_body>>();
+    response->version(m_version);
+    response->result(static_cast<unsigned>(reply.status));
+    for (auto& [name, value] : reply.headers) response->insert(name, value);
+    const bool bodiless = reply.status == 204 || reply.status == 304 || (reply.status >= 100 && reply.status < 200);
+    if (!bodiless) {
+      if (!reply.content_type.empty()) response->set(http::field::content_type, reply.content_type);
+      response->content_length(reply.body.size());  // also for HEAD: the length a GET would have
+      if (!m_head) response->body() = std::move(reply.body);
+    }
+    const bool keep = m_keep_alive && !m_closing && !m_server.stopping;
+    response->keep_alive(keep);
+    m_stream.expires_after(m_server.read_timeout);
+    http::async_write(m_stream, *response,
+                      [self = shared_from_this(), response, keep](beast::error_code ec, std::size_t) {
+                        self->onWritten(ec, keep);
+                      });
+  }
+
+  void onWritten(beast::error_code ec, bool keep) {
+    m_busy = false;
+    if (ec) return m_stream.close();
+    if (m_unread_body) return linger();
+    if (!keep) {
+      beast::error_code ignored;
+      m_stream.socket().shutdown(tcp::socket::shutdown_send, ignored);
+      return m_stream.close();
+    }
+    awaitNext();
+  }
+
+  // Answered without reading the body: stop sending, drop what still comes
+  // for a moment, close.
+  void linger() {
+    beast::error_code ignored;
+    m_stream.socket().shutdown(tcp::socket::shutdown_send, ignored);
+    m_buffer.clear();
+    m_stream.expires_after(kLingerTime);
+    drain();
+  }
+
+  void drain() {
+    m_stream.async_read_some(m_buffer.prepare(16384), [self = shared_from_this()](beast::error_code ec, std::size_t got) {
+      self->m_drained += got;
+      if (ec || self->m_drained > kLingerBytes) return self->m_stream.close();
+      self->drain();
+    });
+  }
+
+  beast::tcp_stream m_stream;
+  beast::flat_buffer m_buffer;
+  std::optional<http::request_parser<http::empty_body>> m_parser;
+  Listener& m_server;
+  std::string m_local_address;
+  unsigned m_version = 11;
+  bool m_head = false;
+  bool m_keep_alive = false;
+  bool m_unread_body = false;
+  bool m_busy = false;     // a request is being answered
+  bool m_closing = false;  // stop(): close after the answer under way
+  std::size_t m_drained = 0;
+};
+
+Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
+    : handler(config, std::move(layers)),
+      bind(config.bind),
+      threads(std::max(config.threads, 1)),
+      read_timeout(config.read_timeout_s),
+      idle_timeout(config.idle_timeout_s),
+      max_header_bytes(std::uint32_t(config.max_header_bytes)),
+      max_connections(config.max_connections),
+      contexts(makeContexts(threads)),
+      acceptor(*contexts[0]),
+      accept_retry(*contexts[0]) {
+  raiseFileLimit(max_connections);
+  const std::string where = hostPort(config.bind, config.port);
+  beast::error_code ec;
+  tcp::resolver resolver(*contexts[0]);
+  const auto endpoints = resolver.resolve(config.bind, std::to_string(config.port),
+                                          tcp::resolver::passive | tcp::resolver::numeric_service, ec);
+  if (ec || endpoints.empty()) {
+    throw InputError("http: cannot listen on " + where + ": " + (ec ? ec.message() : "no such address"));
+  }
+  const tcp::endpoint endpoint = endpoints.begin()->endpoint();
+  acceptor.open(endpoint.protocol(), ec);
+  // SO_REUSEADDR for a quick restart, and not SO_REUSEPORT, with which a
+  // second server would bind a port in use and take half its connections.
+  if (!ec) acceptor.set_option(tcp::acceptor::reuse_address(true), ec);
+  if (!ec) acceptor.bind(endpoint, ec);
+  if (!ec) acceptor.listen(net::socket_base::max_listen_connections, ec);
+  if (ec) throw InputError("http: cannot listen on " + where + ": " + ec.message());
+  port = acceptor.local_endpoint().port();
+}
+
+void Listener::accept() {
+  net::io_context& context = *contexts[next_context++ % contexts.size()];
+  acceptor.async_accept(context, [this](beast::error_code ec, tcp::socket socket) {
+    if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
+    if (ec) {
+      // Out of file descriptors, most likely: the connections ahead must close first.
+      log::warning("http: accept failed: " + ec.message());
+      accept_retry.expires_after(kAcceptRetry);
+      accept_retry.async_wait([this](beast::error_code) {
+        if (acceptor.is_open()) accept();
+      });
+      return;
+    }
+    if (live >= max_connections) {
+      refuse(socket);
+    } else {
+      std::make_shared<Session>(std::move(socket), *this)->start();
+    }
+    accept();
+  });
+}
+
+// Past the connection limit: a 503 written once, without waiting, and closed.
+// Nothing of the request is read and nothing is queued.
+void Listener::refuse(tcp::socket& socket) {
+  const HttpReply reply = handler.refusal(503, "busy: too many connections");
+  std::string text = "HTTP/1.1 503 Service Unavailable\r\n";
+  for (const auto& [name, value] : reply.headers) text += name + ": " + value + "\r\n";
+  text += "Content-Type: " + reply.content_type + "\r\nContent-Length: " + std::to_string(reply.body.size()) +
+          "\r\nConnection: close\r\n\r\n" + reply.body;
+  beast::error_code ec;
+  socket.non_blocking(true, ec);
+  socket.write_some(net::buffer(text), ec);
+  socket.shutdown(tcp::socket::shutdown_both, ec);
+  socket.close(ec);
+}
+
+}  // namespace
+
+struct Server::Impl : Listener {
+  using Listener::Listener;
 };
 
 Server::Server(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
@@ -117,18 +388,40 @@ int Server::port() const { return m_impl->port; }
 std::string Server::url() const { return "http://" + hostPort(m_impl->bind, m_impl->port) + "/"; }
 
 void Server::run() {
-  m_impl->in_run = true;
-  if (!m_impl->stopping) m_impl->http.listen_after_bind();
-  m_impl->in_run = false;
+  if (m_impl->stopping) return;
+  // Keeps the threads up until stop() has every bake answered (see stop()).
+  for (const auto& context : m_impl->contexts) m_impl->work.push_back(net::make_work_guard(*context));
+  m_impl->accept();
+  std::vector<std::thread> helpers;
+  for (std::size_t i = 1; i < m_impl->contexts.size(); ++i) {
+    helpers.emplace_back([this, i] { runContext(*m_impl->contexts[i]); });
+  }
+  runContext(*m_impl->contexts[0]);
+  for (std::thread& helper : helpers) helper.join();
 }
 
 void Server::stop() {
-  m_impl->stopping = true;
-  // httplib's stop() does nothing until listen has begun, so wait for that
-  // when run() is on its way in; run() sees `stopping` otherwise.
-  while (m_impl->in_run && !m_impl->http.is_running()) std::this_thread::yield();
-  m_impl->http.stop();
-  m_impl->handler.stopLayers();
+  Impl& impl = *m_impl;
+  impl.stopping = true;
+  net::post(*impl.contexts[0], [&impl] {
+    beast::error_code ignored;
+    impl.acceptor.close(ignored);
+    impl.accept_retry.cancel();
+    std::lock_guard<std::mutex> lock(impl.sessions_mutex);
+    for (const auto& [pointer, weak] : impl.sessions) {
+      if (std::shared_ptr<Session> session = weak.lock()) {
+        net::post(session->executor(), [session] { session->stopWhenIdle(); });
+      }
+    }
+  });
+  // Queued bakes are answered 503 at once, running ones when they finish;
+  // their answers are on the io_context's queue when this returns.
+  impl.handler.stopLayers();
+  for (std::size_t i = 0; i < impl.contexts.size(); ++i) {
+    net::post(*impl.contexts[i], [&impl, i] {
+      if (i < impl.work.size()) impl.work[i].reset();
+    });
+  }
 }
 
 }  // namespace terrabake::server

@@ -24,9 +24,10 @@ done
 
 work=$(mktemp -d /tmp/terrabake-load.XXXXXX)
 chmod 755 "$work"  # nginx workers run unprivileged
-pids=()
+# Servers started, one pid a line: start_terrabake runs in a command
+# substitution's subshell, whose variables the trap would not see.
 cleanup() {
-  for pid in "${pids[@]}"; do kill "$pid" 2>/dev/null || true; done
+  [ -f "$work/pids" ] && while read -r pid; do kill "$pid" 2>/dev/null || true; done <"$work/pids"
   [ -f "$work/nginx.pid" ] && kill "$(cat "$work/nginx.pid")" 2>/dev/null || true
   wait 2>/dev/null || true
   rm -rf "$work"
@@ -39,7 +40,7 @@ free_port() { /usr/bin/python3 -c 'import socket; s=socket.socket(); s.bind(("12
 start_terrabake() {
   local log=$work/serve.$RANDOM.out
   "$terrabake" serve --bind 127.0.0.1 --port 0 "$@" >"$log" 2>"$log.err" &
-  pids+=($!)
+  echo $! >>"$work/pids"
   for _ in $(seq 100); do
     if grep -q "on http://" "$log" 2>/dev/null; then
       sed -n 's|.*on http://127.0.0.1:\([0-9]*\)/.*|\1|p' "$log"

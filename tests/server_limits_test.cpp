@@ -1,0 +1,583 @@
+// `terrabake serve` under abuse and at the edges of HTTP, in process, on
+// loopback, with injected on-demand layers (no DEM, no GL): idle and slow
+// clients, a flood of tiles to bake, too many connections, bodies and headers
+// too large, ranges, and what tilejson tells (no Host header echoed, no local
+// path). Every loop is bounded in count and time.
+#include <gtest/gtest.h>
+
+#include <netinet/in.h>
+#include <netinet/tcp.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/time.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cstdio>
+#include <cstdint>
+#include <filesystem>
+#include <map>
+#include <memory>
+#include <optional>
+#include <string>
+#include <thread>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "io/layer_layout.hpp"
+#include "io/tile_files.hpp"
+#include "server/layer_catalog.hpp"
+#include "server_helpers.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace test;
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::json;
+
+double msSince(Clock::time_point start) {
+  return std::chrono::duration<double, std::milli>(Clock::now() - start).count();
+}
+
+double percentile(std::vector<double> values, double p) {
+  if (values.empty()) return 0;
+  std::sort(values.begin(), values.end());
+  return values[std::min(values.size() - 1, std::size_t(double(values.size()) * p))];
+}
+
+// A loopback connection; reads give up after `timeout_ms`. -1 when it fails.
+int connectTo(int port, int timeout_ms = 10000) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return -1;
+  const timeval timeout{timeout_ms / 1000, (timeout_ms % 1000) * 1000};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  const int yes = 1;
+  ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &yes, sizeof yes);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(uint16_t(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return -1;
+  }
+  return fd;
+}
+
+// Closes its descriptors, whatever the test did.
+struct Sockets {
+  std::vector<int> fds;
+  ~Sockets() {
+    for (const int fd : fds) ::close(fd);
+  }
+};
+
+bool sendAll(int fd, const std::string& text) {
+  return ::send(fd, text.data(), text.size(), MSG_NOSIGNAL) == ssize_t(text.size());
+}
+
+// What came back on a raw connection: status, header lines, body.
+struct RawAnswer {
+  int status = -1;  // -1: nothing, or not HTTP
+  std::string head;
+  std::string body;
+  bool closed = false;  // the server closed the connection after it
+  double ms = 0;        // from sending to the end of the answer
+
+  std::string header(const std::string& name) const {
+    const std::string key = "\r\n" + name + ": ";
+    const std::size_t at = head.find(key);
+    if (at == std::string::npos) return {};
+    const std::size_t start = at + key.size();
+    return head.substr(start, head.find("\r\n", start) - start);
+  }
+};
+
+// Reads one answer from `fd`: its head, then Content-Length bytes of body
+// (none after HEAD), or everything up to the close; with `confirm_close`, an
+// answer saying "Connection: close" is followed to the close. Bounded by the
+// socket's read timeout.
+RawAnswer readAnswer(int fd, bool head_request, Clock::time_point sent, bool confirm_close = true) {
+  RawAnswer answer;
+  std::string text;
+  char buffer[16384];
+  std::size_t head_end = std::string::npos;
+  for (int reads = 0; reads < 100000; ++reads) {
+    if (head_end == std::string::npos) head_end = text.find("\r\n\r\n");
+    if (head_end != std::string::npos) {
+      answer.head = text.substr(0, head_end + 2);
+      const std::string length = answer.header("Content-Length");
+      const std::size_t wanted = head_request || length.empty() ? 0 : std::stoul(length);
+      if (text.size() - head_end - 4 >= wanted && (!length.empty() || head_request)) {
+        answer.body = text.substr(head_end + 4, wanted);
+        // An answer that says it closes the connection: see that it does.
+        if (confirm_close && answer.header("Connection") == "close") {
+          answer.closed = ::recv(fd, buffer, sizeof buffer, 0) <= 0;
+        }
+        break;
+      }
+    }
+    const ssize_t got = ::recv(fd, buffer, sizeof buffer, 0);
+    if (got <= 0) {
+      answer.closed = true;
+      if (head_end != std::string::npos) answer.body = text.substr(head_end + 4);
+      break;
+    }
+    text.append(buffer, std::size_t(got));
+  }
+  answer.ms = msSince(sent);
+  if (text.rfind("HTTP/1.1 ", 0) == 0 && text.size() >= 12) answer.status = std::stoi(text.substr(9, 3));
+  return answer;
+}
+
+// One request on a new connection, "Connection: close" unless `extra` says otherwise.
+RawAnswer exchange(int port, const std::string& method, const std::string& target, const std::string& extra = "",
+                   int timeout_ms = 10000) {
+  const int fd = connectTo(port, timeout_ms);
+  if (fd < 0) return {};
+  const auto sent = Clock::now();
+  const std::string request =
+      method + " " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + extra + "Connection: close\r\n\r\n";
+  RawAnswer answer = sendAll(fd, request) ? readAnswer(fd, method == "HEAD", sent) : RawAnswer{};
+  ::close(fd);
+  return answer;
+}
+
+// Waits up to `limit_ms` for the server to close `fd`; the milliseconds it took, or -1.
+double msUntilClosed(int fd, Clock::time_point since, int limit_ms) {
+  char buffer[4096];
+  while (msSince(since) < limit_ms) {
+    pollfd one{fd, POLLIN, 0};
+    if (::poll(&one, 1, 50) > 0) {
+      const ssize_t got = ::recv(fd, buffer, sizeof buffer, MSG_DONTWAIT);
+      if (got == 0 || (got < 0 && errno != EAGAIN && errno != EWOULDBLOCK)) return msSince(since);
+    }
+  }
+  return -1;
+}
+
+// A served world without DEMs: an on-demand layer "fake" whose bakes the
+// test holds at a gate, with tile 3/1/1 (png and glb) already on disk.
+struct World {
+  fs::path dir = caseDir();
+  Gate gate;
+  std::atomic<int> bakes{0};
+  server::LayerSource* fake = nullptr;
+  config::ServeConfig config = fakeConfig(dir);
+  std::string cached_png;
+
+  std::unique_ptr<server::LayerSource> layer(int workers, std::size_t queue_size) {
+    const io::TileFiles files = fakeFiles();
+    io::writeTileFiles((dir / "tiles" / "fake").string(), {3, 1, 1}, files);
+    cached_png.assign(files.png.begin(), files.png.end());
+    auto made = fakeLayer(dir / "tiles", workers, queue_size, [this](const TileId&) {
+      ++bakes;
+      gate.pass();
+      return std::optional<io::TileFiles>(fakeFiles());
+    });
+    fake = made.get();
+    return made;
+  }
+};
+
+// --- Starvation ------------------------------------------------------------
+
+TEST(ServeLimits, IdleAndSlowHeaderClientsDoNotDelayAnOrdinaryRequest) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  Sockets idle;
+  for (int i = 0; i < 500; ++i) {
+    const int fd = connectTo(running.port());
+    ASSERT_GE(fd, 0) << "connection " << i;
+    idle.fds.push_back(fd);
+  }
+  Sockets slow;
+  for (int i = 0; i < 16; ++i) slow.fds.push_back(connectTo(running.port()));
+  const std::string head = "GET /fake/3/1/1.png HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n";
+  // The slow clients send a byte a second: the ordinary request comes after
+  // the first second, their heads still unfinished.
+  for (const int fd : slow.fds) sendAll(fd, head.substr(0, 1));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1000));
+  for (const int fd : slow.fds) sendAll(fd, head.substr(1, 1));
+  const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png");
+  EXPECT_EQ(answer.status, 200);
+  EXPECT_EQ(answer.body, world.cached_png);
+  EXPECT_LT(answer.ms, 1000) << "an ordinary GET waited behind 500 idle and 16 slow-header connections";
+}
+
+TEST(ServeLimits, SlowHeadersAndIdleConnectionsAreClosedOnTime) {
+  World world;
+  world.config.read_timeout_s = 1;
+  world.config.idle_timeout_s = 1;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+
+  // Three clients at once, each timed from its start: when the server closed it.
+  double trickled_ms = -1, silent_ms = -1, kept_ms = -1;
+  int kept_status = -1;
+  bool kept_open_after_answer = false;
+  // A head sent a byte every 100 ms never ends in time: closed after about 1 s.
+  std::thread trickle([&] {
+    const int fd = connectTo(running.port());
+    const auto start = Clock::now();
+    const std::string head = "GET /fake/3/1/1.png HTTP/1.1\r\nHost: 127.0.0.1\r\nX-Slow: ";
+    for (std::size_t i = 0; trickled_ms < 0 && msSince(start) < 5000; ++i) {
+      if (!sendAll(fd, std::string(1, i < head.size() ? head[i] : 'x'))) {
+        trickled_ms = msSince(start);  // reset by the server
+        break;
+      }
+      trickled_ms = msUntilClosed(fd, start, int(msSince(start)) + 100);
+    }
+    ::close(fd);
+  });
+  // A connection that never sends anything: the same read timeout.
+  std::thread silent([&] {
+    const int fd = connectTo(running.port());
+    silent_ms = msUntilClosed(fd, Clock::now(), 5000);
+    ::close(fd);
+  });
+  // A kept-alive connection after its answer: the idle timeout.
+  std::thread kept([&] {
+    const int fd = connectTo(running.port());
+    if (sendAll(fd, "GET /health HTTP/1.1\r\nHost: 127.0.0.1\r\n\r\n")) {
+      const RawAnswer answer = readAnswer(fd, false, Clock::now());
+      kept_status = answer.status;
+      kept_open_after_answer = !answer.closed;
+      kept_ms = msUntilClosed(fd, Clock::now(), 5000);
+    }
+    ::close(fd);
+  });
+  trickle.join();
+  silent.join();
+  kept.join();
+  EXPECT_GT(trickled_ms, 800);
+  EXPECT_LT(trickled_ms, 3500) << "a byte-by-byte head kept its connection";
+  EXPECT_GT(silent_ms, 800);
+  EXPECT_LT(silent_ms, 3500) << "a silent connection was kept";
+  EXPECT_EQ(kept_status, 200);
+  EXPECT_TRUE(kept_open_after_answer);
+  EXPECT_GT(kept_ms, 800);
+  EXPECT_LT(kept_ms, 3500) << "an idle kept-alive connection was kept";
+}
+
+TEST(ServeLimits, ConnectionsBeyondTheLimitAreRefusedAtOnce) {
+  World world;
+  world.config.max_connections = 16;
+  world.config.retry_after_s = 3;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  Sockets held;
+  for (int i = 0; i < 16; ++i) held.fds.push_back(connectTo(running.port()));
+  // Each of the 16 is accepted (and counted) before the next in line.
+  const RawAnswer refused = exchange(running.port(), "GET", "/fake/3/1/1.png");
+  EXPECT_EQ(refused.status, 503) << refused.head;
+  EXPECT_EQ(refused.header("Retry-After"), "3");
+  EXPECT_TRUE(refused.closed);
+  EXPECT_LT(refused.ms, 50) << "an excess connection must be refused, not queued";
+  for (const int fd : held.fds) ::close(fd);
+  held.fds.clear();
+  bool served = false;
+  for (int attempt = 0; attempt < 100 && !served; ++attempt) {
+    served = exchange(running.port(), "GET", "/fake/3/1/1.png").status == 200;
+    if (!served) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  EXPECT_TRUE(served) << "closed connections free their places";
+}
+
+// 2,000 concurrent requests for distinct tiles not made yet, far more than
+// the queue holds, with a cached tile asked for all through.
+TEST(ServeLimits, AFloodOfTilesToBakeIsRefusedAtOnceWhileCachedTilesAnswer) {
+  constexpr int kFlood = 2000;
+  constexpr std::size_t kQueue = 8;
+  World world;
+  world.config.max_connections = 4096;
+  world.config.threads = 4;
+  ServerThread running(world.config, onlyLayer(world.layer(1, kQueue)));
+
+  // Cached tiles asked for one after another all through the flood.
+  std::atomic<bool> flooding{true};
+  std::vector<double> cached_ms;
+  int cached_wrong = 0;
+  std::thread cached([&] {
+    for (int i = 0; i < 100000 && flooding; ++i) {
+      const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png");
+      if (answer.status == 200 && answer.body == world.cached_png) {
+        cached_ms.push_back(answer.ms);
+      } else {
+        ++cached_wrong;
+      }
+    }
+  });
+
+  Sockets flood;
+  std::vector<Clock::time_point> sent(kFlood);
+  std::vector<int> outstanding;  // indices of requests not answered yet
+  std::map<int, int> statuses;
+  std::vector<double> refused_ms;
+  bool retry_after = true;
+  // Reads the answers that have come, timing each from its request's sending.
+  const auto collect = [&](int wait_ms) {
+    std::vector<pollfd> polled;
+    for (const int i : outstanding) polled.push_back({flood.fds[std::size_t(i)], POLLIN, 0});
+    if (::poll(polled.data(), polled.size(), wait_ms) <= 0) return;
+    std::vector<int> left;
+    for (std::size_t k = 0; k < polled.size(); ++k) {
+      const int i = outstanding[k];
+      if (!(polled[k].revents & (POLLIN | POLLHUP | POLLERR))) {
+        left.push_back(i);
+        continue;
+      }
+      // Not followed to the close: timing the next answers is what counts here.
+      const RawAnswer answer = readAnswer(polled[k].fd, false, sent[std::size_t(i)], false);
+      ++statuses[answer.status];
+      if (answer.status == 503) {
+        refused_ms.push_back(answer.ms);
+        retry_after = retry_after && answer.header("Retry-After") == "1";
+      }
+    }
+    outstanding = left;
+  };
+  for (int i = 0; i < kFlood; ++i) {
+    const int fd = connectTo(running.port());
+    ASSERT_GE(fd, 0) << "connection " << i;
+    flood.fds.push_back(fd);
+    sent[std::size_t(i)] = Clock::now();
+    const std::string target = "/fake/12/" + std::to_string(i) + "/7.png";
+    ASSERT_TRUE(sendAll(fd, "GET " + target + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"));
+    outstanding.push_back(i);
+    collect(0);
+    // A breath every 25 requests, so that on 2 cores this thread's sending
+    // does not take the CPU the server needs to answer (that would time the
+    // test machine, not the server).
+    if (i % 25 == 24) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  // The queue and the bake the one worker holds keep their requests waiting;
+  // everything else is answered while that bake is held.
+  const int waiting = int(kQueue) + 1;
+  const auto deadline = Clock::now() + std::chrono::seconds(10);
+  while (int(outstanding.size()) > waiting && Clock::now() < deadline) collect(100);
+  collect(200);  // nothing more is due: a late answer would show here
+  const std::vector<int> still = outstanding;
+  flooding = false;
+  cached.join();
+  const server::BakeCounters counters = world.fake->bakeCounters();
+  world.gate.open();
+  for (const int i : still) {
+    const RawAnswer answer = readAnswer(flood.fds[std::size_t(i)], false, sent[std::size_t(i)]);
+    ++statuses[answer.status == 200 ? 1200 : answer.status];  // 1200: answered once the bake went on
+  }
+
+  std::printf("flood of %d: %zu answered 503 (p50 %.1f ms, p99 %.1f ms), %zu waiting; %zu cached tiles meanwhile "
+              "(p50 %.2f ms, p99 %.2f ms)\n",
+              kFlood, refused_ms.size(), percentile(refused_ms, 0.5), percentile(refused_ms, 0.99), still.size(),
+              cached_ms.size(), percentile(cached_ms, 0.5), percentile(cached_ms, 0.99));
+  EXPECT_EQ(int(still.size()), waiting) << "requests left waiting for a bake";
+  EXPECT_EQ(statuses[503], kFlood - waiting);
+  EXPECT_EQ(statuses[1200], waiting);
+  EXPECT_EQ(counters.rejected, std::uint64_t(kFlood - waiting));
+  EXPECT_TRUE(retry_after);
+  EXPECT_LT(percentile(refused_ms, 0.99), 50) << "p99 of the 503s, in ms";
+  EXPECT_EQ(cached_wrong, 0);
+  ASSERT_GE(cached_ms.size(), 10u) << "cached tiles asked during the flood";
+  EXPECT_LT(percentile(cached_ms, 0.99), 50) << "p99 of " << cached_ms.size() << " cached tiles during the flood, in ms";
+}
+
+TEST(ServeLimits, DuplicateRequestsShareOneBakeAndAreNotRefused) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 1)));
+  Sockets clients;
+  for (int i = 0; i < 20; ++i) {
+    const int fd = connectTo(running.port());
+    clients.fds.push_back(fd);
+    ASSERT_TRUE(sendAll(fd, "GET /fake/9/4/4.png HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n"));
+  }
+  ASSERT_TRUE(world.gate.waitEntered(1));
+  ASSERT_TRUE(waitFor([&] { return world.fake->bakeCounters().joined == 19; }));
+  world.gate.open();
+  for (const int fd : clients.fds) EXPECT_EQ(readAnswer(fd, false, Clock::now()).status, 200);
+  EXPECT_EQ(world.bakes, 1);
+  EXPECT_EQ(world.fake->bakeCounters().rejected, 0u);
+}
+
+// --- Bodies and headers -------------------------------------------------------
+
+TEST(ServeLimits, AHugeBodyIsAnsweredBeforeItIsRead) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const struct {
+    const char* method;
+    const char* target;
+    const char* framing;
+    int status;
+  } cases[] = {
+      {"POST", "/fake/tilejson.json", "Content-Length: 268435456\r\n", 405},
+      {"PUT", "/fake/3/1/1.png", "Content-Length: 268435456\r\n", 405},
+      {"POST", "/health", "Transfer-Encoding: chunked\r\n", 405},
+      {"GET", "/fake/3/1/1.png", "Content-Length: 268435456\r\n", 413},
+      {"GET", "/", "Content-Length: 268435456\r\nExpect: 100-continue\r\n", 413},
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(std::string(c.method) + " " + c.target + " " + c.framing);
+    const int fd = connectTo(running.port(), 5000);
+    ASSERT_GE(fd, 0);
+    const auto sent = Clock::now();
+    // The head and a few bytes of the 256 MB: the answer cannot wait for the rest.
+    ASSERT_TRUE(sendAll(fd, std::string(c.method) + " " + c.target + " HTTP/1.1\r\nHost: 127.0.0.1\r\n" + c.framing +
+                                "\r\n" + std::string(64, 'x')));
+    const RawAnswer answer = readAnswer(fd, false, sent);
+    ::close(fd);
+    EXPECT_EQ(answer.status, c.status) << answer.head;
+    EXPECT_LT(answer.ms, 1000);
+    EXPECT_TRUE(answer.closed) << "the unread body ends the connection";
+    if (c.status == 405) {
+      EXPECT_EQ(answer.header("Allow"), "GET, HEAD, OPTIONS");
+    }
+  }
+  EXPECT_EQ(exchange(running.port(), "GET", "/fake/3/1/1.png").status, 200) << "the server goes on";
+}
+
+TEST(ServeLimits, HeadersBeyondTheLimitAre431) {
+  World world;
+  world.config.max_header_bytes = 4096;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const RawAnswer big = exchange(running.port(), "GET", "/health", "X-Big: " + std::string(8000, 'a') + "\r\n");
+  EXPECT_EQ(big.status, 431) << big.head;
+  EXPECT_TRUE(big.closed);
+  const RawAnswer fits = exchange(running.port(), "GET", "/health", "X-Fits: " + std::string(2000, 'a') + "\r\n");
+  EXPECT_EQ(fits.status, 200);
+}
+
+// --- Ranges ------------------------------------------------------------------
+
+TEST(ServeRanges, SingleRangesArePartialContent) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const std::string& png = world.cached_png;
+  const std::string total = std::to_string(png.size());
+  ASSERT_GE(png.size(), 8u);
+  const RawAnswer whole = exchange(running.port(), "GET", "/fake/3/1/1.png");
+  EXPECT_EQ(whole.status, 200);
+  EXPECT_EQ(whole.header("Accept-Ranges"), "bytes");
+  const std::string etag = whole.header("ETag");
+
+  const struct {
+    std::string range;
+    std::size_t first, last;
+  } parts[] = {
+      {"bytes=0-3", 0, 3},
+      {"bytes=2-", 2, png.size() - 1},
+      {"bytes=-4", png.size() - 4, png.size() - 1},
+      {"bytes=1-99999", 1, png.size() - 1},  // clipped to the end
+      {"bytes=-99999", 0, png.size() - 1},
+  };
+  for (const auto& part : parts) {
+    SCOPED_TRACE(part.range);
+    const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: " + part.range + "\r\n");
+    EXPECT_EQ(answer.status, 206);
+    EXPECT_EQ(answer.header("Content-Range"),
+              "bytes " + std::to_string(part.first) + "-" + std::to_string(part.last) + "/" + total);
+    EXPECT_EQ(answer.header("Content-Length"), std::to_string(part.last - part.first + 1));
+    EXPECT_EQ(answer.body, png.substr(part.first, part.last - part.first + 1));
+    EXPECT_EQ(answer.header("ETag"), etag);
+  }
+  // HEAD: the same head, no body.
+  const RawAnswer head = exchange(running.port(), "HEAD", "/fake/3/1/1.png", "Range: bytes=0-3\r\n");
+  EXPECT_EQ(head.status, 206);
+  EXPECT_EQ(head.header("Content-Length"), "4");
+  EXPECT_EQ(head.body, "");
+  // If-Range with this version: the part; with another: the whole.
+  EXPECT_EQ(exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-Range: " + etag + "\r\n").status,
+            206);
+  EXPECT_EQ(exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-Range: \"old\"\r\n").status,
+            200);
+  // Several ranges, another unit, nonsense: the whole file.
+  for (const std::string range : {"bytes=0-1,4-5", "items=0-3", "bytes=abc", "bytes=5-2"}) {
+    const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: " + range + "\r\n");
+    EXPECT_EQ(answer.status, 200) << range;
+    EXPECT_EQ(answer.body, png) << range;
+  }
+  // If-None-Match wins: a client holding the version wants no part of it.
+  EXPECT_EQ(
+      exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-None-Match: " + etag + "\r\n").status,
+      304);
+}
+
+TEST(ServeRanges, ARangePastTheEndIs416) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const std::string total = std::to_string(world.cached_png.size());
+  for (const std::string& range : std::vector<std::string>{"bytes=" + total + "-", "bytes=" + total + "-" + total,
+                                                          "bytes=99999-", "bytes=-0"}) {
+    const RawAnswer answer = exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: " + range + "\r\n");
+    EXPECT_EQ(answer.status, 416) << range;
+    EXPECT_EQ(answer.header("Content-Range"), "bytes */" + total) << range;
+  }
+}
+
+// --- What tilejson tells -----------------------------------------------------
+
+// A batch-made layer "dir" whose tilejson names its DEMs by absolute path, as
+// `terrabake tile` writes it.
+void writeDirectoryLayer(const fs::path& tiles) {
+  writeText(tiles / "dir" / io::kTileJsonFile, R"({"tilejson": "3.0.0", "name": "dir", "tiles": ["./{z}/{x}/{y}.png"],
+    "minzoom": 0, "maxzoom": 4, "bounds": [-10, -10, 10, 10],
+    "terrabake": {"mesh": "./{z}/{x}/{y}.glb", "sources": ["/srv/private/dems/alps.tif", "/srv/private/dems/*.hgt"]}})");
+}
+
+TEST(ServeUrls, TileJsonNeverEchoesTheHostHeaderNorNamesLocalPaths) {
+  const fs::path dir = caseDir();
+  config::ServeConfig config = fakeConfig(dir);
+  writeDirectoryLayer(config.tiles_dir);
+  ServerThread running(config);
+  const std::string origin = "http://127.0.0.1:" + std::to_string(running.port());
+  for (const std::string host : {"evil.example:666", "127.0.0.1:1", ""}) {
+    const std::string header = host.empty() ? "" : "Host: " + host + "\r\n";
+    // (exchange() sends its own Host first; this one follows it, as a forged second Host would.)
+    const RawAnswer answer = exchange(running.port(), "GET", "/dir/tilejson.json", header);
+    ASSERT_EQ(answer.status, 200) << host;
+    EXPECT_EQ(answer.body.find("evil"), std::string::npos) << answer.body;
+    const Json doc = Json::parse(answer.body);
+    EXPECT_EQ(doc["tiles"][0], origin + "/dir/{z}/{x}/{y}.png");
+    EXPECT_EQ(doc["terrabake"]["mesh"], origin + "/dir/{z}/{x}/{y}.glb");
+    EXPECT_EQ(doc["terrabake"]["sources"], Json::array({"alps.tif", "*.hgt"}));
+    EXPECT_EQ(answer.body.find("/srv/private"), std::string::npos) << answer.body;
+  }
+  // httplib's client, which sends only the forged Host.
+  const auto forged = get(running.port(), "/layers.json", {{"Host", "evil.example:666"}});
+  ASSERT_TRUE(forged);
+  EXPECT_EQ(forged->body.find("evil"), std::string::npos) << forged->body;
+  const auto tilejson = get(running.port(), "/dir/tilejson.json", {{"Host", "evil.example:666"}});
+  ASSERT_TRUE(tilejson);
+  EXPECT_EQ(Json::parse(tilejson->body)["tiles"][0], origin + "/dir/{z}/{x}/{y}.png");
+  // The file on disk keeps its paths: only what is served loses them.
+  EXPECT_NE(readBytes(fs::path(config.tiles_dir) / "dir" / io::kTileJsonFile).find("/srv/private"), std::string::npos);
+}
+
+TEST(ServeUrls, APublicUrlIsTheBaseOfEveryUrl) {
+  const fs::path dir = caseDir();
+  config::ServeConfig config = fakeConfig(dir);
+  config.public_url = "https://tiles.example.org/terrain";  // a trailing '/' is added
+  writeDirectoryLayer(config.tiles_dir);
+  ServerThread running(config);
+  const auto tilejson = get(running.port(), "/dir/tilejson.json", {{"Host", "evil.example:666"}});
+  ASSERT_TRUE(tilejson);
+  const Json doc = Json::parse(tilejson->body);
+  EXPECT_EQ(doc["tiles"][0], "https://tiles.example.org/terrain/dir/{z}/{x}/{y}.png");
+  EXPECT_EQ(doc["terrabake"]["mesh"], "https://tiles.example.org/terrain/dir/{z}/{x}/{y}.glb");
+  const auto list = get(running.port(), "/layers.json");
+  ASSERT_TRUE(list);
+  EXPECT_EQ(Json::parse(list->body)["layers"][0]["tilejson"], "https://tiles.example.org/terrain/dir/tilejson.json");
+}
+
+}  // namespace
+}  // namespace terrabake
