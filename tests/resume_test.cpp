@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <chrono>
+#include <cstdio>
 #include <cstdlib>
 #include <memory>
 #include <filesystem>
@@ -107,6 +108,50 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
   EXPECT_GE(summaryCount(resumed.out(), "skipped"), int(kMeshesBeforeCrash));
   EXPECT_EQ(summaryCount(resumed.out(), "skipped") + summaryCount(resumed.out(), "wrote"), tiles);
   EXPECT_TRUE(test::snapshot(crash_dir / "layer") == expected) << "the resumed layer differs from an uninterrupted run";
+}
+
+// What the sqlite3 tool prints for `sql` on `file`, read-only.
+std::string sqlite(const fs::path& file, const std::string& sql) {
+  const std::string command = "sqlite3 -readonly '" + file.string() + "' \"" + sql + "\"";
+  std::unique_ptr<FILE, int (*)(FILE*)> pipe(::popen(command.c_str(), "r"), ::pclose);
+  std::string out;
+  char buffer[256];
+  while (pipe && std::fgets(buffer, sizeof buffer, pipe.get())) out += buffer;
+  return out;
+}
+
+TEST(Resume, SigtermStopsAnMbtilesRunAsOneWholeFileThatResumes) {
+  const fs::path dir = freshDir("sigterm_mbtiles");
+  std::vector<std::string> args = jobArgs(dir);
+  args.insert(args.end(), {"--format", "mbtiles"});
+  const fs::path file = dir / "layer.mbtiles", wal = dir / "layer.mbtiles-wal";
+  {
+    test::ChildProcess stopped(args);
+    // A few tiles in: the write-ahead log has grown past its first pages.
+    test::waitUntil([&] {
+      std::error_code ec;
+      const auto size = fs::file_size(wal, ec);  // (uintmax_t)-1 while there is none
+      return (!ec && size > 200'000) || !stopped.running();
+    }, kRunLimit, std::chrono::milliseconds(2));
+    ASSERT_TRUE(stopped.running()) << "the run ended before it could be stopped: " << stopped.err();
+    stopped.signal(SIGTERM);
+    EXPECT_EQ(stopped.wait(kRunLimit), 143) << stopped.err();
+    EXPECT_NE(stopped.err().find("--resume"), std::string::npos) << stopped.err();
+  }
+  EXPECT_TRUE(fs::exists(file));
+  EXPECT_FALSE(fs::exists(wal)) << "a write-ahead log was left beside the file";
+  EXPECT_FALSE(fs::exists(dir / "layer.mbtiles-shm"));
+  EXPECT_EQ(sqlite(file, "PRAGMA integrity_check;"), "ok\n");
+  const int made = std::stoi(sqlite(file, "SELECT count(*) FROM meshes;"));
+  EXPECT_GT(made, 0);
+
+  args.push_back("--resume");
+  test::ChildProcess resumed(args);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_EQ(summaryCount(resumed.out(), "skipped"), made);
+  const int all = made + summaryCount(resumed.out(), "wrote");
+  EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM meshes;")), all);
+  EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), all);
 }
 
 TEST(Resume, ADifferentJobIsRefusedWithoutForce) {

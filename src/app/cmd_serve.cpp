@@ -7,12 +7,13 @@
 #include <vector>
 
 #include "app/commands.hpp"
+#include "app/stop_signals.hpp"
 #include "app/key_flags.hpp"
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "server/layer_catalog.hpp"
 #include "server/server.hpp"
-#include "server/shutdown_signals.hpp"
 
 namespace terrabake::app {
 namespace {
@@ -37,8 +38,8 @@ Action addServeCommand(CLI::App& app) {
   options->key_flags = std::make_unique<KeyFlags>(cmd, config::listServeKeys());
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
-    // First, before any thread exists: bake workers and HTTP threads inherit the mask.
-    server::blockShutdownSignals();
+    // Before the server starts, so a signal at any point stops it gracefully.
+    catchStopSignals();
     const config::ServeConfig config =
         loadSettings(options->config_path, config::loadServeConfig, *options->key_flags);
 
@@ -47,7 +48,11 @@ Action addServeCommand(CLI::App& app) {
     const std::string tiles = std::filesystem::absolute(config.tiles_dir).lexically_normal().string();
     std::printf("terrabake: serving %s on %s\n", tiles.c_str(), server.url().c_str());
     std::fflush(stdout);
-    server::serveUntilSignal(server);
+    runUntilStopSignal([&server] { server.run(); },
+                       [&server](const std::string& name) {
+                         log::info("stopping on " + name + ": finishing bakes in progress");
+                         server.stop();
+                       });
     return int(ExitCode::kOk);
   };
 }

@@ -1,10 +1,12 @@
 // `terrabake tile`: a config file, with flags overriding its keys.
+#include <atomic>
 #include <cstdio>
 #include <memory>
 #include <string>
 #include <vector>
 
 #include "app/commands.hpp"
+#include "app/stop_signals.hpp"
 #include "app/key_flags.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
@@ -55,11 +57,26 @@ Action addTileCommand(CLI::App& app) {
   cmd->add_option("--shard", options->shard, "Make shard K of N (K/N): every N-th tile, for job arrays");
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
+    // Before the run, so a signal at any point of it stops it gracefully.
+    catchStopSignals();
     const config::TileJob job = loadSettings(options->config_path, config::loadTileJob, *options->key_flags);
     if (!options->shard.empty()) parseShard(options->shard, options->run);
-    const pipeline::RunSummary summary = pipeline::runTileJob(job, options->run);
+    std::atomic<bool> stop{false};
+    std::atomic<int> stop_code{0};
+    options->run.stop = &stop;
+    pipeline::RunSummary summary;
+    runUntilStopSignal([&] { summary = pipeline::runTileJob(job, options->run); },
+                       [&](const std::string& name) {
+                         log::info("stopping on " + name + ": finishing the tiles in progress");
+                         stop_code = int(name == "SIGINT" ? ExitCode::kInterrupted : ExitCode::kTerminated);
+                         stop = true;
+                       });
     std::printf("terrabake: wrote %d tiles to %s (%d skipped, %d empty, %d failed) in %.1f s\n", summary.written,
                 summary.layer_dir.c_str(), summary.skipped, summary.empty, summary.failed, summary.seconds);
+    if (summary.interrupted) {
+      log::warning("stopped before the end: the tiles written are whole; --resume makes the rest");
+      return stop_code.load();
+    }
     if (!summary.nothing_made.empty()) {
       log::warning(summary.nothing_made);
       return int(ExitCode::kNothingMade);

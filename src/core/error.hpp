@@ -14,6 +14,10 @@ enum class ExitCode : int {
   kInput = 3,        // unreadable DEM, unwritable output, no GL context...
   kTilesFailed = 4,  // the run finished but some tiles could not be made
   kNothingMade = 5,  // the job holds no tile with data: nothing was written (the reason is logged)
+  // `tile` stopped by a signal, as shells report one (128 + its number): the
+  // tiles written are whole, --resume makes the rest.
+  kInterrupted = 130,  // SIGINT
+  kTerminated = 143,   // SIGTERM
 };
 
 class Error : public std::runtime_error {

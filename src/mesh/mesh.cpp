@@ -181,6 +181,15 @@ void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples) {
         if (inside && isDemSample(samples, samples.apron + i, samples.apron + j)) return true;
       }
     }
+    // A thin triangle may hold no texel centre at all (an adaptive mesh's
+    // strip along a tile edge): a vertex in a data texel's square keeps it.
+    for (const glm::dvec2& corner : v) {
+      for (int j = int(std::ceil(corner.y - 0.5)); j <= int(std::floor(corner.y + 0.5)); ++j) {
+        for (int i = int(std::ceil(corner.x - 0.5)); i <= int(std::floor(corner.x + 0.5)); ++i) {
+          if (isDemSample(samples, samples.apron + i, samples.apron + j)) return true;
+        }
+      }
+    }
     return false;
   };
   std::vector<std::uint32_t> kept;

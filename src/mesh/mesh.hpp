@@ -112,8 +112,9 @@ std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size);
 double maxDistanceToSamples(const TriangleMesh& mesh, const SampleGrid& samples);
 
 // Leaves out of `mesh` (over the UV space of `samples`' tile) the triangles
-// that hold no texel centre with a DEM sample, edges and corners included,
-// so the mesh stops within a triangle of where the data stops. Vertices stay.
+// that hold no texel centre with a DEM sample (edges and corners included)
+// and have no vertex in such a texel's square, so the mesh stops within a
+// triangle of where the data stops. Vertices stay.
 void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples);
 
 }  // namespace terrabake::mesh

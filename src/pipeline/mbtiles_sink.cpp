@@ -58,6 +58,11 @@ class MbtilesSink : public TileSink {
     m_file->standAlone();
   }
 
+  void close() override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->standAlone();
+  }
+
  private:
   mutable std::mutex m_mutex;
   std::unique_ptr<io::MbtilesFile> m_file;

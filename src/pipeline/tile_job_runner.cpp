@@ -85,6 +85,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
       log::info("baking with " + summary.renderer);
     });
     for (std::size_t i = next++; i < count; i = next++) {
+      if (options.stop && *options.stop) break;
       const TileId tile = tileOf(i);
       try {
         if (options.resume && sink->hasTile(tile)) {
@@ -109,12 +110,18 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   progress.finish();
   if (fatal) std::rethrow_exception(fatal);
 
-  sink->finish(plan->tilejson);
   summary.written = written;
   summary.skipped = skipped;
   summary.empty = empty;
   summary.failed = failed;
+  summary.interrupted = std::size_t(written + skipped + empty + failed) < count;
+  if (summary.interrupted) {
+    sink->close();
+  } else {
+    sink->finish(plan->tilejson);
+  }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  if (summary.interrupted) return summary;
   for (const std::string& line : plan->dem->implausibleReport()) log::warning(line);
   if (count == 0) {
     log::info("shard " + std::to_string(options.shard) + "/" + std::to_string(options.shard_count) +

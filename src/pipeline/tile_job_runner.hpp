@@ -1,6 +1,7 @@
 #pragma once
 // Runs a `terrabake tile` job: every tile of every requested zoom, on N
 // worker threads, written atomically into <output.dir>/<output.layer>/.
+#include <atomic>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -17,6 +18,9 @@ struct RunOptions {
   bool force = false;   // write into a layer another job made
   int shard = 1;        // this run makes shard `shard` of `shard_count`:
   int shard_count = 1;  // every shard_count-th tile of the job, from the shard-th
+  // When it turns true, workers take no new tile: the run ends once the tiles
+  // in progress are written, as an interrupted one (RunSummary::interrupted).
+  const std::atomic<bool>* stop = nullptr;
 };
 
 struct RunSummary {
@@ -27,6 +31,10 @@ struct RunSummary {
   int empty = 0;    // no valid DEM sample: not written
   int failed = 0;   // each one logged with its tile id
   double seconds = 0;
+  // Stopped through RunOptions::stop before every tile was made: the tiles
+  // written are whole and the output closed (an MBTiles file folded into one
+  // file), but no tilejson is written; --resume goes on.
+  bool interrupted = false;
   // Why nothing was made, when a job (not a shard) wrote no tile, skipped
   // none and failed none: every tile it covers was empty. Empty otherwise.
   std::string nothing_made;

@@ -27,6 +27,10 @@ class TileSink {
   virtual void write(const TileId& tile, const io::TileFiles& files) = 0;
   // Writes the layer's description (tilejson, or MBTiles metadata) last.
   virtual void finish(const std::string& tilejson) = 0;
+  // Ends a run stopped early: what was written stays whole and readable on
+  // its own (an MBTiles file leaves no write-ahead log beside it), and no
+  // description is written.
+  virtual void close() {}
 };
 
 // Where the plan stores its layer (io/layer_layout.hpp): a folder of

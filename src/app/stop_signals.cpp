@@ -1,0 +1,66 @@
+#include "app/stop_signals.hpp"
+
+#include <fcntl.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <thread>
+
+#include "core/error.hpp"
+
+namespace terrabake::app {
+namespace {
+
+int g_pipe[2] = {-1, -1};
+constexpr unsigned char kWorkDone = 0;  // what runUntilStopSignal writes to end its watcher
+
+void onStopSignal(int signal) {
+  const int saved = errno;
+  const unsigned char byte = static_cast<unsigned char>(signal);
+  [[maybe_unused]] const ssize_t written = ::write(g_pipe[1], &byte, 1);  // async-signal-safe
+  errno = saved;
+}
+
+}  // namespace
+
+void catchStopSignals() {
+  if (::pipe2(g_pipe, O_CLOEXEC) != 0) throw InputError("cannot create the pipe that signals stop");
+  struct sigaction action {};
+  action.sa_handler = onStopSignal;
+  sigemptyset(&action.sa_mask);
+  action.sa_flags = SA_RESTART;  // other threads' reads and writes go on
+  ::sigaction(SIGINT, &action, nullptr);
+  ::sigaction(SIGTERM, &action, nullptr);
+}
+
+void runUntilStopSignal(const std::function<void()>& work, const std::function<void(const std::string&)>& stop) {
+  std::thread watcher([&stop] {
+    bool stopped = false;
+    for (;;) {
+      unsigned char byte = kWorkDone;
+      const ssize_t got = ::read(g_pipe[0], &byte, 1);
+      if (got < 0 && errno == EINTR) continue;
+      if (got != 1 || byte == kWorkDone) return;
+      if (stopped) {
+        // A second signal: the user does not want to wait.
+        ::signal(byte, SIG_DFL);
+        ::raise(byte);
+      }
+      stop(byte == SIGINT ? "SIGINT" : "SIGTERM");
+      stopped = true;
+    }
+  });
+  // The watcher is woken and joined however work() ends.
+  struct Join {
+    std::thread& watcher;
+    ~Join() {
+      const unsigned char done = kWorkDone;
+      [[maybe_unused]] const ssize_t written = ::write(g_pipe[1], &done, 1);
+      watcher.join();
+    }
+  } join{watcher};
+  work();
+}
+
+}  // namespace terrabake::app
