@@ -3,7 +3,9 @@
 // through an orthographic camera and lit by one directional light, into a
 // float render target (linear values: no tone mapping, no output colour space
 // conversion). The page sets window.terrabakeReady once three.js has loaded;
-// the test then calls window.terrabakeShading.render(options).
+// the test then calls window.terrabakeShading.render(options); options.meshes
+// names further .glb files of the same tile (other low-poly meshes), rendered
+// with the same camera and light.
 import * as THREE from 'three';
 import { GLTFLoader } from 'three/addons/loaders/GLTFLoader.js';
 
@@ -104,13 +106,19 @@ function textureBytes(texture) {
 
 async function render(options) {
   const { lowPolyUrl, highResUrl, width, height, sunAzimuthDeg, sunElevationDeg, sunIntensity } = options;
+  const meshUrls = options.meshes || {};  // name -> .glb of the same tile with another low-poly mesh
   const problems = [];
   const info = {};
   const loader = new GLTFLoader();
-  const [lowGltf, highGltf] = await Promise.all([loader.loadAsync(lowPolyUrl), loader.loadAsync(highResUrl)]);
+  const [lowGltf, highGltf, ...otherGltfs] = await Promise.all(
+    [lowPolyUrl, highResUrl, ...Object.values(meshUrls)].map((url) => loader.loadAsync(url)));
   const low = onlyMesh(lowGltf, lowPolyUrl, problems);
   const high = onlyMesh(highGltf, highResUrl, problems);
-  if (!low || !high) return { problems };
+  const others = Object.keys(meshUrls).map((name, k) => {
+    otherGltfs[k].scene.updateMatrixWorld(true);
+    return { name, mesh: onlyMesh(otherGltfs[k], meshUrls[name], problems) };
+  });
+  if (!low || !high || others.some((o) => !o.mesh)) return { problems };
   lowGltf.scene.updateMatrixWorld(true);
   highGltf.scene.updateMatrixWorld(true);
 
@@ -131,10 +139,15 @@ async function render(options) {
   }
   if (!high.material.isMeshStandardMaterial || high.material.normalMap) problems.push('high-res material is not a MeshStandardMaterial without a normal map');
   if (!low.matrixWorld.equals(high.matrixWorld)) problems.push('the two meshes have different node transforms');
+  for (const { name, mesh } of others) {
+    if (!mesh.matrixWorld.equals(high.matrixWorld)) problems.push(`${name}: node transform differs from the high-res mesh's`);
+    if (!mesh.material.normalMap || !mesh.geometry.attributes.tangent) problems.push(`${name}: no normal map or no TANGENT attribute`);
+  }
   if (problems.length) return { problems };
   const size = material.normalMap.image.width;
   info.normalMapSize = [material.normalMap.image.width, material.normalMap.image.height];
   info.triangles = { lowPoly: low.geometry.index.count / 3, highRes: high.geometry.index.count / 3 };
+  for (const { name, mesh } of others) info.triangles[name] = mesh.geometry.index.count / 3;
 
   // n_high of every texel: high-res vertex (i, j) sits at UV ((i + 0.5) / S, (j + 0.5) / S).
   const highNormals = new Float32Array(size * size * 3);
@@ -244,6 +257,18 @@ async function render(options) {
   }
 
   const white = new THREE.MeshLambertMaterial({ color: 0xffffff });
+  // Unlit: the height of the surface (metres up the tile's frame, which the
+  // camera looks straight down) in red.
+  const heightMaterial = new THREE.ShaderMaterial({
+    vertexShader: `varying float vHeight;
+      void main() {
+        vec4 world = modelMatrix * vec4(position, 1.0);
+        vHeight = world.y;
+        gl_Position = projectionMatrix * viewMatrix * world;
+      }`,
+    fragmentShader: `varying float vHeight;
+      void main() { gl_FragColor = vec4(vHeight, 0.0, 0.0, 1.0); }`,
+  });
   const renders = {
     normalmap: shade(low, material),
     lowpoly: shade(low, withNormalMap(null)),
@@ -253,7 +278,23 @@ async function render(options) {
     perVertexFloat: shade(low, withNormalMap(dataTexture(perVertex.floats))),
     perPixelJs: shade(low, withNormalMap(dataTexture(perPixel.bytes))),
     greenFlipped: shade(low, (() => { const m = withNormalMap(material.normalMap); m.normalScale.set(1, -1); return m; })()),
+    lowpolyFlat: shade(low, (() => { const m = withNormalMap(null); m.flatShading = true; return m; })()),
+    lowpolyHeight: shade(low, heightMaterial),
+    highresHeight: shade(high, heightMaterial),
   };
+  // The other meshes of the tile, each with its own normal map, without it
+  // (interpolated vertex normals, as the viewer's low-poly mode), and flat
+  // shaded (each triangle's own normal: the geometry alone).
+  for (const { name, mesh } of others) {
+    renders[`${name}_normalmap`] = shade(mesh, mesh.material);
+    const bare = mesh.material.clone();
+    bare.normalMap = null;
+    renders[`${name}_lowpoly`] = shade(mesh, bare);
+    const flat = bare.clone();
+    flat.flatShading = true;
+    renders[`${name}_flat`] = shade(mesh, flat);
+    renders[`${name}_height`] = shade(mesh, heightMaterial);
+  }
 
   // Lambert shading expected from the high-res normals at every pixel centre,
   // max(0, n . sun) with n the normal interpolated over the high-res triangle

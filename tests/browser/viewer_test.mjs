@@ -9,6 +9,10 @@
 //    first as a user would (no URL parameters), then in its deterministic mode,
 //    with one camera and one sun, as mode=normalmap, mode=lowpoly and mode=highres.
 //    Any console error, page error, failed request or HTTP error fails the test.
+//    The low-poly modes show as many triangles as the layer's .glb files hold
+//    (the adaptive mesh, the default, has its own count in each tile); the
+//    normal-mapped view again with wireframe=1 shows the triangles: the same
+//    count, and a clearly different picture.
 // 4. Compares the screenshots over the pixels that show terrain in all three:
 //    the normal-mapped low-poly tiles must be at least 3 times closer to the
 //    high-res meshes than the bare low-poly tiles are, by the mean absolute
@@ -27,12 +31,12 @@
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core;
 // `cd tests && npm ci` installs the latter). CHROMIUM=<path> picks another browser.
-import { writeFile } from 'node:fs/promises';
+import { readdir, readFile, writeFile } from 'node:fs/promises';
 import path from 'node:path';
 
 import { createBrowserTest, decodePng, encodePngRgb, kRepo } from './browser_test_support.mjs';
 
-// Limits. The whole test takes about 30 s on the 2-core development machine.
+// Limits. The whole test takes about 40 s on the 2-core development machine.
 const kTileTimeoutMs = 180_000;
 const kServeStartTimeoutMs = 30_000;
 const kServeStopTimeoutMs = 10_000;
@@ -75,8 +79,12 @@ const kMaxCutDifference = 0.5;
 const kCutEdgeClearancePx = 3;
 // Rows whose edge was found must make up this share of the edge view.
 const kMinEdgeRowShare = 0.5;
-const kLowPolyTrianglesPerTile = 2 * 16 * 16;     // low_poly.grid 17
 const kHighResTrianglesPerTile = 2 * 256 * 256;   // tile_size 256
+// wireframe=1 draws the triangles' edges over the background: at least this
+// share of the pixels that are terrain with wireframe=0 must change by more
+// than kWireframeLumaStep.
+const kMinWireframeChange = 0.2;
+const kWireframeLumaStep = 8;
 // The normal map must bring the low-poly tiles at least this much closer to the
 // high-res surface than they are without it.
 const kRequiredImprovement = 3;
@@ -129,6 +137,21 @@ function diffImage(a, b, mask) {
     out[3 * p] = out[3 * p + 1] = out[3 * p + 2] = v;
   }
   return encodePngRgb(a.width, a.height, out);
+}
+
+// Triangles of each low-poly .glb of layer/z under tilesDir, in no order.
+async function lowPolyTriangles(tilesDir, layer, z) {
+  const counts = [];
+  const zDir = path.join(tilesDir, layer, String(z));
+  for (const x of await readdir(zDir)) {
+    for (const name of await readdir(path.join(zDir, x))) {
+      if (!name.endsWith('.glb') || name.endsWith('.hires.glb')) continue;
+      const bytes = await readFile(path.join(zDir, x, name));
+      const json = JSON.parse(bytes.subarray(20, 20 + bytes.readUInt32LE(12)).toString('utf8'));
+      counts.push(json.accessors[json.meshes[0].primitives[0].indices].count / 3);
+    }
+  }
+  return counts;
 }
 
 // ---------------------------------------------------------------------------
@@ -295,35 +318,63 @@ async function main() {
     await t.closePage(page);
   }
 
-  // 4. One camera and sun, three kinds of mesh.
+  // 4. One camera and sun, three kinds of mesh, and the normal-mapped view as
+  // a wireframe.
+  // The low-poly tiles shown must hold as many triangles as some maxTiles of
+  // the layer's .glb files do: between the fewest and the most.
+  const lowCounts = (await lowPolyTriangles(tilesDir, kView.layer, kView.z)).sort((a, b) => a - b);
+  const sum = (list) => list.reduce((s, v) => s + v, 0);
+  const lowRange = [sum(lowCounts.slice(0, Number(kView.maxTiles))), sum(lowCounts.slice(-Number(kView.maxTiles)))];
   const images = {};
   const rows = [];
-  for (const mode of kModes) {
-    const query = new URLSearchParams({ ...kView, mode, wireframe: '0' });
+  const lowPolyStats = [];
+  for (const [mode, wireframe] of [...kModes.map((m) => [m, '0']), ['normalmap', '1']]) {
+    const query = new URLSearchParams({ ...kView, mode, wireframe });
     const url = `${server.url}?${query}`;
-    const { page, stats, ms, ok } = await openViewer(url, `mode=${mode}`);
-    const file = path.join(out, `viewer_${mode}.png`);
+    const name = wireframe === '1' ? `${mode}_wireframe` : mode;
+    const { page, stats, ms, ok } = await openViewer(url, `mode=${mode}&wireframe=${wireframe}`);
+    const file = path.join(out, `viewer_${name}.png`);
     try {
       const png = await page.locator('#view canvas').screenshot({ path: file, timeout: 30_000 });
-      images[mode] = decodePng(png);
+      images[name] = decodePng(png);
     } catch (error) {
-      fail(`mode=${mode}: screenshot: ${error.message}`);
+      fail(`${name}: screenshot: ${error.message}`);
     }
     await t.closePage(page);
-    rows.push({ mode, stats, ms, file });
+    rows.push({ mode: name, stats, ms, file });
     if (!ok || !stats) continue;
     const expectedTiles = Number(kView.maxTiles);
-    const perTile = mode === 'highres' ? kHighResTrianglesPerTile : kLowPolyTrianglesPerTile;
-    if (stats.tiles !== expectedTiles) fail(`mode=${mode}: ${stats.tiles} tiles shown, expected ${expectedTiles}`);
-    if (stats.triangles !== stats.tiles * perTile) {
-      fail(`mode=${mode}: ${stats.triangles} triangles for ${stats.tiles} tiles, expected ${perTile} a tile`);
+    if (stats.tiles !== expectedTiles) fail(`${name}: ${stats.tiles} tiles shown, expected ${expectedTiles}`);
+    if (mode === 'highres') {
+      if (stats.triangles !== stats.tiles * kHighResTrianglesPerTile) {
+        fail(`${name}: ${stats.triangles} triangles for ${stats.tiles} tiles, expected ${kHighResTrianglesPerTile} a tile`);
+      }
+    } else {
+      lowPolyStats.push(stats.triangles);
+      if (!(stats.triangles >= lowRange[0] && stats.triangles <= lowRange[1])) {
+        fail(`${name}: ${stats.triangles} triangles for ${stats.tiles} tiles; ${expectedTiles} of the layer's .glb files hold ${lowRange.join(' to ')}`);
+      }
     }
+  }
+  if (new Set(lowPolyStats).size > 1) fail(`the low-poly views show different triangle counts: ${lowPolyStats.join(', ')}`);
+  if (images.normalmap && images.normalmap_wireframe) {
+    const { width, height } = images.normalmap;
+    let terrain = 0;
+    let changed = 0;
+    for (let p = 0; p < width * height; ++p) {
+      if (!isGrey(images.normalmap.rgb, p)) continue;
+      ++terrain;
+      if (Math.abs(luma(images.normalmap.rgb, p) - luma(images.normalmap_wireframe.rgb, p)) > kWireframeLumaStep) ++changed;
+    }
+    const share = changed / Math.max(1, terrain);
+    log(`wireframe=1 changes ${(100 * share).toFixed(1)} % of the terrain pixels of wireframe=0 by more than ${kWireframeLumaStep} in luma`);
+    if (!(share >= kMinWireframeChange)) fail(`wireframe=1 changes only ${(100 * share).toFixed(1)} % of the terrain pixels (at least ${100 * kMinWireframeChange} %): no triangles drawn`);
   }
   log(`view: ${new URLSearchParams(kView)}`);
   console.log('');
-  console.log('  mode        tiles   triangles   load+draw   screenshot');
+  console.log('  mode                 tiles   triangles   load+draw   screenshot');
   for (const { mode, stats, ms, file } of rows) {
-    console.log(`  ${mode.padEnd(10)} ${String(stats?.tiles ?? '-').padStart(6)} ${String(stats?.triangles ?? '-').padStart(11)} ${`${(ms / 1000).toFixed(1)} s`.padStart(11)}   ${file}`);
+    console.log(`  ${mode.padEnd(19)} ${String(stats?.tiles ?? '-').padStart(6)} ${String(stats?.triangles ?? '-').padStart(11)} ${`${(ms / 1000).toFixed(1)} s`.padStart(11)}   ${file}`);
   }
   console.log('');
 
