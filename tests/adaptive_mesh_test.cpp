@@ -31,30 +31,6 @@ constexpr double kSameFrameDeg = 1e-5;
 double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
 double ridges(double e, double n) { return 300.0 * std::abs(std::sin(e / 400.0 + n / 900.0)) + 0.02 * e; }
 
-// The edge profile a tile's samples give for one of its edges, in its frame.
-mesh::EdgeProfile profileOf(const mesh::SampleGrid& samples, bool vertical, bool far_side) {
-  const int s = samples.tile_size, a = samples.apron;
-  auto at = [&](int along, int across) {
-    return vertical ? samples.position.at(across, along) : samples.position.at(along, across);
-  };
-  const int before = far_side ? a + s - 1 : a - 1;  // the sample row (or column) before the edge
-  auto mid = [&](int along) { return (at(along, before) + at(along, before + 1)) * 0.5; };
-  mesh::EdgeProfile profile;
-  profile.push_back((mid(a - 1) + mid(a)) * 0.5);
-  for (int k = 0; k < s; ++k) profile.push_back(mid(a + k));
-  profile.push_back((mid(a + s - 1) + mid(a + s)) * 0.5);
-  return profile;
-}
-
-mesh::TileEdgePoints edgesOf(const mesh::SampleGrid& samples, double max_error_m) {
-  mesh::TileEdgePoints edges;
-  edges.north = mesh::keptEdgePoints(profileOf(samples, false, false), max_error_m);
-  edges.south = mesh::keptEdgePoints(profileOf(samples, false, true), max_error_m);
-  edges.west = mesh::keptEdgePoints(profileOf(samples, true, false), max_error_m);
-  edges.east = mesh::keptEdgePoints(profileOf(samples, true, true), max_error_m);
-  return edges;
-}
-
 std::size_t triangles(const mesh::TriangleMesh& mesh) { return mesh.indices.size() / 3; }
 
 double uvArea(const mesh::TriangleMesh& mesh, std::size_t t) {
@@ -69,7 +45,7 @@ TEST_P(AdaptiveBound, EverySampleIsWithinTheBound) {
   const double bound = GetParam();
   for (const auto& field : {test::HeightField(hills), test::HeightField(ridges)}) {
     const auto samples = test::sampleHeightField(field, 64, kAdaptiveGrid, 10.0);
-    const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, bound), bound);
+    const auto result = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, bound), bound);
     EXPECT_LE(result.max_error_m, bound);
     EXPECT_LE(mesh::maxDistanceToSamples(result.mesh, samples), bound + kFloatPositionSlackM);
     EXPECT_NEAR(mesh::maxDistanceToSamples(result.mesh, samples), result.max_error_m, kFloatPositionSlackM);
@@ -80,7 +56,7 @@ INSTANTIATE_TEST_SUITE_P(Metres, AdaptiveBound, ::testing::Values(0.05, 0.5, 2.0
 
 TEST(AdaptiveMesh, IsATriangulationOfTheTileFacingUp) {
   const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
-  const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 1.0), 1.0);
+  const auto result = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, 1.0), 1.0);
   double area = 0;
   for (std::size_t t = 0; t < triangles(result.mesh); ++t) {
     EXPECT_LT(uvArea(result.mesh, t), 0.0) << "triangle " << t;
@@ -103,7 +79,7 @@ TEST(AdaptiveMesh, IsATriangulationOfTheTileFacingUp) {
 
 TEST(AdaptiveMesh, FlatTileIsTwoTriangles) {
   const auto samples = test::sampleHeightField([](double e, double n) { return 0.3 * e - 0.1 * n; }, 64, kAdaptiveGrid, 10.0);
-  const auto result = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 0.01), 0.01);
+  const auto result = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, 0.01), 0.01);
   EXPECT_EQ(triangles(result.mesh), 2u);
   EXPECT_EQ(result.mesh.position.size(), 4u);
 }
@@ -165,13 +141,13 @@ TEST(AdaptiveMesh, FewerTrianglesThanAGridOfTheSameError) {
   const auto samples = test::sampleHeightField(ridges, 256, 17, 10.0);
   const auto grid = mesh::buildLowPolyMesh(samples, 17);
   const double grid_error = mesh::maxDistanceToSamples(grid, samples);
-  const auto adaptive = mesh::buildAdaptiveMesh(samples, edgesOf(samples, grid_error), grid_error);
+  const auto adaptive = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, grid_error), grid_error);
   EXPECT_LT(triangles(adaptive.mesh) * 2, triangles(grid));
 }
 
 TEST(TexelFrames, FindTheTriangleUnderEveryTexelOfAnyMesh) {
   const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
-  const auto adaptive = mesh::buildAdaptiveMesh(samples, edgesOf(samples, 1.0), 1.0).mesh;
+  const auto adaptive = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, 1.0), 1.0).mesh;
   const auto frames = mesh::texelFrames(adaptive, 64);
   for (int j = 0; j < 64; ++j) {
     for (int i = 0; i < 64; ++i) {

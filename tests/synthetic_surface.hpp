@@ -7,6 +7,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
 
 namespace terrabake::test {
@@ -33,6 +34,34 @@ inline mesh::SampleGrid sampleHeightField(const HeightField& height, int tile_si
     }
   }
   return samples;
+}
+
+// The edge profile (mesh::EdgeProfile) a tile's own samples give for one of
+// its edges, in its frame: the corners, then half way between the samples
+// either side of the edge at each texel row (or column). A layer reads it
+// from the DEM instead, the same for both tiles at the edge.
+inline mesh::EdgeProfile edgeProfileOf(const mesh::SampleGrid& samples, bool vertical, bool far_side) {
+  const int s = samples.tile_size, a = samples.apron;
+  auto at = [&](int along, int across) {
+    return vertical ? samples.position.at(across, along) : samples.position.at(along, across);
+  };
+  const int before = far_side ? a + s - 1 : a - 1;  // the sample row (or column) before the edge
+  auto mid = [&](int along) { return (at(along, before) + at(along, before + 1)) * 0.5; };
+  mesh::EdgeProfile profile;
+  profile.push_back((mid(a - 1) + mid(a)) * 0.5);
+  for (int k = 0; k < s; ++k) profile.push_back(mid(a + k));
+  profile.push_back((mid(a + s - 1) + mid(a + s)) * 0.5);
+  return profile;
+}
+
+// The edge vertices an adaptive mesh of these samples keeps, from their own profiles.
+inline mesh::TileEdgePoints ownEdgePoints(const mesh::SampleGrid& samples, double max_error_m) {
+  mesh::TileEdgePoints edges;
+  edges.north = mesh::keptEdgePoints(edgeProfileOf(samples, false, false), max_error_m);
+  edges.south = mesh::keptEdgePoints(edgeProfileOf(samples, false, true), max_error_m);
+  edges.west = mesh::keptEdgePoints(edgeProfileOf(samples, true, false), max_error_m);
+  edges.east = mesh::keptEdgePoints(edgeProfileOf(samples, true, true), max_error_m);
+  return edges;
 }
 
 inline double angleDeg(const glm::dvec3& a, const glm::dvec3& b) {

@@ -39,6 +39,7 @@
 
 #include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
+#include "synthetic_surface.hpp"
 
 namespace terrabake {
 namespace {
@@ -180,30 +181,8 @@ mesh::SampleGrid windowSamples(const Dem& dem, const Window& window, int apron) 
   return samples;
 }
 
-// The edge profile a tile's samples give for one of its edges: the corners,
-// then half way between the samples either side of the edge at each texel
-// row (or column), as a tile computes it.
-mesh::EdgeProfile profileOf(const mesh::SampleGrid& samples, bool vertical, bool far_side) {
-  const int s = samples.tile_size, a = samples.apron;
-  auto at = [&](int along, int across) {
-    return vertical ? samples.position.at(across, along) : samples.position.at(along, across);
-  };
-  const int before = far_side ? a + s - 1 : a - 1;  // the sample row (or column) before the edge
-  auto mid = [&](int along) { return (at(along, before) + at(along, before + 1)) * 0.5; };
-  mesh::EdgeProfile profile;
-  profile.push_back((mid(a - 1) + mid(a)) * 0.5);
-  for (int k = 0; k < s; ++k) profile.push_back(mid(a + k));
-  profile.push_back((mid(a + s - 1) + mid(a + s)) * 0.5);
-  return profile;
-}
-
 mesh::AdaptiveMesh adaptiveMesh(const mesh::SampleGrid& samples, double max_error_m) {
-  mesh::TileEdgePoints edges;
-  edges.north = mesh::keptEdgePoints(profileOf(samples, false, false), max_error_m);
-  edges.south = mesh::keptEdgePoints(profileOf(samples, false, true), max_error_m);
-  edges.west = mesh::keptEdgePoints(profileOf(samples, true, false), max_error_m);
-  edges.east = mesh::keptEdgePoints(profileOf(samples, true, true), max_error_m);
-  return mesh::buildAdaptiveMesh(samples, edges, max_error_m);
+  return mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, max_error_m), max_error_m);
 }
 
 double median(std::vector<double> values) {
