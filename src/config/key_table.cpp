@@ -257,7 +257,11 @@ void readMap(FileContext& context, const YAML::Node& map, const std::string& pre
 
 void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& specs,
                   const std::function<void(std::size_t, const Value&)>& apply) {
-  const std::string text = readFile(yaml_path);
+  readYamlText(readFile(yaml_path), yaml_path, specs, apply);
+}
+
+void readYamlText(const std::string& text, const std::string& yaml_path, const std::vector<KeySpec>& specs,
+                  const std::function<void(std::size_t, const Value&)>& apply) {
   FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
   YAML::Node root;
   try {

@@ -49,6 +49,11 @@ struct KeySpec {
 // syntax errors and an empty file throw UsageError naming file and line.
 void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& specs,
                   const std::function<void(std::size_t, const Value&)>& apply);
+// As readYamlFile, for YAML text already read: `yaml_path` names it in
+// messages and relative paths resolve against its folder. readYamlFile reads
+// the file and calls this.
+void readYamlText(const std::string& text, const std::string& yaml_path, const std::vector<KeySpec>& specs,
+                  const std::function<void(std::size_t, const Value&)>& apply);
 
 // "unknown key", with a suggestion when a known key or section is close.
 std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>& specs);
@@ -192,6 +197,14 @@ class KeyTable {
   S load(const std::string& yaml_path) const {
     S settings;
     readYamlFile(yaml_path, m_specs, [&](std::size_t index, const Value& value) { apply(index, value, settings); });
+    return settings;
+  }
+
+  // As load(), for text already read; `yaml_path` names it.
+  S loadText(const std::string& text, const std::string& yaml_path) const {
+    S settings;
+    readYamlText(text, yaml_path, m_specs,
+                 [&](std::size_t index, const Value& value) { apply(index, value, settings); });
     return settings;
   }
 

@@ -70,6 +70,10 @@ std::string defaultViewerDir() { return TERRABAKE_VIEWER_DIR; }
 
 ServeConfig loadServeConfig(const std::string& yaml_path) { return table().load(yaml_path); }
 
+ServeConfig parseServeConfig(const std::string& yaml_text, const std::string& yaml_path) {
+  return table().loadText(yaml_text, yaml_path);
+}
+
 void applyOverride(ServeConfig& config, const std::string& key, const std::string& value,
                    const std::string& origin) {
   table().applyOverride(config, key, value, origin);

@@ -32,6 +32,8 @@ struct ServeConfig {
 // Errors as loadTileJob(): UsageError "<file>:<line>: <key>: <problem>",
 // InputError if the file cannot be read.
 ServeConfig loadServeConfig(const std::string& yaml_path);
+// As loadServeConfig, for YAML text already read; `yaml_path` names it.
+ServeConfig parseServeConfig(const std::string& yaml_text, const std::string& yaml_path);
 
 // Sets one key ("http.port", "tiles", ...) from command-line text, validated
 // exactly like the file; `origin` names the flag in messages.

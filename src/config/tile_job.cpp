@@ -115,6 +115,10 @@ const kt::KeyTable<TileJob>& table() {
 
 TileJob loadTileJob(const std::string& yaml_path) { return table().load(yaml_path); }
 
+TileJob parseTileJob(const std::string& yaml_text, const std::string& yaml_path) {
+  return table().loadText(yaml_text, yaml_path);
+}
+
 std::string layerFingerprint(const TileJob& job) { return table().describe(job, {"output.dir", "bake.workers"}); }
 
 void applyOverride(TileJob& job, const std::string& key, const std::string& value,

@@ -45,6 +45,10 @@ struct TileJob {
 // "<file>: ..." for an empty file, InputError if the file cannot be read.
 // Required keys may be left to overrides: call validate() once they are applied.
 TileJob loadTileJob(const std::string& yaml_path);
+// As loadTileJob, for YAML text already read (loadTileJob reads the file and
+// calls this): `yaml_path` names it in messages and relative paths resolve
+// against its folder.
+TileJob parseTileJob(const std::string& yaml_text, const std::string& yaml_path);
 
 // Sets one key ("output.layer", "tiling.zoom", ...) from command-line text,
 // validated exactly like the file. `origin` names the flag in messages.

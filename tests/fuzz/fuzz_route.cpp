@@ -1,0 +1,86 @@
+// libFuzzer target: the server's router. The input is a request target as a
+// client sends it ("/layer/3/4/2.png?x=1", "/viewer/%2e%2e/etc"); it goes
+// through requestPath() (query cut, percent-decoding) and parseRoute(), as
+// every request does in RequestHandler::handle. The same bytes are also read
+// as a Range header against a body of their own length.
+//
+// Beyond not crashing, a route must never let through what the router
+// promises to refuse: a served file with an empty, "." or ".." segment, a
+// backslash or a control character; a layer name the layer rule refuses or
+// the server reserves; a tile with a negative number or a zoom above kMaxZoom.
+#include <cstddef>
+#include <cstdint>
+#include <string>
+
+#include "core/layer_name.hpp"
+#include "core/types.hpp"
+#include "fuzz_support.hpp"
+#include "server/http_rules.hpp"
+#include "server/route.hpp"
+
+namespace {
+
+using namespace terrabake;
+using server::Route;
+
+bool safeRelativeFile(const std::string& file) {
+  if (file.empty()) return false;
+  std::size_t start = 0;
+  for (;;) {
+    const std::size_t slash = file.find('/', start);
+    const std::string segment = file.substr(start, slash == std::string::npos ? std::string::npos : slash - start);
+    if (segment.empty() || segment == "." || segment == "..") return false;
+    for (const char c : segment) {
+      const auto u = static_cast<unsigned char>(c);
+      if (u < 0x20 || u == 0x7f || c == '\\') return false;
+    }
+    if (slash == std::string::npos) return true;
+    start = slash + 1;
+  }
+}
+
+void checkRoute(const Route& route) {
+  switch (route.kind) {
+    case Route::Kind::kViewerFile:
+    case Route::Kind::kVendorFile:
+      fuzz::require(safeRelativeFile(route.file), "a served file stays inside its folder");
+      break;
+    case Route::Kind::kTile:
+      fuzz::require(route.tile.z >= 0 && route.tile.z <= kMaxZoom, "a tile's zoom is 0..kMaxZoom");
+      fuzz::require(route.tile.x >= 0 && route.tile.y >= 0, "a tile's x and y are not negative");
+      [[fallthrough]];
+    case Route::Kind::kTileJson:
+      fuzz::require(isLayerName(route.layer), "a routed layer has a layer name");
+      fuzz::require(!server::isReservedName(route.layer), "a routed layer is not a reserved name");
+      break;
+    case Route::Kind::kBadRequest:
+    case Route::Kind::kNotFound:
+      fuzz::require(!route.problem.empty(), "a refusal says why");
+      break;
+    case Route::Kind::kViewerPage:
+    case Route::Kind::kLayerList:
+    case Route::Kind::kHealth:
+      break;
+  }
+}
+
+void checkRange(const std::string& header, std::size_t length) {
+  const server::ByteRange range = server::parseRange(header, length);
+  if (range.kind == server::ByteRange::Kind::kPart) {
+    fuzz::require(range.first <= range.last && range.last < length, "a range lies within the body");
+  }
+}
+
+}  // namespace
+
+extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
+  const std::string target(reinterpret_cast<const char*>(data), size);
+  fuzz::onlyProjectErrors([&] {
+    const std::string path = server::requestPath(target);
+    fuzz::require(path.size() <= target.size(), "decoding never lengthens a path");
+    checkRoute(server::parseRoute(path));
+    checkRange(target, size);
+    checkRange(target, size / 2);
+  });
+  return 0;
+}
