@@ -1,5 +1,6 @@
 #include "config/key_table.hpp"
 
+#include <yaml-cpp/eventhandler.h>
 #include <yaml-cpp/yaml.h>
 
 #include <algorithm>
@@ -247,6 +248,33 @@ void readMap(FileContext& context, const YAML::Node& map, const std::string& pre
   }
 }
 
+// Where each document of a YAML text starts, the first `most` of them, from
+// yaml-cpp's parser without building nodes. YAML::LoadAll is not used: on
+// some malformed texts (",q") yaml-cpp 0.7 hands back the same stuck
+// document for ever, growing without bound.
+class DocumentStarts : public YAML::EventHandler {
+ public:
+  std::vector<YAML::Mark> marks;
+  void OnDocumentStart(const YAML::Mark& mark) override { marks.push_back(mark); }
+  void OnDocumentEnd() override {}
+  void OnNull(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnAlias(const YAML::Mark&, YAML::anchor_t) override {}
+  void OnScalar(const YAML::Mark&, const std::string&, YAML::anchor_t, const std::string&) override {}
+  void OnSequenceStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnSequenceEnd() override {}
+  void OnMapStart(const YAML::Mark&, const std::string&, YAML::anchor_t, YAML::EmitterStyle::value) override {}
+  void OnMapEnd() override {}
+};
+
+std::vector<YAML::Mark> documentStarts(const std::string& text, std::size_t most) {
+  std::istringstream in(text);
+  YAML::Parser parser(in);
+  DocumentStarts starts;
+  for (std::size_t n = 0; n < most && parser.HandleNextDocument(starts); ++n) {
+  }
+  return starts.marks;
+}
+
 }  // namespace
 
 [[noreturn]] void fail(const std::string& where, std::string_view key, const std::string& problem) {
@@ -265,14 +293,16 @@ void readYamlText(const std::string& text, const std::string& yaml_path, const s
   FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
   YAML::Node root;
   try {
-    std::vector<YAML::Node> documents = YAML::LoadAll(text);
-    // A second document would be ignored without a word: refused instead.
-    if (documents.size() > 1) {
-      fail(at(context, documents[1].Mark(), yaml_path), "",
-           "the file holds " + std::to_string(documents.size()) +
-               " YAML documents (separated by ---); a config file is one document");
+    const std::vector<YAML::Mark> starts = documentStarts(text, 2);
+    if (starts.size() > 1 && starts[1].pos == starts[0].pos) {
+      fail(at(context, starts[0], yaml_path), "", "YAML syntax error: the parser cannot go on from here");
     }
-    if (!documents.empty()) root = documents.front();
+    // A second document would be ignored without a word: refused instead.
+    if (starts.size() > 1) {
+      fail(at(context, starts[1], yaml_path), "",
+           "the file holds more than one YAML document (separated by ---); a config file is one document");
+    }
+    root = YAML::Load(text);
   } catch (const YAML::Exception& error) {
     fail(at(context, error.mark, yaml_path), "", "YAML syntax error: " + error.msg);
   }
