@@ -74,6 +74,25 @@ TEST(ConfigSample, LoadsTheMainJob) {
   EXPECT_NO_THROW(validate(job, path));
 }
 
+// Text already read goes the file's way: same values, same messages, paths
+// relative to the folder of the name it is given.
+TEST(ConfigText, ParsesLikeTheFile) {
+  const std::string path = (kSourceDir / "config" / "sample.yaml").string();
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  const TileJob from_text = parseTileJob(text.str(), path);
+  EXPECT_EQ(layerFingerprint(from_text), layerFingerprint(loadTileJob(path)));
+  EXPECT_EQ(from_text.output_dir, normal(kSourceDir / "tiles"));
+
+  const std::string bad = "dem: a.tif\ntiling:\n  zoom: 3\n  tile_sise: 256\n";
+  const std::string bad_path = writeYaml("job.yaml", bad);
+  EXPECT_EQ(usageMessage([&] { parseTileJob(bad, bad_path); }), loadMessage(bad_path));
+  EXPECT_EQ(usageMessage([&] { parseTileJob(bad, "job.yaml"); }).substr(0, 11), "job.yaml:4:");
+  EXPECT_EQ(parseServeConfig("http:\n  port: 9000\n", "/srv/serve.yaml").port, 9000);
+  EXPECT_EQ(parseServeConfig("tiles: t\n", "/srv/serve.yaml").tiles_dir, "/srv/t");
+}
+
 TEST(ConfigSample, ReadmeDocumentsEveryKey) {
   std::ifstream in(kSourceDir / "config" / "README.md");
   ASSERT_TRUE(in) << "config/README.md is missing";
