@@ -350,7 +350,7 @@ class GreedyMesher {
 
 }  // namespace
 
-AdaptiveMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& edges, double max_error_m) {
+MeasuredMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& edges, double max_error_m) {
   if (!(max_error_m > 0)) throw std::invalid_argument("buildAdaptiveMesh: max_error_m must be above 0");
   const double s = samples.tile_size;
   GreedyMesher mesher(samples, max_error_m);
@@ -358,7 +358,7 @@ AdaptiveMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& 
   for (int k : edges.south) mesher.insertOnBoundary({k - 0.5, s});
   for (int k : edges.west) mesher.insertOnBoundary({0, k - 0.5});
   for (int k : edges.east) mesher.insertOnBoundary({s, k - 0.5});
-  AdaptiveMesh result;
+  MeasuredMesh result;
   result.max_error_m = mesher.refine();
   result.mesh = mesher.mesh();
   return result;

@@ -34,11 +34,6 @@ struct TileEdgePoints {
   std::vector<int> north, south, west, east;
 };
 
-struct AdaptiveMesh {
-  TriangleMesh mesh;
-  double max_error_m = 0;  // achieved: maxDistanceToSamples of the mesh
-};
-
 // Greedy insertion (Garland and Heckbert's, as Delatin does it): starting from
 // the corners and the kept edge points, the sample farthest from the mesh is
 // inserted, the triangulation kept Delaunay in UV space, until no sample is
@@ -46,6 +41,6 @@ struct AdaptiveMesh {
 // (inside) and on the interpolated edge points; frames come from the surface
 // a few samples either side, so an edge vertex gets the same frame in both
 // tiles. `samples` needs kAdaptiveApron samples beyond each edge.
-AdaptiveMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& edges, double max_error_m);
+MeasuredMesh buildAdaptiveMesh(const SampleGrid& samples, const TileEdgePoints& edges, double max_error_m);
 
 }  // namespace terrabake::mesh

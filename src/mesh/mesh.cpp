@@ -61,6 +61,14 @@ glm::dvec3 differenceAt(const SampleGrid& samples, int c, int r, int dc, int dr)
   return double(side) * one_sided;
 }
 
+// Barycentric weights of p in the triangle (a, b, c); zero area gives NaN.
+void barycentric(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, glm::dvec2 p, double (&w)[3]) {
+  const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+  w[1] = ((p.x - a.x) * (c.y - a.y) - (p.y - a.y) * (c.x - a.x)) / area;
+  w[2] = ((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / area;
+  w[0] = 1 - w[1] - w[2];
+}
+
 // The frame at sample (c, r), from the differences across it east and south.
 VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
   return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
@@ -169,15 +177,13 @@ void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples) {
   constexpr double kOnEdge = 1e-4;
   const int s = samples.tile_size;
   auto texelCoordinate = [&](std::uint32_t vertex) { return glm::dvec2(mesh.uv[vertex]) * double(s) - 0.5; };
-  auto cross2 = [](glm::dvec2 a, glm::dvec2 b) { return a.x * b.y - a.y * b.x; };
   auto holdsData = [&](const glm::dvec2 (&v)[3]) {
     const glm::dvec2 lo = glm::min(v[0], glm::min(v[1], v[2])), hi = glm::max(v[0], glm::max(v[1], v[2]));
-    const double area = cross2(v[1] - v[0], v[2] - v[0]);
     for (int j = int(std::ceil(lo.y - kOnEdge)); j <= int(std::floor(hi.y + kOnEdge)); ++j) {
       for (int i = int(std::ceil(lo.x - kOnEdge)); i <= int(std::floor(hi.x + kOnEdge)); ++i) {
-        const glm::dvec2 p(i, j);
-        const double l1 = cross2(p - v[0], v[2] - v[0]) / area, l2 = cross2(v[1] - v[0], p - v[0]) / area;
-        const bool inside = l1 >= -kOnEdge && l2 >= -kOnEdge && 1 - l1 - l2 >= -kOnEdge;
+        double w[3];
+        barycentric(v[0], v[1], v[2], glm::dvec2(i, j), w);
+        const bool inside = std::min({w[0], w[1], w[2]}) >= -kOnEdge;
         if (inside && isDemSample(samples, samples.apron + i, samples.apron + j)) return true;
       }
     }
@@ -202,14 +208,6 @@ void dropTrianglesWithoutData(TriangleMesh& mesh, const SampleGrid& samples) {
 }
 
 namespace {
-
-// Barycentric weights of p in the triangle (a, b, c); zero area gives NaN.
-void barycentric(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, glm::dvec2 p, double (&w)[3]) {
-  const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
-  w[1] = ((p.x - a.x) * (c.y - a.y) - (p.y - a.y) * (c.x - a.x)) / area;
-  w[2] = ((b.x - a.x) * (p.y - a.y) - (b.y - a.y) * (p.x - a.x)) / area;
-  w[0] = 1 - w[1] - w[2];
-}
 
 // Texel centres within this many texels of a triangle's edge count as under
 // it: float32 UVs of a 4096-texel tile are good to about 2.5e-4 texels, and

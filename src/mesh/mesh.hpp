@@ -111,6 +111,12 @@ std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size);
 // curved surface.
 double maxDistanceToSamples(const TriangleMesh& mesh, const SampleGrid& samples);
 
+// A low-poly mesh with its maxDistanceToSamples.
+struct MeasuredMesh {
+  TriangleMesh mesh;
+  double max_error_m = 0;
+};
+
 // Leaves out of `mesh` (over the UV space of `samples`' tile) the triangles
 // that hold no texel centre with a DEM sample (edges and corners included)
 // and have no vertex in such a texel's square, so the mesh stops within a

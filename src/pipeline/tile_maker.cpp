@@ -111,15 +111,21 @@ struct TileMaker::Impl {
     return dem::continueIntoHoles(dem.read(wide, read_plan), margin, backdrop, reach);
   }
 
-  // Positions of every sample in the frame of the tile's centre.
-  mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
-                                   const geo::LocalFrame& frame) const {
+  // Longitude and latitude of every cell centre of `grid`, row by row.
+  std::vector<glm::dvec2> lonLatOfCentres(const GridSpec& grid) const {
     std::vector<glm::dvec2> lon_lat;
-    lon_lat.reserve(heights.data.size());
+    lon_lat.reserve(std::size_t(grid.width) * std::size_t(grid.height));
     for (int r = 0; r < grid.height; ++r) {
       for (int c = 0; c < grid.width; ++c) lon_lat.emplace_back(grid.centreX(c), grid.centreY(r));
     }
     to_lon_lat.transform(lon_lat);
+    return lon_lat;
+  }
+
+  // Positions of every sample in the frame of the tile's centre.
+  mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
+                                   const geo::LocalFrame& frame) const {
+    const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(grid);
     mesh::SampleGrid samples;
     samples.tile_size = scheme.tileSize();
     samples.apron = settings.apron;
@@ -148,11 +154,7 @@ struct TileMaker::Impl {
   // places and keep the same edge vertices.
   mesh::EdgeProfile edgeProfile(const GridSpec& strip, const dem::ReadPlan& read_plan) const {
     const Raster<float> heights = finishedHeights(dem.read(strip, read_plan), strip, read_plan, nullptr);
-    std::vector<glm::dvec2> lon_lat;
-    for (int r = 0; r < strip.height; ++r) {
-      for (int c = 0; c < strip.width; ++c) lon_lat.emplace_back(strip.centreX(c), strip.centreY(r));
-    }
-    to_lon_lat.transform(lon_lat);
+    const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(strip);
     Raster<glm::dvec3> ecef(strip.width, strip.height);
     for (std::size_t k = 0; k < lon_lat.size(); ++k) {
       ecef.data[k] = geo::geodeticToEcef(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
@@ -182,10 +184,10 @@ struct TileMaker::Impl {
   }
 
   // The low-poly mesh the settings ask for, and its distance to the samples.
-  mesh::AdaptiveMesh lowPolyMesh(const TileId& tile, const mesh::SampleGrid& samples,
+  mesh::MeasuredMesh lowPolyMesh(const TileId& tile, const mesh::SampleGrid& samples,
                                  const dem::ReadPlan& read_plan) const {
     if (settings.low_poly_mesh == LowPolyMesh::kGrid) {
-      mesh::AdaptiveMesh grid;
+      mesh::MeasuredMesh grid;
       grid.mesh = mesh::buildLowPolyMesh(samples, settings.low_poly_grid);
       grid.max_error_m = mesh::maxDistanceToSamples(grid.mesh, samples);
       return grid;
@@ -224,7 +226,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
   samples.from_dem = from_dem;
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
-  mesh::AdaptiveMesh low_poly = s.lowPolyMesh(tile, samples, read_plan);
+  mesh::MeasuredMesh low_poly = s.lowPolyMesh(tile, samples, read_plan);
   mesh::TriangleMesh& low = low_poly.mesh;
   const bake::NormalMap map = s.baker->bake(high, low, size);
   const bool cut = s.settings.nodata_surface == NodataSurface::kCut;

@@ -181,7 +181,7 @@ mesh::SampleGrid windowSamples(const Dem& dem, const Window& window, int apron) 
   return samples;
 }
 
-mesh::AdaptiveMesh adaptiveMesh(const mesh::SampleGrid& samples, double max_error_m) {
+mesh::MeasuredMesh adaptiveMesh(const mesh::SampleGrid& samples, double max_error_m) {
   return mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, max_error_m), max_error_m);
 }
 
