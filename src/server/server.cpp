@@ -407,11 +407,17 @@ void Server::stop() {
     beast::error_code ignored;
     impl.acceptor.close(ignored);
     impl.accept_retry.cancel();
-    std::lock_guard<std::mutex> lock(impl.sessions_mutex);
-    for (const auto& [pointer, weak] : impl.sessions) {
-      if (std::shared_ptr<Session> session = weak.lock()) {
-        net::post(session->executor(), [session] { session->stopWhenIdle(); });
+    // Taken out under the lock, told outside it: the last reference to a
+    // session may be dropped here, and its destructor takes the lock too.
+    std::vector<std::shared_ptr<Session>> open;
+    {
+      std::lock_guard<std::mutex> lock(impl.sessions_mutex);
+      for (const auto& [pointer, weak] : impl.sessions) {
+        if (std::shared_ptr<Session> session = weak.lock()) open.push_back(std::move(session));
       }
+    }
+    for (const std::shared_ptr<Session>& session : open) {
+      net::post(session->executor(), [session] { session->stopWhenIdle(); });
     }
   });
   // Queued bakes are answered 503 at once, running ones when they finish;
