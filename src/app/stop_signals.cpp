@@ -1,6 +1,7 @@
 #include "app/stop_signals.hpp"
 
 #include <fcntl.h>
+#include <pthread.h>
 #include <signal.h>
 #include <unistd.h>
 
@@ -32,6 +33,14 @@ void catchStopSignals() {
   action.sa_flags = SA_RESTART;  // other threads' reads and writes go on
   ::sigaction(SIGINT, &action, nullptr);
   ::sigaction(SIGTERM, &action, nullptr);
+  // A parent may have started us with them blocked (the mask is inherited
+  // across exec); unblocked here, the handler runs on this thread at least,
+  // and on every thread started from now on.
+  sigset_t signals;
+  sigemptyset(&signals);
+  sigaddset(&signals, SIGINT);
+  sigaddset(&signals, SIGTERM);
+  pthread_sigmask(SIG_UNBLOCK, &signals, nullptr);
 }
 
 void runUntilStopSignal(const std::function<void()>& work, const std::function<void(const std::string&)>& stop) {
