@@ -21,10 +21,26 @@ extern char** environ;
 
 namespace terrabake::test {
 
+// Whether these tests and terrabake are built with AddressSanitizer (the asan preset).
+#if defined(__SANITIZE_ADDRESS__)
+inline constexpr bool kAddressSanitizer = true;
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+inline constexpr bool kAddressSanitizer = true;
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+#else
+inline constexpr bool kAddressSanitizer = false;
+#endif
+
 // Resource limits for the child, set between fork and exec (0: inherited).
 struct ChildLimits {
-  rlim_t open_files = 0;     // RLIMIT_NOFILE
-  rlim_t address_space = 0;  // RLIMIT_AS, bytes
+  rlim_t open_files = 0;  // RLIMIT_NOFILE
+  // RLIMIT_AS, bytes. Not set under AddressSanitizer, whose shadow memory
+  // reserves terabytes of address space at start: such a run checks what
+  // the child does and how fast, and the plain build its memory bound.
+  rlim_t address_space = 0;
 };
 
 class ChildProcess {
@@ -61,7 +77,7 @@ class ChildProcess {
           if (::setrlimit(resource, &r) != 0) ::_exit(126);
         };
         limit(RLIMIT_NOFILE, limits.open_files);
-        limit(RLIMIT_AS, limits.address_space);
+        if (!kAddressSanitizer) limit(RLIMIT_AS, limits.address_space);
         const int null_fd = ::open("/dev/null", O_RDONLY);
         if (null_fd < 0 || ::dup2(null_fd, STDIN_FILENO) < 0 || ::dup2(out_pipe[1], STDOUT_FILENO) < 0 ||
             ::dup2(err_pipe[1], STDERR_FILENO) < 0) {

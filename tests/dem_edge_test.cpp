@@ -224,8 +224,9 @@ TEST_P(DemEdge, LowPolyMeshRunsOnAcrossTheEdgeWithoutAStep) {
     const ts::GlbMesh& low = tile.decoded.glb;
     const int grid = int(std::lround(std::sqrt(double(low.position.size()))));
     const double texels_per_cell = double(tile.size()) / (grid - 1);
-    auto placeOf = [&](int c, int r) {
-      return layer.place(id, tile.size(), c * texels_per_cell - 0.5, r * texels_per_cell - 0.5);
+    const int size = tile.size();
+    auto placeOf = [&, tile_id = id](int c, int r) {
+      return layer.place(tile_id, size, c * texels_per_cell - 0.5, r * texels_per_cell - 0.5);
     };
     for (int r = 0; r < grid; ++r) {
       for (int c = 0; c < grid; ++c) {

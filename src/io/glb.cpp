@@ -154,7 +154,7 @@ std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInf
     gltf["images"] = {{{"uri", info.normal_texture_uri}}};
     gltf["samplers"] = {{{"magFilter", kLinear}, {"minFilter", kLinear}, {"wrapS", kClampToEdge}, {"wrapT", kClampToEdge}}};
   }
-  gltf["materials"] = {material};
+  gltf["materials"] = Json::array({material});  // not {material}: clang reads that as a copy
 
   std::string json = gltf.dump();
   json.resize((json.size() + 3) & ~std::size_t(3), ' ');
