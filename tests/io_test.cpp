@@ -525,9 +525,9 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   EXPECT_EQ(j["bounds"], json::array({170.0, -10.0, -170.0, 20.0}));
   EXPECT_EQ(j["center"], json::array({-180.0, 5.0, 9}));
   EXPECT_EQ(j["terrabake"], json::parse(R"({
-      "version": "4", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
+      "version": "5", "scheme": "geodetic", "tile_size": 512, "bits": 16, "green": "down",
       "alpha": true, "nodata_surface": "cut", "z_scale": 0.3048, "exaggeration": 2.0,
-      "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"mesh": "grid", "grid": 33},
+      "mesh": "./{z}/{x}/{y}.glb", "low_poly": {"mesh": "grid", "grid": 33, "skirts": false},
       "sources": ["dem/a.tif", "dem/b.tif"]})"));
 
   info.tms_rows = false;
@@ -542,7 +542,15 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   info.low_poly_mesh = terrabake::LowPolyMesh::kAdaptive;
   info.max_error_m = {{3, 80.0}, {4, 40.0}};
   const json a = json::parse(io::tileJson(info));
-  EXPECT_EQ(a["terrabake"]["low_poly"], json::parse(R"({"mesh": "adaptive", "max_error_m": {"3": 80.0, "4": 40.0}})"));
+  EXPECT_EQ(a["terrabake"]["low_poly"],
+            json::parse(R"({"mesh": "adaptive", "max_error_m": {"3": 80.0, "4": 40.0}, "skirts": false})"));
+
+  // A layer with skirts and a tileset says so.
+  info.skirts = true;
+  info.tileset = true;
+  const json t = json::parse(io::tileJson(info));
+  EXPECT_EQ(t["terrabake"]["low_poly"]["skirts"], true);
+  EXPECT_EQ(t["terrabake"]["tileset"], "./tileset.json");
 }
 
 TEST(TileJson, ReadsBackWhatItWrote) {

@@ -58,6 +58,10 @@ const kt::KeyTable<TileJob>& table() {
       {"output.alpha", "--alpha", "boolean",
        "RGBA normal maps: alpha 0 where the DEM has no valid sample (holes, outside it), else opaque",
        choice(&TileJob::alpha)},
+      {"output.tileset", "--tileset", "boolean",
+       "also write tileset.json (OGC 3D Tiles 1.1) over the meshes, for CesiumJS, 3d-tiles-renderer and other "
+       "3D Tiles viewers",
+       choice(&TileJob::tileset)},
       {"tiling.scheme", "--scheme", "string",
        "tile grid: webmercator (EPSG:3857, XYZ), geodetic (EPSG:4326, TMS) or native "
        "(the DEM's own grid)",
@@ -102,6 +106,10 @@ const kt::KeyTable<TileJob>& table() {
        number(&TileJob::max_error_texels, 0.0, 1000.0, {}, true)},
       {"low_poly.grid", "--low-poly-grid", "integer", "grid: vertices a side of each tile's low-poly mesh, 2..257",
        number(&TileJob::low_poly_grid, 2, 257)},
+      {"low_poly.skirts", "--skirts", "string",
+       "walls hanging under each mesh's edges, so no gap shows where tiles of two zooms meet: on, off, or "
+       "auto (on with output.tileset)",
+       choice(&TileJob::skirts)},
       {"bake.backend", "--backend", "string",
        "how normals are baked: auto (terrabake picks), osmesa or egl (GL), cpu (reference)",
        choice(&TileJob::backend)},

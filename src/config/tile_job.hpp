@@ -19,6 +19,7 @@ struct TileJob {
   Green green = Green::kUp;                       // output.green
   bool high_res_mesh = false;                     // output.high_res_mesh: also write {y}.hires.glb
   bool alpha = false;                             // output.alpha: RGBA, alpha 0 where the DEM had no sample
+  bool tileset = false;                           // output.tileset: also write tileset.json (3D Tiles)
   SchemeKind scheme = SchemeKind::kWebMercator;   // tiling.scheme
   int min_zoom = 0;                               // tiling.zoom: N, [min, max], "min-max", max may be "auto"
   int max_zoom = 0;                               // unused when max_zoom_auto
@@ -35,6 +36,7 @@ struct TileJob {
   double max_error_m = 0;                         // low_poly.max_error_m: 0 = from max_error_texels per zoom
   double max_error_texels = 1;                    // low_poly.max_error_texels: bound per zoom, in texels
   int low_poly_grid = 17;                         // low_poly.grid: vertices a side
+  Skirts skirts = Skirts::kAuto;                  // low_poly.skirts
   Backend backend = Backend::kAuto;               // bake.backend
   int workers = 0;                                // bake.workers: 0 = one per core
 };

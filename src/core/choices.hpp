@@ -24,6 +24,12 @@ enum class LowPolyMesh {
   kAdaptive,  // a triangulation of the samples within a distance bound, crack-free
   kGrid,      // a regular grid of low_poly.grid vertices a side
 };
+// Walls under each low-poly mesh's edges, against gaps between levels.
+enum class Skirts {
+  kAuto,  // on when output.tileset is, else off
+  kOn,
+  kOff,
+};
 enum class Backend {
   kAuto,    // a hardware GPU through EGL when there is one, else OSMesa
   kOsMesa,  // Mesa's offscreen llvmpipe renderer
@@ -57,6 +63,11 @@ template <>
 struct Words<LowPolyMesh> {
   static constexpr std::array<std::pair<LowPolyMesh, std::string_view>, 2> table{
       {{LowPolyMesh::kAdaptive, "adaptive"}, {LowPolyMesh::kGrid, "grid"}}};
+};
+template <>
+struct Words<Skirts> {
+  static constexpr std::array<std::pair<Skirts, std::string_view>, 3> table{
+      {{Skirts::kAuto, "auto"}, {Skirts::kOn, "on"}, {Skirts::kOff, "off"}}};
 };
 template <>
 struct Words<Backend> {

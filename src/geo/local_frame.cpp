@@ -27,6 +27,12 @@ glm::dvec3 LocalFrame::toLocal(double lon_deg, double lat_deg, double height_m) 
   return {east, up, -north};
 }
 
+glm::dvec3 LocalFrame::toGeodetic(const glm::dvec3& local) const {
+  double lat = 0, lon = 0, height = 0;
+  m_impl->enu.Reverse(local.x, -local.z, local.y, lat, lon, height);
+  return {lon, lat, height};
+}
+
 std::array<double, 16> LocalFrame::localToEcef() const {
   // GeographicLib's rotation M has the ENU unit vectors as its columns
   // (row-major, ECEF = M * enu + origin).

@@ -21,6 +21,8 @@ class LocalFrame {
 
   // Geodetic point (height in metres above the ellipsoid) to glTF-axis metres.
   glm::dvec3 toLocal(double lon_deg, double lat_deg, double height_m) const;
+  // glTF-axis metres to (lon_deg, lat_deg, height_m); lon in [-180, 180).
+  glm::dvec3 toGeodetic(const glm::dvec3& local) const;
 
   // Column-major 4x4 matrix taking glTF-axis local coordinates to ECEF metres.
   std::array<double, 16> localToEcef() const;

@@ -86,6 +86,12 @@ void appendU32(std::vector<std::uint8_t>& out, std::uint32_t v) {
   for (int shift = 0; shift < 32; shift += 8) out.push_back(std::uint8_t(v >> shift));
 }
 
+std::uint32_t readU32(const std::vector<std::uint8_t>& bytes, std::size_t at) {
+  std::uint32_t v = 0;
+  for (int k = 3; k >= 0; --k) v = (v << 8) | bytes[at + std::size_t(k)];
+  return v;
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInfo& info) {
@@ -124,6 +130,7 @@ std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInf
 
   Json extras = {{"origin", {info.origin_lon_deg, info.origin_lat_deg, 0.0}}, {"enu_to_ecef", enu_to_ecef}};
   if (info.max_error_m) extras["max_error_m"] = *info.max_error_m;
+  if (info.region) extras["region"] = *info.region;
   Json gltf = {
       {"asset", {{"version", "2.0"}, {"generator", "terrabake"}, {"extras", {{"terrabake", extras}}}}},
       {"scene", 0},
@@ -176,6 +183,25 @@ std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInf
   appendU32(out, kChunkBin);
   out.insert(out.end(), bin_bytes.begin(), bin_bytes.end());
   return out;
+}
+
+GlbPlacement readGlbPlacement(const std::vector<std::uint8_t>& glb) {
+  if (glb.size() < 20 || readU32(glb, 0) != kGlbMagic || readU32(glb, 16) != kChunkJson) {
+    throw std::runtime_error("not a glTF binary");
+  }
+  const std::size_t json_size = readU32(glb, 12);
+  if (json_size > glb.size() - 20) throw std::runtime_error("JSON chunk runs past the end");
+  const Json gltf = Json::parse(glb.begin() + 20, glb.begin() + 20 + std::ptrdiff_t(json_size), nullptr, false);
+  GlbPlacement placement;
+  try {
+    const Json& extras = gltf.at("asset").at("extras").at("terrabake");
+    placement.enu_to_ecef = extras.at("enu_to_ecef").get<std::array<double, 16>>();
+    placement.max_error_m = extras.at("max_error_m").get<double>();
+    placement.region = extras.at("region").get<std::array<double, 6>>();
+  } catch (const Json::exception& e) {
+    throw std::runtime_error(std::string("asset.extras.terrabake: ") + e.what());
+  }
+  return placement;
 }
 
 }  // namespace terrabake::io

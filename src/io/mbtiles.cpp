@@ -180,6 +180,11 @@ MbtilesKey mbtilesKey(const TileId& tile, bool tms_rows) {
   return {tile.z, tile.x, row};
 }
 
+TileId tileOfKey(const MbtilesKey& key, bool tms_rows) {
+  const int y = tms_rows ? key.tile_row : int((std::int64_t(1) << key.zoom_level) - 1 - key.tile_row);
+  return {key.zoom_level, key.tile_column, y};
+}
+
 MbtilesTable mbtilesTable(TileFormat format) {
   switch (format) {
     case TileFormat::kPng: return MbtilesTable::kTiles;
@@ -329,6 +334,54 @@ void MbtilesFile::writeTile(const MbtilesKey& key, const std::vector<std::uint8_
   m_impl->insert(MbtilesTable::kMeshes, key, glb);
   if (!high_res_glb.empty()) m_impl->insert(MbtilesTable::kHighResMeshes, key, high_res_glb);
   transaction.commit();
+}
+
+void MbtilesFile::forEachTile(
+    MbtilesTable table, const std::function<void(const MbtilesKey&, const std::vector<std::uint8_t>&)>& visit) const {
+  if (!m_impl->has_table[std::size_t(table)]) return;
+  Statement statement;
+  sqlite3_stmt* s = m_impl->prepared(
+      statement, std::string("SELECT zoom_level, tile_column, tile_row, tile_data FROM ") + tableName(table));
+  int rc;
+  std::vector<std::uint8_t> bytes;
+  while ((rc = sqlite3_step(s)) == SQLITE_ROW) {
+    const MbtilesKey key{sqlite3_column_int(s, 0), sqlite3_column_int(s, 1), sqlite3_column_int(s, 2)};
+    const auto* data = static_cast<const std::uint8_t*>(sqlite3_column_blob(s, 3));
+    bytes.assign(data, data + sqlite3_column_bytes(s, 3));
+    visit(key, bytes);
+  }
+  if (rc != SQLITE_DONE) m_impl->fail(std::string("cannot read table ") + tableName(table));
+}
+
+void MbtilesFile::replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents) {
+  m_impl->writeAhead();
+  Impl::Transaction transaction(*m_impl);
+  m_impl->exec(std::string("CREATE TABLE IF NOT EXISTS ") + kMbtilesTilesetTable +
+                   " (path text PRIMARY KEY, json text NOT NULL); DELETE FROM " + kMbtilesTilesetTable,
+               "cannot write table tilesets");
+  Statement statement;
+  sqlite3_stmt* s = m_impl->prepared(
+      statement, std::string("INSERT INTO ") + kMbtilesTilesetTable + " (path, json) VALUES (?1, ?2)");
+  for (const auto& [path, json] : documents) {
+    const ResetOnExit reset{s};
+    sqlite3_bind_text(s, 1, path.c_str(), int(path.size()), SQLITE_STATIC);
+    sqlite3_bind_text64(s, 2, json.c_str(), json.size(), SQLITE_STATIC, SQLITE_UTF8);
+    if (sqlite3_step(s) != SQLITE_DONE) m_impl->fail("cannot write table tilesets");
+  }
+  transaction.commit();
+}
+
+std::optional<std::string> MbtilesFile::tilesetDocument(const std::string& path) const {
+  if (!m_impl->tables().count(kMbtilesTilesetTable)) return std::nullopt;
+  Statement statement;
+  sqlite3_stmt* s = m_impl->prepared(statement, std::string("SELECT json FROM ") + kMbtilesTilesetTable +
+                                                    " WHERE path = ?1");
+  sqlite3_bind_text(s, 1, path.c_str(), int(path.size()), SQLITE_STATIC);
+  const int rc = sqlite3_step(s);
+  if (rc == SQLITE_DONE) return std::nullopt;
+  if (rc != SQLITE_ROW) m_impl->fail("cannot read table tilesets");
+  const unsigned char* text = sqlite3_column_text(s, 0);
+  return std::string(text ? reinterpret_cast<const char*>(text) : "", std::size_t(sqlite3_column_bytes(s, 0)));
 }
 
 void MbtilesFile::standAlone() {

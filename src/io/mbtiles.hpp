@@ -4,6 +4,7 @@
 // `high_res_meshes`, rows in TMS order; metadata with the layer's tilejson
 // and the job that made it. SQLite stays behind this header.
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <set>
@@ -31,6 +32,12 @@ struct MbtilesKey {
 // `tms_rows`: the scheme's y already counts from the south (geodetic) and is
 // kept; otherwise (webmercator, native) tile_row = 2^z - 1 - y.
 MbtilesKey mbtilesKey(const TileId& tile, bool tms_rows);
+// The tile a key holds: mbtilesKey's inverse.
+TileId tileOfKey(const MbtilesKey& key, bool tms_rows);
+
+// The table that holds a layer's 3D Tiles files (tileset.json and its
+// external tilesets), by their path in the folder form.
+constexpr const char* kMbtilesTilesetTable = "tilesets";
 
 // The metadata row holding the fingerprint of the job that made the layer
 // (empty until a run records one); a file without it is not terrabake's.
@@ -79,6 +86,15 @@ class MbtilesFile {
   // transaction: a tile is in the file whole or not at all.
   void writeTile(const MbtilesKey& key, const std::vector<std::uint8_t>& png, const std::vector<std::uint8_t>& glb,
                  const std::vector<std::uint8_t>& high_res_glb);
+
+  // Calls `visit` with every row of the table, in no particular order.
+  void forEachTile(MbtilesTable table,
+                   const std::function<void(const MbtilesKey&, const std::vector<std::uint8_t>&)>& visit) const;
+
+  // Replaces the 3D Tiles files (path relative to the layer, JSON text) in
+  // one transaction; nullopt when the file has no such document.
+  void replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents);
+  std::optional<std::string> tilesetDocument(const std::string& path) const;
 
   // Folds the write-ahead log into the file and goes back to a rollback
   // journal, so the file stands alone: no -wal or -shm beside it, readable

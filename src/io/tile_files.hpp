@@ -40,10 +40,23 @@ struct GlbInfo {
   double origin_lat_deg = 0;
   std::array<double, 16> enu_to_ecef{};  // column-major, glTF axes -> ECEF
   std::optional<double> max_error_m;     // the mesh's distance to the height samples
+  // Where the mesh lies, as a 3D Tiles region: west, south, east, north
+  // (radians), lowest and highest point (metres above the ellipsoid).
+  std::optional<std::array<double, 6>> region;
 };
 
 // glTF 2.0 binary of the low-poly mesh (docs/CONTRACT.md §5).
 std::vector<std::uint8_t> encodeGlb(const mesh::TriangleMesh& mesh, const GlbInfo& info);
+
+// What a tileset needs of a .glb written by encodeGlb: its asset.extras.terrabake.
+struct GlbPlacement {
+  std::array<double, 16> enu_to_ecef{};
+  double max_error_m = 0;
+  std::array<double, 6> region{};
+};
+// Reads only the JSON chunk. Throws std::runtime_error when the bytes are not
+// a .glb or lack enu_to_ecef, max_error_m or region.
+GlbPlacement readGlbPlacement(const std::vector<std::uint8_t>& glb);
 
 // What a layer's tilejson.json says, written by tileJson() and read back by
 // readTileJson().
@@ -64,6 +77,8 @@ struct TileJsonInfo {
   LowPolyMesh low_poly_mesh{};
   int low_poly_grid = 0;               // grid: vertices a side
   std::map<int, double> max_error_m;   // adaptive: the distance bound of each zoom's meshes
+  bool skirts = false;                 // the meshes hang skirts under their edges
+  bool tileset = false;                // the layer has a tileset.json (3D Tiles)
   std::vector<std::string> sources;    // DEM paths as the user gave them
 };
 

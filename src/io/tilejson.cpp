@@ -5,6 +5,7 @@
 #include <nlohmann/json.hpp>
 
 #include "io/tile_files.hpp"
+#include "io/tileset.hpp"
 
 namespace terrabake::io {
 namespace {
@@ -12,7 +13,7 @@ namespace {
 using Json = nlohmann::ordered_json;  // keeps the key order the file was written in
 
 // The version of docs/CONTRACT.md the layer follows.
-constexpr const char* kFormatVersion = "4";
+constexpr const char* kFormatVersion = "5";
 
 // Middle longitude of [west, east], also when the bounds cross the antimeridian
 // (west > east).
@@ -42,11 +43,12 @@ Json lowPolyJson(const TileJsonInfo& info) {
   Json low_poly = {{"mesh", std::string(wordOf(info.low_poly_mesh))}};
   if (info.low_poly_mesh == LowPolyMesh::kGrid) {
     low_poly["grid"] = info.low_poly_grid;
-    return low_poly;
+  } else {
+    Json bounds = Json::object();
+    for (const auto& [zoom, metres] : info.max_error_m) bounds[std::to_string(zoom)] = metres;
+    low_poly["max_error_m"] = bounds;
   }
-  Json bounds = Json::object();
-  for (const auto& [zoom, metres] : info.max_error_m) bounds[std::to_string(zoom)] = metres;
-  low_poly["max_error_m"] = bounds;
+  low_poly["skirts"] = info.skirts;
   return low_poly;
 }
 
@@ -61,7 +63,7 @@ std::string tileJson(const TileJsonInfo& info) {
     throw std::invalid_argument("tileJson: zoom range is empty or negative");
   }
 
-  const Json doc = {
+  Json doc = {
       {"tilejson", "3.0.0"},
       {"name", info.name},
       {"scheme", info.tms_rows ? "tms" : "xyz"},
@@ -85,6 +87,7 @@ std::string tileJson(const TileJsonInfo& info) {
         {"low_poly", lowPolyJson(info)},
         {"sources", info.sources}}},
   };
+  if (info.tileset) doc["terrabake"]["tileset"] = std::string("./") + kTilesetFile;
   return doc.dump(2) + "\n";
 }
 
@@ -125,6 +128,8 @@ std::string servedTileJson(const std::string& text, const std::string& layer_url
   if (terrabake != doc.end() && terrabake->is_object()) {
     const auto mesh = terrabake->find("mesh");
     if (mesh != terrabake->end() && mesh->is_string()) *mesh = resolve(mesh->get<std::string>(), layer_url);
+    const auto tileset = terrabake->find("tileset");
+    if (tileset != terrabake->end() && tileset->is_string()) *tileset = resolve(tileset->get<std::string>(), layer_url);
     const auto sources = terrabake->find("sources");
     if (sources != terrabake->end() && sources->is_array()) {
       for (Json& source : *sources) {

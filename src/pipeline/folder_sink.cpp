@@ -13,6 +13,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// A folder or file name that is a tile number ("12", not "012" or "-1").
+std::optional<int> tileNumber(const std::string& name) {
+  if (name.empty() || name.size() > 9 || (name.size() > 1 && name[0] == '0')) return std::nullopt;
+  for (char c : name) {
+    if (c < '0' || c > '9') return std::nullopt;
+  }
+  return std::stoi(name);
+}
+
 // What a crashed run left: temporary files no live writer holds.
 void removeAbandonedTempFiles(const fs::path& layer) {
   std::error_code ec;
@@ -63,6 +72,37 @@ class FolderSink : public TileSink {
   }
 
   void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
+
+  void forEachMesh(const MeshVisitor& visit) const override {
+    const std::string extension = "." + std::string(io::extensionOf(io::TileFormat::kGlb));
+    std::error_code ec;
+    for (fs::directory_iterator zs(m_dir, ec), end; !ec && zs != end; zs.increment(ec)) {
+      const auto z = tileNumber(zs->path().filename().string());
+      if (!z || !zs->is_directory()) continue;
+      for (fs::directory_iterator xs(zs->path(), ec); !ec && xs != end; xs.increment(ec)) {
+        const auto x = tileNumber(xs->path().filename().string());
+        if (!x || !xs->is_directory()) continue;
+        for (fs::directory_iterator ys(xs->path(), ec); !ec && ys != end; ys.increment(ec)) {
+          const std::string name = ys->path().filename().string();
+          if (name.size() <= extension.size() || name.compare(name.size() - extension.size(), extension.size(), extension) != 0) continue;
+          const auto y = tileNumber(name.substr(0, name.size() - extension.size()));
+          if (!y) continue;
+          std::ifstream in(ys->path(), std::ios::binary);
+          const std::vector<std::uint8_t> bytes{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+          if (!in.eof() && !in) throw InputError("output: cannot read '" + ys->path().string() + "'");
+          visit(TileId{*z, *x, *y}, bytes);
+        }
+      }
+    }
+    if (ec) throw InputError("output: cannot list '" + m_dir + "': " + ec.message());
+  }
+
+  void writeTileset(const std::vector<io::TilesetDocument>& documents) override {
+    for (const io::TilesetDocument& doc : documents) {
+      io::writeFileAtomically((fs::path(m_dir) / doc.path).string(),
+                              std::vector<std::uint8_t>(doc.json.begin(), doc.json.end()));
+    }
+  }
 
   void finish(const std::string& tilejson) override {
     io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),

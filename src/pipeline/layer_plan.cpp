@@ -115,6 +115,8 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan,
   info.exaggeration = job.exaggeration;
   info.low_poly_mesh = job.low_poly_mesh;
   info.low_poly_grid = job.low_poly_grid;
+  info.skirts = plan.settings.skirts;
+  info.tileset = plan.tileset;
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) info.max_error_m[z] = plan.settings.max_error_m.at(std::size_t(z));
   }
@@ -136,6 +138,7 @@ TileSettings tileSettings(const config::TileJob& job) {
   settings.height_scale = job.z_scale * job.exaggeration;
   settings.max_fill_px = job.max_fill_px;
   settings.nodata_surface = job.nodata_surface;
+  settings.skirts = job.skirts == Skirts::kOn || (job.skirts == Skirts::kAuto && job.tileset);
   return settings;
 }
 
@@ -207,6 +210,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.format = job.format;
   plan.location = io::layerLocation(job.output_dir, job.layer, job.format);
   plan.fingerprint = config::layerFingerprint(job);
+  plan.tileset = job.tileset;
   Extent bounds = lon_lat.front();
   if (lon_lat.size() > 1) bounds.max_x = lon_lat.back().max_x;  // west > east: across the antimeridian
   plan.tilejson = io::tileJson(tileJsonInfo(job, plan, bounds));

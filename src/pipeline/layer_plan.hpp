@@ -33,6 +33,7 @@ struct TileSettings {
   double height_scale = 0;     // metres of output height per DEM unit (z_scale * exaggeration)
   int max_fill_px = 0;         // the surface carried into holes fades into the backdrop over this
   NodataSurface nodata_surface{};  // cut: no triangles where the DEM has no sample (alpha implied)
+  bool skirts = false;             // walls under the low-poly meshes' edges (mesh/skirt.hpp)
 };
 
 struct LayerPlan {
@@ -59,6 +60,7 @@ struct LayerPlan {
   std::string location;     // the layer folder, or the .mbtiles file
   std::string fingerprint;  // the job, as the layer records it
   std::string tilejson;     // tile URLs relative to the layer folder
+  bool tileset = false;     // also write tileset.json (io/tileset.hpp) when the run finishes
 };
 
 // Validates the job and opens its DEM. Throws UsageError for a bad job or

@@ -52,6 +52,20 @@ class MbtilesSink : public TileSink {
     m_file->writeTile(io::mbtilesKey(tile, m_tms_rows), files.png, files.glb, files.high_res_glb);
   }
 
+  void forEachMesh(const MeshVisitor& visit) const override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->forEachTile(io::MbtilesTable::kMeshes, [&](const io::MbtilesKey& key, const std::vector<std::uint8_t>& bytes) {
+      visit(io::tileOfKey(key, m_tms_rows), bytes);
+    });
+  }
+
+  void writeTileset(const std::vector<io::TilesetDocument>& documents) override {
+    std::vector<std::pair<std::string, std::string>> rows;
+    for (const io::TilesetDocument& doc : documents) rows.emplace_back(doc.path, doc.json);
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_file->replaceTilesetDocuments(rows);
+  }
+
   void finish(const std::string& tilejson) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     m_file->setMetadata(io::mbtilesMetadata(tilejson));

@@ -19,6 +19,24 @@
 namespace terrabake::pipeline {
 namespace {
 
+// tileset.json over every mesh the layer holds now: this run's, an earlier
+// run's it resumed, and other shards' that have finished.
+void writeTileset(TileSink& sink, const LayerPlan& plan) {
+  std::vector<io::TilesetTile> tiles;
+  sink.forEachMesh([&](const TileId& tile, const std::vector<std::uint8_t>& glb) {
+    try {
+      tiles.push_back({tile, io::readGlbPlacement(glb)});
+    } catch (const std::exception& e) {
+      throw InputError("output: tile " + tile.str() + " of '" + sink.location() + "': " + oneLine(e.what()));
+    }
+  });
+  if (tiles.empty()) return;
+  const std::vector<io::TilesetDocument> documents = io::buildTileset(tiles, plan.scheme->tileSize());
+  sink.writeTileset(documents);
+  log::info("tileset: " + std::to_string(tiles.size()) + " tiles in " + std::to_string(documents.size()) +
+            " file" + (documents.size() == 1 ? "" : "s"));
+}
+
 }  // namespace
 
 std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count) {
@@ -118,6 +136,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   if (summary.interrupted) {
     sink->close();
   } else {
+    if (plan->tileset) writeTileset(*sink, *plan);
     sink->finish(plan->tilejson);
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -4,14 +4,18 @@
 #include <cmath>
 #include <utility>
 
+#include <glm/geometric.hpp>
+
 #include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
 #include "bake/encode.hpp"
 #include "geo/local_frame.hpp"
+#include "geo/region.hpp"
 #include "gl/baker_factory.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/skirt.hpp"
 
 namespace terrabake::pipeline {
 namespace {
@@ -196,6 +200,21 @@ struct TileMaker::Impl {
     return mesh::buildAdaptiveMesh(samples, edgePoints(tile, read_plan, max_error_m), max_error_m);
   }
 
+  // How far skirts hang: the larger of this zoom's and the coarser zoom's
+  // error bounds (a grid mesh has none: four times its own distance, as the
+  // error grows with the square of a cell's size), plus one texel of the
+  // coarser zoom, by which the two zooms' samples of the terrain differ.
+  double skirtDepthM(const TileId& tile, const mesh::SampleGrid& samples, double max_error_m) const {
+    const int mid = samples.apron + samples.tile_size / 2;
+    const double texel_m = glm::distance(samples.position.at(mid + 1, mid), samples.position.at(mid, mid));
+    double bound = 4 * max_error_m;
+    if (settings.low_poly_mesh == LowPolyMesh::kAdaptive) {
+      bound = settings.max_error_m.at(std::size_t(std::max(0, tile.z - 1)));
+      bound = std::max(bound, settings.max_error_m.at(std::size_t(tile.z)));
+    }
+    return bound + 2 * texel_m;
+  }
+
   geo::LocalFrame frameAtCentre(const TileId& tile) const {
     const Extent e = scheme.tileExtent(tile);
     std::vector<glm::dvec2> centre = {{(e.min_x + e.max_x) / 2, (e.min_y + e.max_y) / 2}};
@@ -231,6 +250,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const bake::NormalMap map = s.baker->bake(high, low, size);
   const bool cut = s.settings.nodata_surface == NodataSurface::kCut;
   if (cut) mesh::dropTrianglesWithoutData(low, samples);
+  if (s.settings.skirts) mesh::addSkirts(low, s.skirtDepthM(tile, samples, low_poly.max_error_m));
 
   io::GlbInfo glb_info;
   glb_info.normal_texture_uri = std::to_string(tile.y) + ".png";
@@ -238,6 +258,8 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.origin_lat_deg = frame.originLatDeg();
   glb_info.enu_to_ecef = frame.localToEcef();
   glb_info.max_error_m = low_poly.max_error_m;
+  const geo::Region region = geo::regionOfMesh(low.position, frame, mesh::longestEdgeM(low));
+  glb_info.region = {region.west, region.south, region.east, region.north, region.min_height_m, region.max_height_m};
   io::TileFiles files;
   Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
   if (s.settings.alpha) {
@@ -250,6 +272,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   if (s.settings.high_res_mesh) {
     glb_info.normal_texture_uri.clear();
     glb_info.max_error_m.reset();  // the display mesh is the samples themselves
+    glb_info.region.reset();
     mesh::TriangleMesh display = mesh::buildHighResDisplayMesh(samples);
     if (cut) mesh::dropTrianglesWithoutData(display, samples);
     files.high_res_glb = io::encodeGlb(display, glb_info);

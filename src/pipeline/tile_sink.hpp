@@ -2,11 +2,14 @@
 // Where a run's tiles go: a folder of files, or one MBTiles database. Every
 // tile appears whole or not at all, and a layer remembers the job that made
 // it, so a run can resume it and refuse to mix it with another job's tiles.
+#include <functional>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "core/types.hpp"
 #include "io/layer_layout.hpp"
+#include "io/tileset.hpp"
 #include "pipeline/layer_plan.hpp"
 
 namespace terrabake::pipeline {
@@ -25,6 +28,11 @@ class TileSink {
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
   virtual void write(const TileId& tile, const io::TileFiles& files) = 0;
+  // Every low-poly mesh the layer holds, whichever run wrote it.
+  using MeshVisitor = std::function<void(const TileId&, const std::vector<std::uint8_t>&)>;
+  virtual void forEachMesh(const MeshVisitor& visit) const = 0;
+  // Writes the layer's 3D Tiles files, each whole, in place of any before.
+  virtual void writeTileset(const std::vector<io::TilesetDocument>& documents) = 0;
   // Writes the layer's description (tilejson, or MBTiles metadata) last.
   virtual void finish(const std::string& tilejson) = 0;
   // Ends a run stopped early: what was written stays whole and readable on
