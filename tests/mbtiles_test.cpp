@@ -260,6 +260,7 @@ TEST_P(MbtilesRows, BlobsAreTheFolderFilesAtTmsRows) {
   config::TileJob folder_job = smallJob(dir, "layer", OutputFormat::kFiles, scheme);
   config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles, scheme);
   folder_job.high_res_mesh = job.high_res_mesh = true;
+  folder_job.tileset = job.tileset = true;
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
 
@@ -383,6 +384,7 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   config::TileJob folder_job = smallJob(tiles_dir, "folder", OutputFormat::kFiles);
   config::TileJob job = smallJob(tiles_dir, "packed", OutputFormat::kMbtiles);
   folder_job.high_res_mesh = job.high_res_mesh = true;
+  folder_job.tileset = job.tileset = true;
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
   const fs::path folder = test::layerDir(folder_job);
@@ -416,12 +418,28 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   const std::string base = "http://127.0.0.1:" + std::to_string(server.port()) + "/packed/";
   EXPECT_EQ(packed["tiles"], Json::array({base + "{z}/{x}/{y}.png"}));
   EXPECT_EQ(packed["terrabake"]["mesh"], base + "{z}/{x}/{y}.glb");
+  EXPECT_EQ(packed["terrabake"]["tileset"], base + "tileset.json");
   for (Json* doc : {&packed, &expected}) {
     doc->erase("name");
     doc->erase("tiles");
     (*doc)["terrabake"].erase("mesh");
+    (*doc)["terrabake"].erase("tileset");
   }
   EXPECT_EQ(packed, expected);
+
+  // The tileset, from the file's tilesets table as from the folder, with the tiles' caching.
+  const auto packed_tileset = client.Get("/packed/tileset.json");
+  ASSERT_TRUE(packed_tileset && packed_tileset->status == 200);
+  EXPECT_EQ(packed_tileset->get_header_value("Content-Type"), "application/json");
+  EXPECT_EQ(packed_tileset->get_header_value("Cache-Control"), "public, max-age=3600");
+  EXPECT_EQ(packed_tileset->body, test::readBytes(folder / "tileset.json"));
+  const auto revalidated =
+      client.Get("/packed/tileset.json", {{"If-None-Match", packed_tileset->get_header_value("ETag")}});
+  ASSERT_TRUE(revalidated);
+  EXPECT_EQ(revalidated->status, 304);
+  const auto no_external = client.Get("/packed/tilesets/20/1/1.json");
+  ASSERT_TRUE(no_external);
+  EXPECT_EQ(no_external->status, 404);
 
   for (const TileId& tile : tiles) {
     for (const std::string extension : {"png", "glb", "hires.glb"}) {

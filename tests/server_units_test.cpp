@@ -115,6 +115,13 @@ TEST(ServeRoutes, KnownRoutes) {
   EXPECT_EQ(tile.format, io::TileFormat::kHighResGlb);
   EXPECT_EQ(server::parseRoute("/sample/0/0/0.png").format, io::TileFormat::kPng);
   EXPECT_EQ(server::parseRoute("/sample/0/0/0.glb").format, io::TileFormat::kGlb);
+  const Route tileset = server::parseRoute("/sample/tileset.json");
+  ASSERT_EQ(tileset.kind, Route::Kind::kTileset);
+  EXPECT_EQ(tileset.layer, "sample");
+  EXPECT_EQ(tileset.file, "tileset.json");
+  const Route external = server::parseRoute("/sample/tilesets/14/8886/4757.json");
+  ASSERT_EQ(external.kind, Route::Kind::kTileset);
+  EXPECT_EQ(external.file, "tilesets/14/8886/4757.json");
 }
 
 TEST(ServeRoutes, MalformedPathsAreBadRequests) {
@@ -123,7 +130,8 @@ TEST(ServeRoutes, MalformedPathsAreBadRequests) {
         "/sample/25/0/0.png", "/sample/12/1/1.jpg", "/sample/12/1/1", "/sample/12/1/1.", "/sample/012/1/1.png",
         "/sample/+3/1/1.png", "/sample/12/1/2/3.png", "/sample/12/1", "/sample/../etc/passwd", "/viewer/../x",
         "/viewer/./x", "//etc/passwd", "/viewer//etc/passwd", "/vendor/three/../../x", "/viewer/a\\b",
-        "/sample/12/1/1.png/", "relative/path", "/a b/tilejson.json"}) {
+        "/sample/12/1/1.png/", "relative/path", "/a b/tilejson.json", "/sample/tilesets/14/1/2.png",
+        "/sample/tilesets/x/1/2.json", "/sample/tilesets/14/1/02.json", "/sample/tilesets/25/1/2.json"}) {
     EXPECT_EQ(server::parseRoute(path).kind, Route::Kind::kBadRequest) << path;
   }
   EXPECT_EQ(server::parseRoute(std::string("/viewer/a\0b", 11)).kind, Route::Kind::kBadRequest);

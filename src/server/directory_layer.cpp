@@ -34,4 +34,6 @@ TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
 }
 
+std::optional<FileContent> DirectoryLayer::tilesetFile(const std::string& path) { return m_folder.read(path); }
+
 }  // namespace terrabake::server

@@ -20,6 +20,7 @@ class DirectoryLayer : public LayerSource {
   bool bakesOnDemand() const override { return false; }
   std::string tileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
+  std::optional<FileContent> tilesetFile(const std::string& path) override;
 
  private:
   std::string m_name;

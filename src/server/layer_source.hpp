@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/types.hpp"
@@ -48,6 +49,10 @@ class LayerSource {
   // ("./{z}/{x}/{y}.png") made absolute against `layer_url`
   // ("http://host:port/<layer>/"), its sources reduced to file names.
   virtual std::string tileJson(const std::string& layer_url) const = 0;
+
+  // A file of the layer's 3D Tiles tileset ("tileset.json",
+  // "tilesets/z/x/y.json"); nullopt when the layer has no such file.
+  virtual std::optional<FileContent> tilesetFile(const std::string& /*path*/) { return std::nullopt; }
 
   // Called with the final answer of a tile that was kPending, once, from a
   // bake worker thread.

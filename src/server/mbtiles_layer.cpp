@@ -55,6 +55,16 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(content)), {}};
 }
 
+std::optional<FileContent> MbtilesLayer::tilesetFile(const std::string& path) {
+  std::unique_ptr<io::MbtilesFile> file = borrow();
+  std::optional<std::string> json = file->tilesetDocument(path);
+  giveBack(std::move(file));
+  if (!json) return std::nullopt;
+  FileContent content{std::move(*json), {}};
+  content.etag = contentEtag(content.bytes);
+  return content;
+}
+
 std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow() {
   {
     const std::lock_guard<std::mutex> lock(m_mutex);

@@ -174,6 +174,16 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
       const std::string etag = contentEtag(body);
       return validated(request, "application/json", std::move(body), etag, kRevalidate);
     }
+    case Route::Kind::kTileset: {
+      const auto layer = m_layers.find(route.layer);
+      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<FileContent> content = layer->second->tilesetFile(route.file);
+      if (!content) {
+        return text(404, "not found: layer '" + route.layer + "' has no " + route.file +
+                             " (made by `terrabake tile` with output.tileset: true)");
+      }
+      return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
+    }
     case Route::Kind::kTile:
       return text(404, "not found: no layer '" + route.layer + "'");
     case Route::Kind::kBadRequest:

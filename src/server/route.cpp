@@ -6,6 +6,7 @@
 #include <vector>
 
 #include "core/layer_name.hpp"
+#include "io/tileset.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -80,6 +81,22 @@ Route parseTile(const std::vector<std::string>& parts) {
   return route;
 }
 
+// /<layer>/tilesets/<z>/<x>/<y>.json: an external tileset (io::externalTilesetPath).
+Route parseExternalTileset(const std::vector<std::string>& parts) {
+  static const char* kShape = "an external tileset is /<layer>/tilesets/<z>/<x>/<y>.json";
+  const std::string& last = parts[4];
+  const std::size_t dot = last.find('.');
+  TileId tile;
+  if (dot == std::string::npos || last.substr(dot) != ".json" || !parseNumber(parts[2], tile.z) ||
+      !parseNumber(parts[3], tile.x) || !parseNumber(last.substr(0, dot), tile.y) || tile.z > kMaxZoom) {
+    return bad(kShape);
+  }
+  Route route = simple(Route::Kind::kTileset);
+  route.layer = parts[0];
+  route.file = io::externalTilesetPath(tile);
+  return route;
+}
+
 }  // namespace
 
 Route parseRoute(const std::string& path) {
@@ -114,11 +131,18 @@ Route parseRoute(const std::string& path) {
   if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
   if (parts.size() == 1) return notFound("no such file; try /" + first + "/tilejson.json");
   if (parts.size() == 2) {
+    if (parts[1] == io::kTilesetFile) {
+      Route route = simple(Route::Kind::kTileset);
+      route.layer = first;
+      route.file = io::kTilesetFile;
+      return route;
+    }
     if (parts[1] != io::kTileJsonFile) return notFound("no such file");
     Route route = simple(Route::Kind::kTileJson);
     route.layer = first;
     return route;
   }
+  if (parts.size() == 5 && parts[1] == "tilesets") return parseExternalTileset(parts);
   return parseTile(parts);
 }
 

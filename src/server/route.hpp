@@ -18,14 +18,15 @@ struct Route {
     kVendorFile,  // /vendor/three/<file>
     kTileJson,    // /<layer>/tilejson.json
     kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>
+    kTileset,     // /<layer>/tileset.json, /<layer>/tilesets/<z>/<x>/<y>.json
     kBadRequest,  // 400
     kNotFound,    // 404
   };
   Kind kind = Kind::kNotFound;
-  std::string layer;  // kTileJson, kTile
+  std::string layer;  // kTileJson, kTile, kTileset
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
-  std::string file;     // kViewerFile, kVendorFile: relative to the folder, segments checked
+  std::string file;     // kViewerFile, kVendorFile, kTileset: relative to the folder, segments checked
   std::string problem;  // kBadRequest, kNotFound: what is wrong, for the response body
 };
 
