@@ -43,15 +43,17 @@ std::array<double, 6> unite(const std::array<double, 6>& a, const std::array<dou
   return r;
 }
 
-// The ground size of the tile's largest texel: its region's width at the
-// latitude nearest the equator, or its height, over the tile size.
-double texelSizeM(const std::array<double, 6>& region, int tile_size) {
+// The longer side of a region on the ground, in metres.
+double regionSizeM(const std::array<double, 6>& region) {
   double width = region[2] - region[0];
   if (width < 0) width += 2 * kPi;
   const double widest_cos = region[1] <= 0 && region[3] >= 0 ? 1.0 : std::max(std::cos(region[1]), std::cos(region[3]));
-  const double across = std::max(width * widest_cos, region[3] - region[1]) * kMeanEarthRadiusM;
-  return across / tile_size;
+  return std::max(width * widest_cos, region[3] - region[1]) * kMeanEarthRadiusM;
 }
+
+// The ground size of the tile's largest texel: its region's width at the
+// latitude nearest the equator, or its height, over the tile size.
+double texelSizeM(const std::array<double, 6>& region, int tile_size) { return regionSizeM(region) / tile_size; }
 
 // ENU (3D Tiles' z-up) to ECEF, from the mesh's glTF-axis (y-up) matrix:
 // 3D Tiles turns glTF content by (x, y, z) -> (x, -z, y) before the tile's
@@ -182,12 +184,14 @@ std::vector<TilesetDocument> buildTileset(const std::vector<TilesetTile>& tiles,
     (parent != nodes.end() ? parent->second : root).children.push_back(&node);
   }
   summarise(root, tile_size);
-  // The root has no content: it refines into the top tiles at once.
+  // The root has no content: drawn instead of its children it would show
+  // nothing, an error as large as the layer itself, so viewers refine it
+  // from any distance at which the layer covers a pixel.
   double top_error = 0;
   for (const Node* top : root.children) {
     top_error = std::max({top_error, top->geometric_error, ownError(*top->own, tile_size)});
   }
-  root.geometric_error = kParentErrorMargin * top_error;
+  root.geometric_error = std::max(kParentErrorMargin * top_error, regionSizeM(root.region));
 
   Writer writer(min_zoom);
   writer.writeDocument(kTilesetFile, root, glm::dmat4(1.0), true);

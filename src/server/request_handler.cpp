@@ -82,11 +82,13 @@ void finish(HttpReply& reply) {
 
 RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
     : m_viewer(config.viewer_dir),
-      m_three(std::filesystem::path(config.viewer_dir) / "node_modules" / "three"),
       m_public_url(config.public_url.empty() || config.public_url.back() == '/' ? config.public_url
                                                                                  : config.public_url + "/"),
       m_tile_cache_control("public, max-age=" + std::to_string(config.tile_max_age_s)),
       m_retry_after_s(std::to_string(config.retry_after_s)) {
+  for (const VendorPackage& package : vendorPackages()) {
+    m_vendor.emplace(package.name, ServedFolder(std::filesystem::path(config.viewer_dir) / "node_modules" / package.folder));
+  }
   for (auto& layer : layers) {
     const std::string name = layer->name();
     m_layers.emplace(name, std::move(layer));
@@ -162,7 +164,7 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
     case Route::Kind::kViewerFile:
       return staticFile(request, m_viewer, route.file);
     case Route::Kind::kVendorFile:
-      return staticFile(request, m_three, route.file);
+      return staticFile(request, m_vendor.at(route.package), route.file);
     case Route::Kind::kLayerList:
       return layerList(request);
     case Route::Kind::kHealth:

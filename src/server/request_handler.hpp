@@ -63,7 +63,7 @@ class RequestHandler {
 
   std::map<std::string, std::unique_ptr<LayerSource>> m_layers;
   ServedFolder m_viewer;
-  ServedFolder m_three;
+  std::map<std::string, ServedFolder> m_vendor;  // by package name (vendorPackages())
   std::string m_public_url;  // ending in '/'; "" when not set
   std::string m_tile_cache_control;
   std::string m_retry_after_s;

@@ -122,10 +122,14 @@ Route parseRoute(const std::string& path) {
     route.file = join(parts.begin() + 1, parts.end());
     return route;
   }
-  if (first == "vendor" && parts.size() >= 3 && parts[1] == "three") {
-    Route route = simple(Route::Kind::kVendorFile);
-    route.file = join(parts.begin() + 2, parts.end());
-    return route;
+  if (first == "vendor" && parts.size() >= 3) {
+    for (const VendorPackage& package : vendorPackages()) {
+      if (parts[1] != package.name) continue;
+      Route route = simple(Route::Kind::kVendorFile);
+      route.package = package.name;
+      route.file = join(parts.begin() + 2, parts.end());
+      return route;
+    }
   }
   if (isReservedName(first)) return notFound("no such file");
   if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
@@ -144,6 +148,12 @@ Route parseRoute(const std::string& path) {
   }
   if (parts.size() == 5 && parts[1] == "tilesets") return parseExternalTileset(parts);
   return parseTile(parts);
+}
+
+const std::vector<VendorPackage>& vendorPackages() {
+  static const std::vector<VendorPackage> kPackages = {
+      {"three", "three"}, {"cesium", "cesium/Build/Cesium"}, {"3d-tiles-renderer", "3d-tiles-renderer/build"}};
+  return kPackages;
 }
 
 bool isReservedName(const std::string& name) {

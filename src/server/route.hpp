@@ -3,6 +3,7 @@
 // the disk: a path that climbs (`..`), has empty or odd segments, or does not
 // fit a route is refused here.
 #include <string>
+#include <vector>
 
 #include "core/types.hpp"
 #include "server/layer_source.hpp"
@@ -15,7 +16,7 @@ struct Route {
     kLayerList,   // /layers.json
     kHealth,      // /health
     kViewerFile,  // /viewer/<file>
-    kVendorFile,  // /vendor/three/<file>
+    kVendorFile,  // /vendor/<package>/<file>: three, cesium, 3d-tiles-renderer
     kTileJson,    // /<layer>/tilejson.json
     kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>
     kTileset,     // /<layer>/tileset.json, /<layer>/tilesets/<z>/<x>/<y>.json
@@ -26,12 +27,22 @@ struct Route {
   std::string layer;  // kTileJson, kTile, kTileset
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
+  std::string package;  // kVendorFile: one of vendorPackages()
   std::string file;     // kViewerFile, kVendorFile, kTileset: relative to the folder, segments checked
   std::string problem;  // kBadRequest, kNotFound: what is wrong, for the response body
 };
 
 // `path` is the request path, percent-decoded, without the query.
 Route parseRoute(const std::string& path);
+
+// The npm packages of the viewer served under /vendor/<package>/, each with
+// the folder under the viewer's node_modules its files come from: three.js
+// whole (examples included), CesiumJS's built bundle, 3d-tiles-renderer's build.
+struct VendorPackage {
+  const char* name;
+  const char* folder;
+};
+const std::vector<VendorPackage>& vendorPackages();
 
 // Names the server's own routes take, so no layer can be called that.
 bool isReservedName(const std::string& name);
