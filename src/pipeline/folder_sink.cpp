@@ -64,7 +64,11 @@ class FolderSink : public TileSink {
 
   void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
 
-  void finish(const std::string& tilejson) override {
+  void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    if (!elevation_tilejson.empty()) {
+      io::writeFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(),
+                              std::vector<std::uint8_t>(elevation_tilejson.begin(), elevation_tilejson.end()));
+    }
     io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
                             std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
   }

@@ -33,6 +33,7 @@ struct TileSettings {
   double height_scale = 0;     // metres of output height per DEM unit (z_scale * exaggeration)
   int max_fill_px = 0;         // the surface carried into holes fades into the backdrop over this
   NodataSurface nodata_surface{};  // cut: no triangles where the DEM has no sample (alpha implied)
+  Elevation elevation{};           // also encode the tile's heights for MapLibre (none: not)
 };
 
 struct LayerPlan {
@@ -59,11 +60,14 @@ struct LayerPlan {
   std::string location;     // the layer folder, or the .mbtiles file
   std::string fingerprint;  // the job, as the layer records it
   std::string tilejson;     // tile URLs relative to the layer folder
+  std::string elevation_tilejson;  // the elevation tiles' tilejson; empty without output.elevation
 };
 
 // Validates the job and opens its DEM. Throws UsageError for a bad job or
 // zooms the scheme does not have, InputError for a DEM that cannot be read,
 // NothingToMake for a DEM beyond the scheme's latitudes or a bbox beside it.
+// Elevation tiles are refused for schemes other than webmercator and for
+// MBTiles output (UsageError).
 LayerPlan planLayer(const config::TileJob& job);
 
 // The tiles of a job, zoom by zoom in the order runs make them, counted and

@@ -52,7 +52,8 @@ class MbtilesSink : public TileSink {
     m_file->writeTile(io::mbtilesKey(tile, m_tms_rows), files.png, files.glb, files.high_res_glb);
   }
 
-  void finish(const std::string& tilejson) override {
+  // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
+  void finish(const std::string& tilejson, const std::string& /*elevation_tilejson*/) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     m_file->setMetadata(io::mbtilesMetadata(tilejson));
     m_file->standAlone();

@@ -25,15 +25,17 @@ class TileSink {
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
   virtual void write(const TileId& tile, const io::TileFiles& files) = 0;
-  // Writes the layer's description (tilejson, or MBTiles metadata) last.
-  virtual void finish(const std::string& tilejson) = 0;
+  // Writes the layer's description (tilejson, or MBTiles metadata) last;
+  // `elevation_tilejson` is the elevation tiles' (empty: the layer has none).
+  virtual void finish(const std::string& tilejson, const std::string& elevation_tilejson) = 0;
   // Ends a run stopped early: what was written stays whole and readable on
   // its own (an MBTiles file leaves no write-ahead log beside it), and no
   // description is written.
   virtual void close() {}
 };
 
-// Where the plan stores its layer (io/layer_layout.hpp): a folder of
+// Where the plan stores its layer (io/layer_layout.hpp): PMTiles archives
+// written whole when the run finishes (nothing under their names before), a folder of
 // {z}/{x}/{y}.png|.glb[|.hires.glb] files with tilejson.json and the job
 // fingerprint in terrabake-job.txt, or one MBTiles file (images in `tiles`,
 // meshes in `meshes` and `high_res_meshes`, the job in metadata row

@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "core/types.hpp"
@@ -48,6 +49,11 @@ class LayerSource {
   // ("./{z}/{x}/{y}.png") made absolute against `layer_url`
   // ("http://host:port/<layer>/"), its sources reduced to file names.
   virtual std::string tileJson(const std::string& layer_url) const = 0;
+  // elevation.json as served, likewise; nullopt when the layer has no
+  // elevation tiles (output.elevation: none, MBTiles).
+  virtual std::optional<std::string> elevationTileJson(const std::string& /*layer_url*/) const {
+    return std::nullopt;
+  }
 
   // Called with the final answer of a tile that was kPending, once, from a
   // bake worker thread.

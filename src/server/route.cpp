@@ -60,7 +60,7 @@ std::string join(std::vector<std::string>::const_iterator first, std::vector<std
 }
 
 Route parseTile(const std::vector<std::string>& parts) {
-  static const char* kShape = "a tile is /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>";
+  static const char* kShape = "a tile is /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>";
   if (parts.size() != 4) return bad(kShape);
   Route route;
   route.kind = Route::Kind::kTile;
@@ -114,8 +114,14 @@ Route parseRoute(const std::string& path) {
   if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
   if (parts.size() == 1) return notFound("no such file; try /" + first + "/tilejson.json");
   if (parts.size() == 2) {
-    if (parts[1] != io::kTileJsonFile) return notFound("no such file");
-    Route route = simple(Route::Kind::kTileJson);
+    Route route;
+    if (parts[1] == io::kTileJsonFile) {
+      route = simple(Route::Kind::kTileJson);
+    } else if (parts[1] == io::kElevationTileJsonFile) {
+      route = simple(Route::Kind::kElevationTileJson);
+    } else {
+      return notFound("no such file");
+    }
     route.layer = first;
     return route;
   }

@@ -17,12 +17,13 @@ struct Route {
     kViewerFile,  // /viewer/<file>
     kVendorFile,  // /vendor/three/<file>
     kTileJson,    // /<layer>/tilejson.json
-    kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>
+    kElevationTileJson,  // /<layer>/elevation.json
+    kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>
     kBadRequest,  // 400
     kNotFound,    // 404
   };
   Kind kind = Kind::kNotFound;
-  std::string layer;  // kTileJson, kTile
+  std::string layer;  // kTileJson, kElevationTileJson, kTile
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
   std::string file;     // kViewerFile, kVendorFile: relative to the folder, segments checked
