@@ -174,7 +174,7 @@ TEST(ConfigDefaults, OnlyRequiredKeysGiven) {
 
 TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   const std::vector<KeyInfo> keys = listKeys();
-  ASSERT_EQ(keys.size(), 25u);
+  ASSERT_EQ(keys.size(), 26u);
   EXPECT_EQ(keys.front().name, "dem");
   EXPECT_EQ(keys.front().default_value, "");  // required
   for (const KeyInfo& key : keys) {
@@ -193,6 +193,7 @@ TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
   EXPECT_EQ(defaultOf("tiling.zoom"), "");
   EXPECT_EQ(defaultOf("output.high_res_mesh"), "false");
   EXPECT_EQ(defaultOf("nodata.surface"), "continue");
+  EXPECT_EQ(defaultOf("output.elevation"), "none");
 }
 
 TEST(ConfigOverrides, NodataSurfaceTakesContinueOrCut) {

@@ -214,29 +214,25 @@ TEST_P(DemEdge, SurfaceRunsOnAcrossTheEdgeWithoutAStep) {
   EXPECT_LE(ar.max, ir.max);
 }
 
-// The low-poly mesh the viewer draws: vertices 16 texels apart, each placed
-// at its texel-corner position; no step across the edge beyond the terrain's
-// own between neighbouring vertices.
+// The low-poly mesh the viewer draws (the adaptive mesh, whatever its
+// triangles): along its triangle edges, no step across the DEM's edge beyond
+// the terrain's own between vertices joined inside it.
 TEST_P(DemEdge, LowPolyMeshRunsOnAcrossTheEdgeWithoutAStep) {
   const EdgeLayer& layer = continuedLayer(GetParam());
   std::vector<double> across, inside;
   for (const auto& [id, tile] : layer.tiles()) {
     const ts::GlbMesh& low = tile.decoded.glb;
-    const int grid = int(std::lround(std::sqrt(double(low.position.size()))));
-    const double texels_per_cell = double(tile.size()) / (grid - 1);
     const int size = tile.size();
-    auto placeOf = [&, tile_id = id](int c, int r) {
-      return layer.place(tile_id, size, c * texels_per_cell - 0.5, r * texels_per_cell - 0.5);
+    auto placeOf = [&, tile_id = id](std::uint32_t v) {
+      return layer.place(tile_id, size, low.uv[v].x * size - 0.5, low.uv[v].y * size - 0.5);
     };
-    for (int r = 0; r < grid; ++r) {
-      for (int c = 0; c < grid; ++c) {
-        for (const auto& [c2, r2] : {std::pair{c + 1, r}, std::pair{c, r + 1}}) {
-          if (c2 >= grid || r2 >= grid) continue;
-          const Place p = placeOf(c, r), q = placeOf(c2, r2);
-          const double rise = std::abs(low.position[std::size_t(r) * grid + c].y - low.position[std::size_t(r2) * grid + c2].y);
-          if (p.has_data != q.has_data) across.push_back(rise);
-          if (wellInside(p) && wellInside(q)) inside.push_back(rise);
-        }
+    for (std::size_t t = 0; t + 2 < low.indices.size(); t += 3) {
+      for (std::size_t e = 0; e < 3; ++e) {
+        const std::uint32_t a = low.indices[t + e], b = low.indices[t + (e + 1) % 3];
+        const Place p = placeOf(a), q = placeOf(b);
+        const double rise = std::abs(low.position[a].y - low.position[b].y);
+        if (p.has_data != q.has_data) across.push_back(rise);
+        if (wellInside(p) && wellInside(q)) inside.push_back(rise);
       }
     }
   }

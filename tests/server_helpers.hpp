@@ -198,7 +198,9 @@ inline std::unique_ptr<server::OnDemandLayer> fakeLayer(const std::filesystem::p
                                            server::TileCoverage(0, 24),
                                            false,
                                            workers,
-                                           queue_size};
+                                           queue_size,
+                                           false,
+                                           ""};
   return std::make_unique<server::OnDemandLayer>(std::move(settings), [make] { return make; });
 }
 

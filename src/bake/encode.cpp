@@ -13,7 +13,49 @@ namespace {
 // vectors and thirty times smaller than one 16-bit step.
 constexpr double kZeroSnap = 1e-6;
 
+// Both elevation encodings store an integer count of steps above an offset in
+// 24 bits, R the most significant byte.
+constexpr double kMaxSteps = double((1 << 24) - 1);
+
+struct StepEncoding {
+  double offset_m;        // the height of 0 steps, negated
+  double steps_per_m;
+};
+
+StepEncoding stepEncoding(Elevation encoding) {
+  switch (encoding) {
+    case Elevation::kTerrarium: return {32768.0, 256.0};
+    case Elevation::kMapbox: return {10000.0, 10.0};
+    case Elevation::kNone: break;
+  }
+  throw std::invalid_argument("encodeElevation: no encoding");
+}
+
 }  // namespace
+
+ElevationImage encodeElevation(const Raster<float>& heights, int apron, int size, Elevation encoding) {
+  const StepEncoding steps = stepEncoding(encoding);
+  ElevationImage out;
+  out.image.width = out.image.height = size;
+  out.image.channels = 3;
+  out.image.pixels.resize(std::size_t(size) * std::size_t(size) * 3);
+  std::size_t k = 0;
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      // Round half up on a count that is never negative once clamped.
+      double q = std::round((double(heights.at(apron + i, apron + j)) + steps.offset_m) * steps.steps_per_m);
+      if (!(q >= 0.0 && q <= kMaxSteps)) {
+        q = q > kMaxSteps ? kMaxSteps : 0.0;  // NaN, never in filled heights, goes to the bottom too
+        ++out.clamped;
+      }
+      const auto value = std::uint32_t(q);
+      out.image.pixels[k++] = std::uint16_t(value >> 16);
+      out.image.pixels[k++] = std::uint16_t((value >> 8) & 0xff);
+      out.image.pixels[k++] = std::uint16_t(value & 0xff);
+    }
+  }
+  return out;
+}
 
 Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green) {
   const double max_value = bits == 16 ? 65535.0 : 255.0;

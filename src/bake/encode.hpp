@@ -16,4 +16,15 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
 // `covered` has the image's size, row 0 at the top.
 Image<std::uint16_t> addAlpha(const Image<std::uint16_t>& rgb, const Raster<std::uint8_t>& covered, int bits);
 
+// Heights to an 8-bit RGB elevation tile for MapLibre's raster-dem
+// (docs/CONTRACT.md §3): pixel (i, j) holds heights(apron + i, apron + j),
+// metres, encoded as `encoding` says and rounded to the nearest step (1/256 m
+// for Terrarium, 0.1 m for Terrain-RGB). Heights beyond what the encoding
+// holds are clamped to its ends and counted.
+struct ElevationImage {
+  Image<std::uint16_t> image;  // 8-bit values
+  std::size_t clamped = 0;     // pixels clamped to the encoding's range
+};
+ElevationImage encodeElevation(const Raster<float>& heights, int apron, int size, Elevation encoding);
+
 }  // namespace terrabake::bake

@@ -46,7 +46,8 @@ const kt::KeyTable<TileJob>& table() {
        "layer folder under output.dir: letters, digits, '.', '_' and '-'",
        text(&TileJob::layer, kt::parseWord, kt::layerNameProblem, kt::writeText)},
       {"output.format", "--format", "string",
-       "how the layer is stored: files (a folder of {z}/{x}/{y} files) or mbtiles (one SQLite file)",
+       "how the layer is stored: files (a folder of {z}/{x}/{y} files), mbtiles (one SQLite file) or pmtiles "
+       "(one PMTiles v3 archive per kind of tile)",
        choice(&TileJob::format)},
       {"output.bits", "--bits", "integer", "bits per channel of the normal-map PNGs: 8 or 16",
        number(&TileJob::bits, 8, 16, {8, 16})},
@@ -62,6 +63,10 @@ const kt::KeyTable<TileJob>& table() {
        "also write tileset.json (OGC 3D Tiles 1.1) over the meshes, for CesiumJS, 3d-tiles-renderer and other "
        "3D Tiles viewers",
        choice(&TileJob::tileset)},
+      {"output.elevation", "--elevation", "string",
+       "also write {y}.elevation.png, the heights the tile was baked from, for MapLibre's raster-dem: none, "
+       "terrarium or mapbox (Terrain-RGB); webmercator only",
+       choice(&TileJob::elevation)},
       {"tiling.scheme", "--scheme", "string",
        "tile grid: webmercator (EPSG:3857, XYZ), geodetic (EPSG:4326, TMS) or native "
        "(the DEM's own grid)",

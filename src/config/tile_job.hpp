@@ -20,6 +20,7 @@ struct TileJob {
   bool high_res_mesh = false;                     // output.high_res_mesh: also write {y}.hires.glb
   bool alpha = false;                             // output.alpha: RGBA, alpha 0 where the DEM had no sample
   bool tileset = false;                           // output.tileset: also write tileset.json (3D Tiles)
+  Elevation elevation = Elevation::kNone;         // output.elevation: {y}.elevation.png beside each normal map
   SchemeKind scheme = SchemeKind::kWebMercator;   // tiling.scheme
   int min_zoom = 0;                               // tiling.zoom: N, [min, max], "min-max", max may be "auto"
   int max_zoom = 0;                               // unused when max_zoom_auto

@@ -13,7 +13,13 @@ namespace terrabake {
 
 enum class SchemeKind { kWebMercator, kGeodetic, kNative };
 enum class Green { kUp, kDown };  // +Y of tangent space north (OpenGL, glTF) or south (DirectX)
-enum class OutputFormat { kFiles, kMbtiles };
+enum class OutputFormat { kFiles, kMbtiles, kPmtiles };
+// Elevation tiles written beside the normal maps, for MapLibre's raster-dem sources.
+enum class Elevation {
+  kNone,
+  kTerrarium,  // height = R * 256 + G + B / 256 - 32768
+  kMapbox,     // Mapbox Terrain-RGB: height = -10000 + (R * 65536 + G * 256 + B) * 0.1
+};
 // What a tile shows where the DEM has no sample (voids, beyond its edge).
 enum class NodataSurface {
   kContinue,  // the surface runs on from the data, fading into a coarse backdrop
@@ -51,8 +57,13 @@ struct Words<Green> {
 };
 template <>
 struct Words<OutputFormat> {
-  static constexpr std::array<std::pair<OutputFormat, std::string_view>, 2> table{
-      {{OutputFormat::kFiles, "files"}, {OutputFormat::kMbtiles, "mbtiles"}}};
+  static constexpr std::array<std::pair<OutputFormat, std::string_view>, 3> table{
+      {{OutputFormat::kFiles, "files"}, {OutputFormat::kMbtiles, "mbtiles"}, {OutputFormat::kPmtiles, "pmtiles"}}};
+};
+template <>
+struct Words<Elevation> {
+  static constexpr std::array<std::pair<Elevation, std::string_view>, 3> table{
+      {{Elevation::kNone, "none"}, {Elevation::kTerrarium, "terrarium"}, {Elevation::kMapbox, "mapbox"}}};
 };
 template <>
 struct Words<NodataSurface> {

@@ -68,10 +68,9 @@ void writeAll(int fd, const std::vector<std::uint8_t>& bytes) {
   }
 }
 
-// Writes `bytes` to a new hidden temporary file beside `path` and returns its
-// name; the caller gives it its final name. The writer's host and process in
-// the name let a later run tell an abandoned one from a live one.
-std::string writeTempFile(const std::string& path, const std::vector<std::uint8_t>& bytes) {
+}  // namespace
+
+TempFile createTempFile(const std::string& path) {
   const fs::path target(path);
   const fs::path folder = target.has_parent_path() ? target.parent_path() : fs::path(".");
   std::error_code ec;
@@ -80,13 +79,28 @@ std::string writeTempFile(const std::string& path, const std::vector<std::uint8_
 
   // Hidden, and never equal to a final name, so a half-written file is never
   // mistaken for a tile.
-  std::string temp =
-      (folder / ("." + target.filename().string() + kTempMarker + writerTag() + "-XXXXXX")).string();
-  const int fd = ::mkstemp(temp.data());
-  if (fd < 0) throwWriteError(path, errno);
+  TempFile temp;
+  temp.path = (folder / ("." + target.filename().string() + kTempMarker + writerTag() + "-XXXXXX")).string();
+  temp.fd = ::mkstemp(temp.path.data());
+  if (temp.fd < 0) throwWriteError(path, errno);
+  if (::fchmod(temp.fd, kFileMode) != 0) {
+    const int error = errno;
+    ::close(temp.fd);
+    ::unlink(temp.path.c_str());
+    throwWriteError(path, error);
+  }
+  return temp;
+}
 
+namespace {
+
+// Writes `bytes` to a new hidden temporary file beside `path` and returns its
+// name; the caller gives it its final name.
+std::string writeTempFile(const std::string& path, const std::vector<std::uint8_t>& bytes) {
+  const TempFile file = createTempFile(path);
+  const int fd = file.fd;
+  const std::string& temp = file.path;
   try {
-    if (::fchmod(fd, kFileMode) != 0) throw std::system_error(errno, std::generic_category());
     writeAll(fd, bytes);
   } catch (const std::system_error& e) {
     ::close(fd);

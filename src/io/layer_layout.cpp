@@ -11,12 +11,14 @@ std::string_view extensionOf(TileFormat format) {
     case TileFormat::kPng: return "png";
     case TileFormat::kGlb: return "glb";
     case TileFormat::kHighResGlb: return "hires.glb";
+    case TileFormat::kElevationPng: return "elevation.png";
   }
   return "";
 }
 
 std::optional<TileFormat> formatOfExtension(std::string_view extension) {
-  for (const TileFormat format : {TileFormat::kPng, TileFormat::kGlb, TileFormat::kHighResGlb}) {
+  for (const TileFormat format :
+       {TileFormat::kPng, TileFormat::kGlb, TileFormat::kHighResGlb, TileFormat::kElevationPng}) {
     if (extensionOf(format) == extension) return format;
   }
   return std::nullopt;
@@ -32,11 +34,52 @@ std::string tilePath(const std::string& layer_dir, const TileId& tile, TileForma
 
 std::string layerLocation(const std::string& output_dir, const std::string& layer, OutputFormat format) {
   const std::string folder = (std::filesystem::path(output_dir) / layer).lexically_normal().string();
-  return format == OutputFormat::kMbtiles ? folder + kMbtilesExtension : folder;
+  switch (format) {
+    case OutputFormat::kMbtiles: return folder + kMbtilesExtension;
+    case OutputFormat::kPmtiles: return folder + kPmtilesExtension;
+    case OutputFormat::kFiles: break;
+  }
+  return folder;
+}
+
+namespace {
+
+// The middle of a companion archive's name: "<layer>.<kind>.pmtiles".
+std::string_view pmtilesKind(TileFormat format) {
+  switch (format) {
+    case TileFormat::kPng: return "";
+    case TileFormat::kGlb: return "meshes";
+    case TileFormat::kHighResGlb: return "hires";
+    case TileFormat::kElevationPng: return "elevation";
+  }
+  return "";
+}
+
+bool endsWith(std::string_view text, std::string_view end) {
+  return text.size() >= end.size() && text.substr(text.size() - end.size()) == end;
+}
+
+}  // namespace
+
+std::string pmtilesArchive(const std::string& normals_archive, TileFormat format) {
+  const std::string_view kind = pmtilesKind(format);
+  if (kind.empty()) return normals_archive;
+  const std::string base = normals_archive.substr(0, normals_archive.size() - std::string_view(kPmtilesExtension).size());
+  return base + "." + std::string(kind) + kPmtilesExtension;
+}
+
+bool isPmtilesCompanion(const std::string& file_name) {
+  for (const TileFormat format : {TileFormat::kGlb, TileFormat::kHighResGlb, TileFormat::kElevationPng}) {
+    if (endsWith(file_name, "." + std::string(pmtilesKind(format)) + kPmtilesExtension)) return true;
+  }
+  return false;
 }
 
 void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files) {
   writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kPng), files.png);
+  if (!files.elevation_png.empty()) {
+    writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kElevationPng), files.elevation_png);
+  }
   writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kGlb), files.glb);
   if (!files.high_res_glb.empty()) {
     writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kHighResGlb), files.high_res_glb);

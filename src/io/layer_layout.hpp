@@ -14,9 +14,9 @@
 namespace terrabake::io {
 
 // The files of one tile.
-enum class TileFormat { kPng, kGlb, kHighResGlb };
+enum class TileFormat { kPng, kGlb, kHighResGlb, kElevationPng };
 
-// "png", "glb", "hires.glb": the file name extension of a tile in a layer folder.
+// "png", "glb", "hires.glb", "elevation.png": the file name extension of a tile in a layer folder.
 std::string_view extensionOf(TileFormat format);
 // The format whose extension is `extension`; nullopt for any other text.
 std::optional<TileFormat> formatOfExtension(std::string_view extension);
@@ -30,11 +30,24 @@ std::string tilePath(const std::string& layer_dir, const TileId& tile, TileForma
 // the job that made it.
 inline constexpr const char* kTileJsonFile = "tilejson.json";
 inline constexpr const char* kJobFile = "terrabake-job.txt";
+// With output.elevation: the tilejson of the elevation tiles, a raster-dem source.
+inline constexpr const char* kElevationTileJsonFile = "elevation.json";
 // A layer stored as one file is "<layer>.mbtiles" beside the layer folders.
 inline constexpr const char* kMbtilesExtension = ".mbtiles";
+// A layer stored as PMTiles is one archive per kind of tile beside the layer
+// folders: "<layer>.pmtiles" (normal maps), "<layer>.meshes.pmtiles",
+// "<layer>.hires.pmtiles", "<layer>.elevation.pmtiles".
+inline constexpr const char* kPmtilesExtension = ".pmtiles";
+// The archive of `format`'s tiles of the layer whose normal maps are in
+// `normals_archive` ("<dir>/<layer>.pmtiles").
+std::string pmtilesArchive(const std::string& normals_archive, TileFormat format);
+// True for "<name>.meshes.pmtiles" and the other archives that go with a
+// layer's "<layer>.pmtiles" rather than being a layer themselves.
+bool isPmtilesCompanion(const std::string& file_name);
 
 // Where layer `layer` of `output_dir` lives: the folder "<dir>/<layer>", or
-// the file "<dir>/<layer>.mbtiles"; lexically normal.
+// the file "<dir>/<layer>.mbtiles", or the normal maps' archive
+// "<dir>/<layer>.pmtiles"; lexically normal.
 std::string layerLocation(const std::string& output_dir, const std::string& layer, OutputFormat format);
 
 // One tile's files, made in memory.
@@ -42,10 +55,11 @@ struct TileFiles {
   std::vector<std::uint8_t> png;
   std::vector<std::uint8_t> glb;
   std::vector<std::uint8_t> high_res_glb;  // empty unless asked for
+  std::vector<std::uint8_t> elevation_png; // empty unless asked for
 };
 
-// Writes a tile's files into the layer folder, each atomically; the image
-// first, so a reader that finds the mesh also finds its texture.
+// Writes a tile's files into the layer folder, each atomically; the images
+// first, so a reader that finds the mesh also finds its texture and heights.
 void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files);
 
 // The file whose presence says a tile was written whole (writeTileFiles writes it last).

@@ -190,8 +190,9 @@ MbtilesTable mbtilesTable(TileFormat format) {
     case TileFormat::kPng: return MbtilesTable::kTiles;
     case TileFormat::kGlb: return MbtilesTable::kMeshes;
     case TileFormat::kHighResGlb: return MbtilesTable::kHighResMeshes;
+    case TileFormat::kElevationPng: break;  // output.elevation is refused with mbtiles
   }
-  throw std::logic_error("mbtilesTable: unknown tile format");
+  throw std::logic_error("mbtilesTable: no table holds this tile format");
 }
 
 MetadataRows mbtilesMetadata(const std::string& tilejson) {

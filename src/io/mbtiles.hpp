@@ -19,7 +19,8 @@ namespace terrabake::io {
 
 enum class MbtilesTable { kTiles, kMeshes, kHighResMeshes };
 
-// The table that holds a tile's file of `format`.
+// The table that holds a tile's file of `format`; throws std::logic_error for
+// elevation tiles, which MBTiles layers do not hold.
 MbtilesTable mbtilesTable(TileFormat format);
 
 // Where a tile lies in every table: MBTiles counts rows from the south (TMS).

@@ -24,6 +24,17 @@ void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t
 // exists.
 bool writeFileExclusively(const std::string& path, const std::vector<std::uint8_t>& bytes);
 
+// A new, empty, hidden temporary file in the folder of `path` (created when
+// missing), named as writeFileAtomically names its own: the writer's host and
+// process in the name let a later run tell an abandoned one from a live one.
+// Its mode is what open() would give `path`. The caller closes `fd` and
+// renames or removes the file. Throws InputError naming `path`.
+struct TempFile {
+  std::string path;
+  int fd = -1;
+};
+TempFile createTempFile(const std::string& path);
+
 // True for a temporary file of writeFileAtomically whose writer is gone: a
 // process of this host that no longer runs, or any writer over a minute ago.
 bool isAbandonedTempFile(const std::string& path);
@@ -80,10 +91,14 @@ struct TileJsonInfo {
   bool skirts = false;                 // the meshes hang skirts under their edges
   bool tileset = false;                // the layer has a tileset.json (3D Tiles)
   std::vector<std::string> sources;    // DEM paths as the user gave them
+  Elevation elevation{};               // the encoding of {y}.elevation.png; none: not written
 };
 
 // TileJSON 3.0.0 text with the "terrabake" object (docs/CONTRACT.md §6).
 std::string tileJson(const TileJsonInfo& info);
+// The tilejson of the layer's elevation tiles (elevation.json), a MapLibre
+// raster-dem source: encoding, tileSize, zooms and bounds (§6).
+std::string elevationTileJson(const TileJsonInfo& info);
 
 // What a reader of a layer needs from its tilejson: the zooms, bounds and
 // row order, and the scheme and tile size when the "terrabake" object names
@@ -99,8 +114,8 @@ struct TileJsonSummary {
 };
 TileJsonSummary readTileJson(const std::string& text);
 
-// `text` as served over HTTP: each relative URL in "tiles" and
-// "terrabake.mesh" resolved against `layer_url` ("http://host:port/<layer>/";
+// `text` as served over HTTP: each relative URL in "tiles", "terrabake.mesh"
+// and "terrabake.elevation" resolved against `layer_url` ("http://host:port/<layer>/";
 // other URLs stay as they are: relative URLs would resolve against the viewer
 // page, not the tilejson, in many clients), and "terrabake.sources" reduced
 // to file names (a glob to its last part), so no local path of the machine

@@ -4,6 +4,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "io/tileset.hpp"
 
@@ -52,6 +53,14 @@ Json lowPolyJson(const TileJsonInfo& info) {
   return low_poly;
 }
 
+constexpr const char* kElevationTiles = "./{z}/{x}/{y}.elevation.png";
+
+// Resolves the string at `key` of `object`, when there is one.
+void resolveKey(Json& object, const char* key, const std::string& layer_url) {
+  const auto url = object.find(key);
+  if (url != object.end() && url->is_string()) *url = resolve(url->get<std::string>(), layer_url);
+}
+
 }  // namespace
 
 std::string tileJson(const TileJsonInfo& info) {
@@ -88,6 +97,29 @@ std::string tileJson(const TileJsonInfo& info) {
         {"sources", info.sources}}},
   };
   if (info.tileset) doc["terrabake"]["tileset"] = std::string("./") + kTilesetFile;
+  if (info.elevation != Elevation::kNone) {
+    doc["terrabake"]["elevation"] = {{"encoding", std::string(wordOf(info.elevation))},
+                                     {"tiles", kElevationTiles},
+                                     {"tilejson", std::string("./") + kElevationTileJsonFile}};
+  }
+  return doc.dump(2) + "\n";
+}
+
+std::string elevationTileJson(const TileJsonInfo& info) {
+  const auto& b = info.bounds_deg;
+  const Json doc = {
+      {"tilejson", "3.0.0"},
+      {"name", info.name},
+      {"scheme", "xyz"},
+      {"tiles", {kElevationTiles}},
+      {"minzoom", info.min_zoom},
+      {"maxzoom", info.max_zoom},
+      {"bounds", {b[0], b[1], b[2], b[3]}},
+      {"center", {middleLongitude(b[0], b[2]), (b[1] + b[3]) / 2, info.max_zoom}},
+      // What MapLibre's raster-dem source reads besides TileJSON's keys.
+      {"encoding", std::string(wordOf(info.elevation))},
+      {"tileSize", info.tile_size},
+  };
   return doc.dump(2) + "\n";
 }
 
@@ -126,10 +158,13 @@ std::string servedTileJson(const std::string& text, const std::string& layer_url
   }
   const auto terrabake = doc.find("terrabake");
   if (terrabake != doc.end() && terrabake->is_object()) {
-    const auto mesh = terrabake->find("mesh");
-    if (mesh != terrabake->end() && mesh->is_string()) *mesh = resolve(mesh->get<std::string>(), layer_url);
-    const auto tileset = terrabake->find("tileset");
-    if (tileset != terrabake->end() && tileset->is_string()) *tileset = resolve(tileset->get<std::string>(), layer_url);
+    resolveKey(*terrabake, "mesh", layer_url);
+    const auto elevation = terrabake->find("elevation");
+    if (elevation != terrabake->end() && elevation->is_object()) {
+      resolveKey(*elevation, "tiles", layer_url);
+      resolveKey(*elevation, "tilejson", layer_url);
+    }
+    resolveKey(*terrabake, "tileset", layer_url);
     const auto sources = terrabake->find("sources");
     if (sources != terrabake->end() && sources->is_array()) {
       for (Json& source : *sources) {

@@ -104,7 +104,11 @@ class FolderSink : public TileSink {
     }
   }
 
-  void finish(const std::string& tilejson) override {
+  void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    if (!elevation_tilejson.empty()) {
+      io::writeFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(),
+                              std::vector<std::uint8_t>(elevation_tilejson.begin(), elevation_tilejson.end()));
+    }
     io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
                             std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
   }

@@ -121,6 +121,7 @@ io::TileJsonInfo tileJsonInfo(const config::TileJob& job, const LayerPlan& plan,
     for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) info.max_error_m[z] = plan.settings.max_error_m.at(std::size_t(z));
   }
   info.sources = job.dems;
+  info.elevation = job.elevation;
   return info;
 }
 
@@ -139,6 +140,7 @@ TileSettings tileSettings(const config::TileJob& job) {
   settings.max_fill_px = job.max_fill_px;
   settings.nodata_surface = job.nodata_surface;
   settings.skirts = job.skirts == Skirts::kOn || (job.skirts == Skirts::kAuto && job.tileset);
+  settings.elevation = job.elevation;
   return settings;
 }
 
@@ -158,10 +160,35 @@ std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Sch
   return bounds;
 }
 
+// What the settings cannot do together, said before the DEM is opened.
+void checkOutputs(const config::TileJob& job) {
+  if (job.elevation != Elevation::kNone) {
+    const std::string encoding(wordOf(job.elevation));
+    if (job.scheme != SchemeKind::kWebMercator) {
+      throw UsageError("output.elevation: " + encoding +
+                       " tiles are MapLibre raster-dem tiles, which only the webmercator scheme makes; "
+                       "tiling.scheme is " + std::string(wordOf(job.scheme)));
+    }
+    if (job.format == OutputFormat::kMbtiles) {
+      throw UsageError("output.elevation: an MBTiles layer holds no elevation tiles; use output.format files or "
+                       "pmtiles");
+    }
+  }
+  if (job.tileset && job.format == OutputFormat::kPmtiles) {
+    throw UsageError("output.tileset: a PMTiles layer holds no tileset (3D Tiles viewers fetch each file by its "
+                     "URL); use output.format files or mbtiles");
+  }
+  if (job.format == OutputFormat::kPmtiles && io::isPmtilesCompanion(job.layer + io::kPmtilesExtension)) {
+    throw UsageError("output.layer: '" + job.layer + "' ends like the name of a layer's companion archive "
+                     "(.meshes, .hires, .elevation); choose another name for a pmtiles layer");
+  }
+}
+
 }  // namespace
 
 LayerPlan planLayer(const config::TileJob& job) {
   config::validate(job, "job");
+  checkOutputs(job);
   dem::DemOptions options;
   options.band = job.band;
   options.min_height = dem::kMinPlausibleHeightM / job.z_scale;
@@ -213,7 +240,9 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.tileset = job.tileset;
   Extent bounds = lon_lat.front();
   if (lon_lat.size() > 1) bounds.max_x = lon_lat.back().max_x;  // west > east: across the antimeridian
-  plan.tilejson = io::tileJson(tileJsonInfo(job, plan, bounds));
+  const io::TileJsonInfo info = tileJsonInfo(job, plan, bounds);
+  plan.tilejson = io::tileJson(info);
+  if (job.elevation != Elevation::kNone) plan.elevation_tilejson = io::elevationTileJson(info);
   return plan;
 }
 

@@ -34,6 +34,7 @@ struct TileSettings {
   int max_fill_px = 0;         // the surface carried into holes fades into the backdrop over this
   NodataSurface nodata_surface{};  // cut: no triangles where the DEM has no sample (alpha implied)
   bool skirts = false;             // walls under the low-poly meshes' edges (mesh/skirt.hpp)
+  Elevation elevation{};           // also encode the tile's heights for MapLibre (none: not)
 };
 
 struct LayerPlan {
@@ -61,11 +62,14 @@ struct LayerPlan {
   std::string fingerprint;  // the job, as the layer records it
   std::string tilejson;     // tile URLs relative to the layer folder
   bool tileset = false;     // also write tileset.json (io/tileset.hpp) when the run finishes
+  std::string elevation_tilejson;  // the elevation tiles' tilejson; empty without output.elevation
 };
 
 // Validates the job and opens its DEM. Throws UsageError for a bad job or
 // zooms the scheme does not have, InputError for a DEM that cannot be read,
 // NothingToMake for a DEM beyond the scheme's latitudes or a bbox beside it.
+// Elevation tiles are refused for schemes other than webmercator and for
+// MBTiles output (UsageError).
 LayerPlan planLayer(const config::TileJob& job);
 
 // The tiles of a job, zoom by zoom in the order runs make them, counted and

@@ -66,7 +66,8 @@ class MbtilesSink : public TileSink {
     m_file->replaceTilesetDocuments(rows);
   }
 
-  void finish(const std::string& tilejson) override {
+  // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
+  void finish(const std::string& tilejson, const std::string& /*elevation_tilejson*/) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     m_file->setMetadata(io::mbtilesMetadata(tilejson));
     m_file->standAlone();

@@ -1,7 +1,8 @@
 #pragma once
-// The two kinds of sink openSink() chooses between: a layer folder
-// (folder_sink.cpp), or one MBTiles file (mbtiles_sink.cpp; config/README.md,
-// "MBTiles"). Internal to the pipeline module.
+// The kinds of sink openSink() chooses between: a layer folder
+// (folder_sink.cpp), one MBTiles file (mbtiles_sink.cpp; config/README.md,
+// "MBTiles"), or PMTiles archives (pmtiles_sink.cpp; "PMTiles"). Internal to
+// the pipeline module.
 #include <memory>
 #include <string>
 
@@ -16,5 +17,7 @@ namespace terrabake::pipeline {
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
+// `path`: the normal maps' archive; the others lie beside it (io::pmtilesArchive).
+std::unique_ptr<TileSink> openPmtilesSink(const std::string& path, bool high_res_mesh, bool elevation);
 
 }  // namespace terrabake::pipeline

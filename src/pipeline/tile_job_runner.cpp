@@ -49,6 +49,11 @@ std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int 
 
 RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
+  if (job.format == OutputFormat::kPmtiles && (options.resume || options.shard_count > 1)) {
+    throw UsageError(std::string(options.resume ? "--resume" : "--shard") +
+                     ": a PMTiles archive is written whole at the end of one run; use output.format files or "
+                     "mbtiles to resume or shard a run");
+  }
   // Everything that can fail for the whole run fails here, before any tile.
   const auto plan = std::make_shared<const LayerPlan>(planLayer(job));
   const TileList all(*plan);
@@ -137,7 +142,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     sink->close();
   } else {
     if (plan->tileset) writeTileset(*sink, *plan);
-    sink->finish(plan->tilejson);
+    sink->finish(plan->tilejson, plan->elevation_tilejson);
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   if (summary.interrupted) return summary;

@@ -9,6 +9,7 @@
 #include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
 #include "bake/encode.hpp"
+#include "core/log.hpp"
 #include "geo/local_frame.hpp"
 #include "geo/region.hpp"
 #include "gl/baker_factory.hpp"
@@ -268,6 +269,15 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
     image = bake::addAlpha(image, covered, s.settings.bits);
   }
   files.png = io::encodePng(image, s.settings.bits);
+  if (s.settings.elevation != Elevation::kNone) {
+    // The heights the bake used at the texel centres, the pixel centres MapLibre samples.
+    const bake::ElevationImage elevation = bake::encodeElevation(heights, apron, size, s.settings.elevation);
+    if (elevation.clamped > 0) {
+      log::warning("tile " + tile.str() + ": " + std::to_string(elevation.clamped) + " elevation texels lie beyond " +
+                   std::string(wordOf(s.settings.elevation)) + "'s range and were clamped to it");
+    }
+    files.elevation_png = io::encodePng(elevation.image, 8);
+  }
   files.glb = io::encodeGlb(low, glb_info);
   if (s.settings.high_res_mesh) {
     glb_info.normal_texture_uri.clear();

@@ -15,6 +15,9 @@ std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
   if (plan.format == OutputFormat::kMbtiles) {
     return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
   }
+  if (plan.format == OutputFormat::kPmtiles) {
+    return openPmtilesSink(plan.location, high_res_mesh, plan.settings.elevation != Elevation::kNone);
+  }
   return openFolderSink(plan.location, high_res_mesh);
 }
 

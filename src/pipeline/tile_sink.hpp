@@ -33,15 +33,17 @@ class TileSink {
   virtual void forEachMesh(const MeshVisitor& visit) const = 0;
   // Writes the layer's 3D Tiles files, each whole, in place of any before.
   virtual void writeTileset(const std::vector<io::TilesetDocument>& documents) = 0;
-  // Writes the layer's description (tilejson, or MBTiles metadata) last.
-  virtual void finish(const std::string& tilejson) = 0;
+  // Writes the layer's description (tilejson, or MBTiles metadata) last;
+  // `elevation_tilejson` is the elevation tiles' (empty: the layer has none).
+  virtual void finish(const std::string& tilejson, const std::string& elevation_tilejson) = 0;
   // Ends a run stopped early: what was written stays whole and readable on
   // its own (an MBTiles file leaves no write-ahead log beside it), and no
   // description is written.
   virtual void close() {}
 };
 
-// Where the plan stores its layer (io/layer_layout.hpp): a folder of
+// Where the plan stores its layer (io/layer_layout.hpp): PMTiles archives
+// written whole when the run finishes (nothing under their names before), a folder of
 // {z}/{x}/{y}.png|.glb[|.hires.glb] files with tilejson.json and the job
 // fingerprint in terrabake-job.txt, or one MBTiles file (images in `tiles`,
 // meshes in `meshes` and `high_res_meshes`, the job in metadata row

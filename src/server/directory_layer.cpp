@@ -13,16 +13,28 @@ std::string tileJsonText(const ServedFolder& folder) {
   return std::move(file->bytes);
 }
 
+std::optional<std::string> elevationTileJsonText(const ServedFolder& folder) {
+  std::optional<FileContent> file = folder.read(io::kElevationTileJsonFile);
+  if (!file) return std::nullopt;
+  return std::move(file->bytes);
+}
+
 }  // namespace
 
 DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& folder)
     : m_name(std::move(name)),
       m_folder(folder),
       m_tilejson(tileJsonText(m_folder)),
+      m_elevation_tilejson(elevationTileJsonText(m_folder)),
       m_coverage(coverageOf(io::readTileJson(m_tilejson))) {}
 
 std::string DirectoryLayer::tileJson(const std::string& layer_url) const {
   return io::servedTileJson(m_tilejson, layer_url);
+}
+
+std::optional<std::string> DirectoryLayer::elevationTileJson(const std::string& layer_url) const {
+  if (!m_elevation_tilejson) return std::nullopt;
+  return io::servedTileJson(*m_elevation_tilejson, layer_url);
 }
 
 TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {

@@ -2,6 +2,7 @@
 // A layer a batch run (`terrabake tile`) wrote: tiles are files in its
 // folder, and its tilejson.json says which zooms and area it covers.
 #include <filesystem>
+#include <optional>
 #include <string>
 
 #include "server/layer_source.hpp"
@@ -12,13 +13,14 @@ namespace terrabake::server {
 
 class DirectoryLayer : public LayerSource {
  public:
-  // Reads <folder>/tilejson.json; throws std::runtime_error when it is
+  // Reads <folder>/tilejson.json (and elevation.json when there); throws std::runtime_error when it is
   // missing or says no zooms and bounds.
   DirectoryLayer(std::string name, const std::filesystem::path& folder);
 
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return false; }
   std::string tileJson(const std::string& layer_url) const override;
+  std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
 
@@ -26,6 +28,7 @@ class DirectoryLayer : public LayerSource {
   std::string m_name;
   ServedFolder m_folder;
   std::string m_tilejson;
+  std::optional<std::string> m_elevation_tilejson;  // elevation.json, when the layer has one
   TileCoverage m_coverage;
 };
 

@@ -49,6 +49,11 @@ class LayerSource {
   // ("./{z}/{x}/{y}.png") made absolute against `layer_url`
   // ("http://host:port/<layer>/"), its sources reduced to file names.
   virtual std::string tileJson(const std::string& layer_url) const = 0;
+  // elevation.json as served, likewise; nullopt when the layer has no
+  // elevation tiles (output.elevation: none, MBTiles).
+  virtual std::optional<std::string> elevationTileJson(const std::string& /*layer_url*/) const {
+    return std::nullopt;
+  }
 
   // A file of the layer's 3D Tiles tileset ("tileset.json",
   // "tilesets/z/x/y.json"); nullopt when the layer has no such file.

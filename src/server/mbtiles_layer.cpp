@@ -40,6 +40,9 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }
+  if (format == io::TileFormat::kElevationPng) {
+    return {TileAnswer::Status::kNotFound, nullptr, "an MBTiles layer holds no elevation tiles"};
+  }
   std::optional<std::string> bytes;
   try {
     std::unique_ptr<io::MbtilesFile> file = borrow();

@@ -17,7 +17,11 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// Creates the layer folder and its tilejson.json when missing; returns the folder.
+void writeWhenMissing(const fs::path& path, const std::string& text) {
+  if (!fs::exists(path)) io::writeFileAtomically(path.string(), std::vector<std::uint8_t>(text.begin(), text.end()));
+}
+
+// Creates the layer folder, its tilejson.json and elevation.json when missing; returns the folder.
 fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
   std::error_code ec;
   fs::create_directories(settings.folder, ec);
@@ -25,17 +29,15 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
     throw InputError("layer " + settings.name + ": cannot create folder '" + settings.folder.string() +
                      "': " + (ec ? ec.message() : std::string("a file is in the way")));
   }
-  const fs::path tilejson = settings.folder / io::kTileJsonFile;
-  if (!fs::exists(tilejson)) {
-    const std::vector<std::uint8_t> bytes(settings.tilejson.begin(), settings.tilejson.end());
-    io::writeFileAtomically(tilejson.string(), bytes);
-  }
+  writeWhenMissing(settings.folder / io::kTileJsonFile, settings.tilejson);
+  if (settings.elevation) writeWhenMissing(settings.folder / io::kElevationTileJsonFile, settings.elevation_tilejson);
   return settings.folder;
 }
 
 void removeTileFiles(const std::string& folder, const TileId& tile) {
   std::error_code ignored;
-  for (const io::TileFormat format : {io::TileFormat::kPng, io::TileFormat::kGlb, io::TileFormat::kHighResGlb}) {
+  for (const io::TileFormat format : {io::TileFormat::kPng, io::TileFormat::kElevationPng, io::TileFormat::kGlb,
+                                      io::TileFormat::kHighResGlb}) {
     fs::remove(io::tilePath(folder, tile, format), ignored);
   }
 }
@@ -49,6 +51,8 @@ OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile
       m_tilejson(settings.tilejson),
       m_coverage(settings.coverage),
       m_high_res_mesh(settings.high_res_mesh),
+      m_elevation(settings.elevation),
+      m_elevation_tilejson(settings.elevation_tilejson),
       m_queue(settings.workers, settings.queue_size, [this, &make_tile]() -> BakeQueue::Bake {
         MakeTile make = make_tile();
         return [this, make = std::move(make)](const TileId& tile) { return bake(make, tile); };
@@ -56,6 +60,11 @@ OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile
 
 std::string OnDemandLayer::tileJson(const std::string& layer_url) const {
   return io::servedTileJson(m_tilejson, layer_url);
+}
+
+std::optional<std::string> OnDemandLayer::elevationTileJson(const std::string& layer_url) const {
+  if (!m_elevation) return std::nullopt;
+  return io::servedTileJson(m_elevation_tilejson, layer_url);
 }
 
 TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const Later& later) {
@@ -73,6 +82,9 @@ TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const 
     }
     if (format == io::TileFormat::kHighResGlb && !m_high_res_mesh) {
       return {TileAnswer::Status::kNotFound, nullptr, "this layer makes no high-res meshes"};
+    }
+    if (format == io::TileFormat::kElevationPng && !m_elevation) {
+      return {TileAnswer::Status::kNotFound, nullptr, "this layer makes no elevation tiles"};
     }
     // `done` is only taken by a kWait ticket: for kLookAgain it is still here.
     ticket = m_queue.request(tile, finished, done);
@@ -116,6 +128,7 @@ std::shared_ptr<const BakedTile> OnDemandLayer::bake(const MakeTile& make_tile, 
       baked->emplace(format, FileContent{std::string(bytes.begin(), bytes.end()), std::move(*etag)});
     };
     keep(io::TileFormat::kPng, files->png);
+    if (!files->elevation_png.empty()) keep(io::TileFormat::kElevationPng, files->elevation_png);
     keep(io::TileFormat::kGlb, files->glb);
     if (!files->high_res_glb.empty()) keep(io::TileFormat::kHighResGlb, files->high_res_glb);
     log::debug("layer " + m_name + ": baked " + tile.str());
@@ -138,7 +151,9 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
                                    TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->area),
                                    plan->settings.high_res_mesh,
                                    plan->workers,
-                                   queue_size};
+                                   queue_size,
+                                   plan->settings.elevation != Elevation::kNone,
+                                   plan->elevation_tilejson};
 
   const auto logged = std::make_shared<std::once_flag>();
   const auto make_tile = [plan, logged]() -> OnDemandLayer::MakeTile {

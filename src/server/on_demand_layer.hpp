@@ -35,6 +35,8 @@ class OnDemandLayer : public LayerSource {
     bool high_res_mesh = false;  // whether bakes make .hires.glb too
     int workers = 1;
     std::size_t queue_size = 64;
+    bool elevation = false;          // whether bakes make .elevation.png too
+    std::string elevation_tilejson;  // with elevation: written to <folder>/elevation.json when that is missing
   };
 
   // Throws InputError when the folder cannot be made, and whatever a
@@ -44,6 +46,7 @@ class OnDemandLayer : public LayerSource {
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return true; }
   std::string tileJson(const std::string& layer_url) const override;
+  std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   BakeCounters bakeCounters() const override { return m_queue.counters(); }
   void stop() override { m_queue.stop(); }
@@ -60,6 +63,8 @@ class OnDemandLayer : public LayerSource {
   std::string m_tilejson;
   TileCoverage m_coverage;
   bool m_high_res_mesh;
+  bool m_elevation;
+  std::string m_elevation_tilejson;
   BakeQueue m_queue;  // last: its workers use everything above, and stop first
 };
 

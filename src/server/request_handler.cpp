@@ -68,7 +68,10 @@ HttpReply staticFile(const HttpRequest& request, const ServedFolder& folder, con
   return validated(request, contentTypeFor(file), std::move(content->bytes), content->etag, kRevalidate);
 }
 
-const char* contentTypeOf(io::TileFormat format) { return format == io::TileFormat::kPng ? "image/png" : "model/gltf-binary"; }
+const char* contentTypeOf(io::TileFormat format) {
+  const bool image = format == io::TileFormat::kPng || format == io::TileFormat::kElevationPng;
+  return image ? "image/png" : "model/gltf-binary";
+}
 
 // Every answer carries these, errors included.
 void finish(HttpReply& reply) {
@@ -185,6 +188,14 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
                              " (made by `terrabake tile` with output.tileset: true)");
       }
       return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
+    }
+    case Route::Kind::kElevationTileJson: {
+      const auto layer = m_layers.find(route.layer);
+      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<std::string> body = layer->second->elevationTileJson(baseUrl(request) + route.layer + "/");
+      if (!body) return text(404, "not found: layer '" + route.layer + "' has no elevation tiles");
+      const std::string etag = contentEtag(*body);
+      return validated(request, "application/json", std::move(*body), etag, kRevalidate);
     }
     case Route::Kind::kTile:
       return text(404, "not found: no layer '" + route.layer + "'");

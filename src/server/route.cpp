@@ -61,7 +61,7 @@ std::string join(std::vector<std::string>::const_iterator first, std::vector<std
 }
 
 Route parseTile(const std::vector<std::string>& parts) {
-  static const char* kShape = "a tile is /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>";
+  static const char* kShape = "a tile is /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>";
   if (parts.size() != 4) return bad(kShape);
   Route route;
   route.kind = Route::Kind::kTile;
@@ -141,8 +141,14 @@ Route parseRoute(const std::string& path) {
       route.file = io::kTilesetFile;
       return route;
     }
-    if (parts[1] != io::kTileJsonFile) return notFound("no such file");
-    Route route = simple(Route::Kind::kTileJson);
+    Route route;
+    if (parts[1] == io::kTileJsonFile) {
+      route = simple(Route::Kind::kTileJson);
+    } else if (parts[1] == io::kElevationTileJsonFile) {
+      route = simple(Route::Kind::kElevationTileJson);
+    } else {
+      return notFound("no such file");
+    }
     route.layer = first;
     return route;
   }

@@ -18,13 +18,14 @@ struct Route {
     kViewerFile,  // /viewer/<file>
     kVendorFile,  // /vendor/<package>/<file>: three, cesium, 3d-tiles-renderer
     kTileJson,    // /<layer>/tilejson.json
-    kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb>
+    kElevationTileJson,  // /<layer>/elevation.json
+    kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>
     kTileset,     // /<layer>/tileset.json, /<layer>/tilesets/<z>/<x>/<y>.json
     kBadRequest,  // 400
     kNotFound,    // 404
   };
   Kind kind = Kind::kNotFound;
-  std::string layer;  // kTileJson, kTile, kTileset
+  std::string layer;  // kTileJson, kElevationTileJson, kTile, kTileset
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
   std::string package;  // kVendorFile: one of vendorPackages()

@@ -40,10 +40,9 @@ const kZooms = '9-12';
 const kView = { camAz: '200', camEl: '55', camDist: '9000', fov: '40', az: '315', el: '35', sse: '8' };
 const kFarView = { ...kView, camEl: '89', camDist: '120000', sse: '16' };
 // The normal maps must bring the low-poly tiles at least this much closer to
-// the high-res meshes than they are without them. The viewer test asks 3x at
-// one zoom; here each viewer chooses levels for the low-poly and high-res
-// tiles alike, and coarse far tiles carry less relief, so the bound is lower.
-const kRequiredImprovement = 1.5;
+// the high-res meshes than they are without them, as in the viewer test
+// (measured: 10.8x in three.js, 11.1x in CesiumJS).
+const kRequiredImprovement = 3;
 // Terrain must cover at least this share of each comparison view.
 const kMinTerrainShare = 0.9;
 // Crack layers: meshes within 6 texels of their samples (not the default 1),

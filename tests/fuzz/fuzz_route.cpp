@@ -50,6 +50,7 @@ void checkRoute(const Route& route) {
       fuzz::require(route.tile.x >= 0 && route.tile.y >= 0, "a tile's x and y are not negative");
       [[fallthrough]];
     case Route::Kind::kTileJson:
+    case Route::Kind::kElevationTileJson:
       fuzz::require(isLayerName(route.layer), "a routed layer has a layer name");
       fuzz::require(!server::isReservedName(route.layer), "a routed layer is not a reserved name");
       break;

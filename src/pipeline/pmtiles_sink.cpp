@@ -1,0 +1,137 @@
+#include <filesystem>
+#include <map>
+#include <mutex>
+#include <stdexcept>
+
+#include <nlohmann/json.hpp>
+
+#include "core/error.hpp"
+#include "core/log.hpp"
+#include "io/layer_layout.hpp"
+#include "io/pmtiles.hpp"
+#include "io/tile_files.hpp"
+#include "pipeline/sink_kinds.hpp"
+
+namespace terrabake::pipeline {
+namespace {
+
+namespace fs = std::filesystem;
+
+// What a crashed run left beside the archives: temporary files no live writer holds.
+void removeAbandonedTempFiles(const fs::path& folder, const std::vector<std::string>& archives) {
+  std::error_code ec;
+  for (fs::directory_iterator it(folder, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    for (const std::string& archive : archives) {
+      std::error_code ignored;
+      if (name.rfind("." + fs::path(archive).filename().string(), 0) == 0 &&
+          io::isAbandonedTempFile(it->path().string())) {
+        fs::remove(it->path(), ignored);
+      }
+    }
+  }
+}
+
+// One PMTiles archive per kind of tile, written whole when the run finishes
+// (config/README.md, "PMTiles"). Tiles wait in temporary files meanwhile.
+class PmtilesSink : public TileSink {
+ public:
+  PmtilesSink(const std::string& path, bool high_res_mesh, bool elevation) : m_path(path) {
+    const fs::path folder = fs::path(path).parent_path();
+    std::error_code ec;
+    if (!folder.empty()) fs::create_directories(folder, ec);
+    if (ec) throw InputError("output: cannot create folder '" + folder.string() + "': " + ec.message());
+    m_kinds.push_back({io::TileFormat::kPng, io::PmtilesTileType::kPng});
+    if (elevation) m_kinds.push_back({io::TileFormat::kElevationPng, io::PmtilesTileType::kPng});
+    m_kinds.push_back({io::TileFormat::kGlb, io::PmtilesTileType::kUnknown});
+    if (high_res_mesh) m_kinds.push_back({io::TileFormat::kHighResGlb, io::PmtilesTileType::kUnknown});
+    std::vector<std::string> archives;
+    for (const auto& [format, type] : m_kinds) archives.push_back(io::pmtilesArchive(path, format));
+    removeAbandonedTempFiles(folder.empty() ? fs::path(".") : folder, archives);
+    try {
+      for (const auto& [format, type] : m_kinds) {
+        m_writers.emplace(format, std::make_unique<io::PmtilesWriter>(io::pmtilesArchive(path, format), type));
+      }
+    } catch (const InputError& e) {
+      throw InputError(std::string("output: ") + e.what());
+    }
+  }
+
+  std::string location() const override { return m_path; }
+
+  // The archive records its job in the metadata; there is nothing to claim
+  // before the run ends, so an existing archive of another job is refused
+  // here and replaced only with `force`.
+  void claim(const std::string& fingerprint, bool force) override {
+    m_fingerprint = fingerprint;
+    std::error_code ec;
+    if (!fs::exists(m_path, ec) || force) return;
+    std::string recorded;
+    try {
+      const io::PmtilesReader reader(m_path);
+      const auto metadata = nlohmann::json::parse(reader.metadata(), nullptr, false);
+      const auto job = metadata.is_object() ? metadata.find(io::kPmtilesJobKey) : metadata.end();
+      if (job == metadata.end() || !job->is_string()) throw InputError("no job recorded");
+      recorded = job->get<std::string>();
+    } catch (const InputError&) {
+      throw UsageError("output: '" + m_path +
+                       "' is no PMTiles archive a terrabake job made; use another output.layer, or --force to "
+                       "replace it");
+    }
+    if (recorded != fingerprint) refuseDifferentJob(m_path);
+  }
+
+  bool hasTile(const TileId& tile) const override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    return m_writers.at(io::TileFormat::kGlb)->has(tile);
+  }
+
+  void write(const TileId& tile, const io::TileFiles& files) override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_writers.at(io::TileFormat::kPng)->add(tile, files.png);
+    if (!files.elevation_png.empty()) m_writers.at(io::TileFormat::kElevationPng)->add(tile, files.elevation_png);
+    if (!files.high_res_glb.empty()) m_writers.at(io::TileFormat::kHighResGlb)->add(tile, files.high_res_glb);
+    m_writers.at(io::TileFormat::kGlb)->add(tile, files.glb);
+  }
+
+  // planLayer refuses output.tileset for PMTiles layers.
+  void forEachMesh(const MeshVisitor& /*visit*/) const override {
+    throw std::logic_error("a PMTiles layer keeps no tileset");
+  }
+  void writeTileset(const std::vector<io::TilesetDocument>& /*documents*/) override {
+    throw std::logic_error("a PMTiles layer keeps no tileset");
+  }
+
+  // The normal maps' archive last: whoever finds the layer finds its companions.
+  void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    if (m_writers.at(io::TileFormat::kPng)->tileCount() == 0) {
+      log::warning("output: no tile was made, so no PMTiles archive is written ('" + m_path + "')");
+      return;
+    }
+    for (auto it = m_kinds.rbegin(); it != m_kinds.rend(); ++it) {
+      const std::string& description = it->first == io::TileFormat::kElevationPng ? elevation_tilejson : tilejson;
+      m_writers.at(it->first)->finish(description, m_fingerprint);
+    }
+  }
+
+  // A run stopped early writes no archive: PMTiles cannot be resumed.
+  void close() override {
+    log::warning("output: the run stopped before its end, so no PMTiles archive is written ('" + m_path + "')");
+  }
+
+ private:
+  std::string m_path;
+  std::string m_fingerprint;
+  std::vector<std::pair<io::TileFormat, io::PmtilesTileType>> m_kinds;  // the normal maps first
+  mutable std::mutex m_mutex;
+  std::map<io::TileFormat, std::unique_ptr<io::PmtilesWriter>> m_writers;
+};
+
+}  // namespace
+
+std::unique_ptr<TileSink> openPmtilesSink(const std::string& path, bool high_res_mesh, bool elevation) {
+  return std::make_unique<PmtilesSink>(path, high_res_mesh, elevation);
+}
+
+}  // namespace terrabake::pipeline

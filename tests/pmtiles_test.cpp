@@ -1,0 +1,224 @@
+// output.format: pmtiles. The npm package `pmtiles` (tests/tools/
+// check_pmtiles.mjs) reads every tile of each archive and gets the folder
+// layout's bytes, and the header and directories keep the spec's rules; a
+// run killed halfway leaves no archive under a final name; flat sea is
+// stored once; TileIDs are the spec's; leaf directories appear when the
+// root would outgrow 16 KiB.
+#include <gtest/gtest.h>
+
+#include <gdal_priv.h>
+#include <ogr_spatialref.h>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <nlohmann/json.hpp>
+
+#include "child_process.hpp"
+#include "core/error.hpp"
+#include "io/pmtiles.hpp"
+#include "layer_check.hpp"
+#include "test_helpers.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr auto kRunLimit = std::chrono::minutes(5);
+
+// A coast in EPSG:4326 around lon 0.3, lat 0.3: the west four fifths flat
+// sea at -20 m, then hills; 0.6 x 0.6 degrees of 0.002-degree pixels.
+fs::path flatSeaDem() {
+  return test::sharedFixture("flat_sea_80.tif", [](const fs::path& path) {
+    constexpr int kPixels = 300;
+    constexpr double kPixelDeg = 0.002;
+    GDALAllRegister();
+    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(path.c_str(), kPixels, kPixels, 1,
+                                                                               GDT_Float32, nullptr);
+    double geo[6] = {0.0, kPixelDeg, 0, 0.6, 0, -kPixelDeg};
+    ds->SetGeoTransform(geo);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(4326);
+    ds->SetSpatialRef(&srs);
+    std::vector<float> heights(std::size_t(kPixels) * kPixels);
+    for (int r = 0; r < kPixels; ++r) {
+      for (int c = 0; c < kPixels; ++c) {
+        const double x = (c + 0.5) / kPixels, y = (r + 0.5) / kPixels;
+        heights[std::size_t(r) * kPixels + c] =
+            float(x < 0.8 ? -20.0 : -20.0 + 1500.0 * (x - 0.8) * (1.2 + std::sin(17.0 * x) * std::cos(13.0 * y)));
+      }
+    }
+    if (ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPixels, kPixels, heights.data(), kPixels, kPixels,
+                                       GDT_Float32, 0, 0) != CE_None) {
+      throw std::runtime_error("cannot write the flat sea DEM");
+    }
+    GDALClose(ds);
+  });
+}
+
+config::TileJob coastJob(const std::string& out, OutputFormat format) {
+  config::TileJob job = test::tileJob(flatSeaDem(), out, SchemeKind::kWebMercator, 9, 12);
+  job.tile_size = 64;
+  job.backend = Backend::kCpu;
+  job.high_res_mesh = true;
+  job.elevation = Elevation::kTerrarium;
+  job.format = format;
+  return job;
+}
+
+// What check_pmtiles.mjs counted, or a failure with its message.
+nlohmann::json checkWithNpm(const fs::path& archive, const fs::path& folder, const std::string& extension) {
+  const std::string command = std::string(NODE_EXECUTABLE) + " " + TERRABAKE_SOURCE_DIR +
+                              "/tests/tools/check_pmtiles.mjs '" + archive.string() + "' '" + folder.string() +
+                              "' " + extension + " 2>&1";
+  FILE* pipe = ::popen(command.c_str(), "r");
+  std::string out;
+  char buffer[4096];
+  while (pipe && std::fgets(buffer, sizeof buffer, pipe)) out += buffer;
+  const int status = pipe ? ::pclose(pipe) : -1;
+  EXPECT_EQ(status, 0) << command << "\n" << out;
+  const auto json = nlohmann::json::parse(out, nullptr, false);
+  return json.is_discarded() ? nlohmann::json::object() : json;
+}
+
+TEST(Pmtiles, TileIdsAreTheSpecsHilbertIds) {
+  // The table of spec/v3/spec.md §4.1.
+  EXPECT_EQ(io::pmtilesTileId({0, 0, 0}), 0u);
+  EXPECT_EQ(io::pmtilesTileId({1, 0, 0}), 1u);
+  EXPECT_EQ(io::pmtilesTileId({1, 0, 1}), 2u);
+  EXPECT_EQ(io::pmtilesTileId({1, 1, 1}), 3u);
+  EXPECT_EQ(io::pmtilesTileId({1, 1, 0}), 4u);
+  EXPECT_EQ(io::pmtilesTileId({2, 0, 0}), 5u);
+  EXPECT_EQ(io::pmtilesTileId({12, 3423, 1763}), 19078479u);
+}
+
+TEST(Pmtiles, NpmPmtilesReadsTheFolderLayoutsBytesFromEveryArchive) {
+  config::TileJob folder_job = coastJob("pmtiles_folder", OutputFormat::kFiles);
+  config::TileJob archive_job = coastJob("pmtiles_archive", OutputFormat::kPmtiles);
+  fs::remove_all(folder_job.output_dir);
+  fs::remove_all(archive_job.output_dir);
+  const pipeline::RunSummary folder_run = pipeline::runTileJob(folder_job, {});
+  const pipeline::RunSummary archive_run = pipeline::runTileJob(archive_job, {});
+  ASSERT_GT(folder_run.written, 20);
+  EXPECT_EQ(archive_run.written, folder_run.written);
+  const fs::path folder = test::layerDir(folder_job), dir = archive_job.output_dir;
+  const std::map<std::string, std::string> archives = {{"layer.pmtiles", "png"},
+                                                       {"layer.meshes.pmtiles", "glb"},
+                                                       {"layer.hires.pmtiles", "hires.glb"},
+                                                       {"layer.elevation.pmtiles", "elevation.png"}};
+  for (const auto& [name, extension] : archives) {
+    const nlohmann::json counts = checkWithNpm(dir / name, folder, extension);
+    EXPECT_EQ(counts.value("tiles", 0), folder_run.written) << name;
+    EXPECT_EQ(counts.value("tile_type", -1), extension.find("png") != std::string::npos ? 2 : 0) << name;
+    EXPECT_EQ(counts.value("name", ""), "layer") << name;
+  }
+  // No temporary file stays behind a finished run.
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
+  }
+  // The metadata is the layer's tilejson with the job that made it.
+  const io::PmtilesReader reader((dir / "layer.pmtiles").string());
+  const auto metadata = nlohmann::json::parse(reader.metadata());
+  EXPECT_EQ(metadata.at("terrabake").at("elevation").at("encoding"), "terrarium");
+  EXPECT_EQ(metadata.at(io::kPmtilesJobKey), config::layerFingerprint(archive_job));
+}
+
+TEST(Pmtiles, FlatSeaIsStoredOnceSoTheArchiveIsSmallerThanTheFolder) {
+  config::TileJob folder_job = coastJob("pmtiles_dedup_folder", OutputFormat::kFiles);
+  config::TileJob archive_job = coastJob("pmtiles_dedup_archive", OutputFormat::kPmtiles);
+  folder_job.high_res_mesh = archive_job.high_res_mesh = false;
+  fs::remove_all(folder_job.output_dir);
+  fs::remove_all(archive_job.output_dir);
+  pipeline::runTileJob(folder_job, {});
+  pipeline::runTileJob(archive_job, {});
+  for (const auto& [name, extension] : std::map<std::string, std::string>{{"layer.pmtiles", "png"},
+                                                                          {"layer.elevation.pmtiles", "elevation.png"}}) {
+    const nlohmann::json counts =
+        checkWithNpm(fs::path(archive_job.output_dir) / name, test::layerDir(folder_job), extension);
+    const int tiles = counts.value("tiles", 0), contents = counts.value("contents", 0);
+    const int entries = counts.value("entries", 0);
+    // Most of the DEM is flat sea: its tiles share contents, and neighbours share entries.
+    EXPECT_LT(contents, tiles * 3 / 4) << name;
+    EXPECT_LT(entries, tiles) << name;
+    EXPECT_LT(counts.value("archive_bytes", 0), counts.value("folder_bytes", 0)) << name;
+  }
+}
+
+TEST(Pmtiles, AKilledRunLeavesNoArchiveUnderAFinalName) {
+  const fs::path dir = test::caseDir();
+  const std::vector<std::string> args = {"tile", "--dem", flatSeaDem().string(), "--zoom", "9-14", "--tile-size",
+                                         "64", "--backend", "cpu", "--out", dir.string(), "--layer", "layer",
+                                         "--format", "pmtiles", "--workers", "1"};
+  {
+    test::ChildProcess doomed(args);
+    // Killed once some tiles wait in the temporary files.
+    const auto tiles_waiting = [&] {
+      for (const auto& entry : fs::directory_iterator(dir)) {
+        if (test::startsWith(entry.path().filename().string(), ".layer.meshes.pmtiles.tmp-") &&
+            fs::file_size(entry.path()) > 0) {
+          return true;
+        }
+      }
+      return false;
+    };
+    ASSERT_TRUE(test::waitUntil([&] { return (fs::exists(dir) && tiles_waiting()) || !doomed.running(); },
+                                kRunLimit, std::chrono::milliseconds(2)));
+    doomed.signal(SIGKILL);
+    ASSERT_EQ(doomed.wait(kRunLimit), -1) << "the run finished before it could be killed";
+  }
+  for (const auto& entry : fs::directory_iterator(dir)) {
+    EXPECT_EQ(entry.path().filename().string().front(), '.') << "under a final name: " << entry.path();
+  }
+  // The next run removes what the killed one left and writes the archives.
+  test::ChildProcess again(args);
+  ASSERT_EQ(again.wait(kRunLimit), 0) << again.err();
+  std::set<std::string> names;
+  for (const auto& entry : fs::directory_iterator(dir)) names.insert(entry.path().filename().string());
+  EXPECT_EQ(names, (std::set<std::string>{"layer.meshes.pmtiles", "layer.pmtiles"}));
+}
+
+TEST(Pmtiles, ResumeAndShardsAreRefused) {
+  config::TileJob job = coastJob("pmtiles_refused", OutputFormat::kPmtiles);
+  pipeline::RunOptions resume;
+  resume.resume = true;
+  EXPECT_THROW(pipeline::runTileJob(job, resume), UsageError);
+  pipeline::RunOptions shard;
+  shard.shard = 1;
+  shard.shard_count = 2;
+  EXPECT_THROW(pipeline::runTileJob(job, shard), UsageError);
+}
+
+TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {
+  const fs::path path = test::caseDir() / "many.pmtiles";
+  constexpr int kZoom = 8;  // 65536 tiles: their root directory alone would be far above 16 KiB
+  {
+    io::PmtilesWriter writer(path.string(), io::PmtilesTileType::kUnknown);
+    for (int x = 0; x < (1 << kZoom); ++x) {
+      for (int y = 0; y < (1 << kZoom); ++y) {
+        // Every fourth column the same bytes: runs and dedup among leaves.
+        const std::string text = x % 4 == 0 ? "same" : std::to_string(x) + "/" + std::to_string(y);
+        writer.add({kZoom, x, y}, std::vector<std::uint8_t>(text.begin(), text.end()));
+      }
+    }
+    writer.finish(R"({"tilejson": "3.0.0", "minzoom": 8, "maxzoom": 8, "bounds": [-180, -85, 180, 85],
+                      "center": [0, 0, 8]})",
+                  "job");
+  }
+  const io::PmtilesReader reader(path.string());
+  const io::PmtilesHeader& h = reader.header();
+  EXPECT_GT(h.leaves_length, 0u);
+  EXPECT_LE(h.root_offset + h.root_length, io::kPmtilesRootLimit);
+  EXPECT_EQ(h.addressed_tiles, 65536u);
+  EXPECT_LT(h.tile_contents, 65536u);
+  for (int x = 0; x < (1 << kZoom); x += 3) {
+    for (int y = 0; y < (1 << kZoom); y += 5) {
+      const std::string text = x % 4 == 0 ? "same" : std::to_string(x) + "/" + std::to_string(y);
+      EXPECT_EQ(reader.tile({kZoom, x, y}).value_or(""), text) << x << "/" << y;
+    }
+  }
+  EXPECT_FALSE(reader.tile({kZoom - 1, 0, 0}));
+}
+
+}  // namespace
+}  // namespace terrabake
