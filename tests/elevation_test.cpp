@@ -6,8 +6,6 @@
 #include <gtest/gtest.h>
 
 #include <GeographicLib/Geocentric.hpp>
-#include <gdal_priv.h>
-#include <ogr_spatialref.h>
 
 #include <cmath>
 #include <filesystem>
@@ -24,6 +22,7 @@ namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+namespace ts = test_support;
 
 // Float32 vertex positions of the high-res mesh, in the frame of a tile
 // centre at most about 5 km away at zoom 12: 5 km * 2^-24 is 0.3 mm, so
@@ -36,28 +35,13 @@ constexpr double kFloat32PositionM = 0.002;
 fs::path coastDem() {
   return test::sharedFixture("coast_bathymetry.tif", [](const fs::path& path) {
     constexpr int kPixels = 200;
-    constexpr double kPixelDeg = 0.002;
-    GDALAllRegister();
-    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
-    GDALDataset* ds = driver->Create(path.c_str(), kPixels, kPixels, 1, GDT_Float32, nullptr);
-    double geo[6] = {0.0, kPixelDeg, 0, 0.4, 0, -kPixelDeg};
-    ds->SetGeoTransform(geo);
-    OGRSpatialReference srs;
-    srs.importFromEPSG(4326);
-    ds->SetSpatialRef(&srs);
-    std::vector<float> heights(std::size_t(kPixels) * kPixels);
-    for (int r = 0; r < kPixels; ++r) {
-      for (int c = 0; c < kPixels; ++c) {
-        const double x = (c + 0.5) / kPixels, y = (r + 0.5) / kPixels;
-        heights[std::size_t(r) * kPixels + c] =
-            float(x < 0.5 ? -1200.0 * (0.5 - x) : 400.0 * std::sin(6.0 * x) * std::cos(5.0 * y) + 300.0 * (x - 0.5));
-      }
-    }
-    if (ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPixels, kPixels, heights.data(), kPixels, kPixels,
-                                       GDT_Float32, 0, 0) != CE_None) {
-      throw std::runtime_error("cannot write the coast DEM");
-    }
-    GDALClose(ds);
+    constexpr double kSizeDeg = 0.4;
+    ts::writeFloatDem(path, 4326, {0.0, kSizeDeg / kPixels, 0, kSizeDeg, 0, -kSizeDeg / kPixels}, kPixels, kPixels,
+                      [](double lon, double lat) {
+                        const double x = lon / kSizeDeg, y = (kSizeDeg - lat) / kSizeDeg;
+                        return x < 0.5 ? -1200.0 * (0.5 - x)
+                                       : 400.0 * std::sin(6.0 * x) * std::cos(5.0 * y) + 300.0 * (x - 0.5);
+                      });
   });
 }
 

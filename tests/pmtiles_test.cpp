@@ -6,8 +6,6 @@
 // root would outgrow 16 KiB.
 #include <gtest/gtest.h>
 
-#include <gdal_priv.h>
-#include <ogr_spatialref.h>
 
 #include <csignal>
 #include <cstdio>
@@ -24,6 +22,7 @@ namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+namespace ts = test_support;
 
 constexpr auto kRunLimit = std::chrono::minutes(5);
 
@@ -32,28 +31,13 @@ constexpr auto kRunLimit = std::chrono::minutes(5);
 fs::path flatSeaDem() {
   return test::sharedFixture("flat_sea_80.tif", [](const fs::path& path) {
     constexpr int kPixels = 300;
-    constexpr double kPixelDeg = 0.002;
-    GDALAllRegister();
-    GDALDataset* ds = GetGDALDriverManager()->GetDriverByName("GTiff")->Create(path.c_str(), kPixels, kPixels, 1,
-                                                                               GDT_Float32, nullptr);
-    double geo[6] = {0.0, kPixelDeg, 0, 0.6, 0, -kPixelDeg};
-    ds->SetGeoTransform(geo);
-    OGRSpatialReference srs;
-    srs.importFromEPSG(4326);
-    ds->SetSpatialRef(&srs);
-    std::vector<float> heights(std::size_t(kPixels) * kPixels);
-    for (int r = 0; r < kPixels; ++r) {
-      for (int c = 0; c < kPixels; ++c) {
-        const double x = (c + 0.5) / kPixels, y = (r + 0.5) / kPixels;
-        heights[std::size_t(r) * kPixels + c] =
-            float(x < 0.8 ? -20.0 : -20.0 + 1500.0 * (x - 0.8) * (1.2 + std::sin(17.0 * x) * std::cos(13.0 * y)));
-      }
-    }
-    if (ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPixels, kPixels, heights.data(), kPixels, kPixels,
-                                       GDT_Float32, 0, 0) != CE_None) {
-      throw std::runtime_error("cannot write the flat sea DEM");
-    }
-    GDALClose(ds);
+    constexpr double kSizeDeg = 0.6;
+    ts::writeFloatDem(path, 4326, {0.0, kSizeDeg / kPixels, 0, kSizeDeg, 0, -kSizeDeg / kPixels}, kPixels, kPixels,
+                      [](double lon, double lat) {
+                        const double x = lon / kSizeDeg, y = (kSizeDeg - lat) / kSizeDeg;
+                        return x < 0.8 ? -20.0
+                                       : -20.0 + 1500.0 * (x - 0.8) * (1.2 + std::sin(17.0 * x) * std::cos(13.0 * y));
+                      });
   });
 }
 

@@ -118,6 +118,18 @@ export function createBrowserTest(name, { watchdogMs }) {
     });
   }
 
+  // startServer, ending the test when the server does not start; logs its URL.
+  async function serve(terrabake, tilesDir, timeoutMs) {
+    let server;
+    try {
+      server = await startServer(terrabake, tilesDir, timeoutMs);
+    } catch (error) {
+      await abort(error.message);
+    }
+    log(`server at ${server.url}`);
+    return server;
+  }
+
   // SIGTERM, then waits for the exit; SIGKILL if it does not come. Resolves to
   // a description of how it ended.
   function stopProcess(child, timeoutMs) {
@@ -211,18 +223,23 @@ export function createBrowserTest(name, { watchdogMs }) {
   }
 
   // Opens url in a new page and waits for window.terrabakeReady === true.
-  // Console errors, page errors, failed requests and HTTP errors fail the test:
+  // Console errors, page errors, failed requests and HTTP errors fail the test
+  // (requests the page cancels itself too, unless cancelledRequestsAllowed):
   // those until the page is ready right away, later ones when the page is
   // closed with closePage(). notReadyDetail(page) may add to the message of a
   // page that never gets ready. Resolves to {page, ms, ok}.
-  async function openPage(url, label, { timeoutMs, notReadyDetail } = {}) {
+  async function openPage(url, label, { timeoutMs, notReadyDetail, cancelledRequestsAllowed = false } = {}) {
     const page = await browserContext.newPage();
     const problems = [];
     page.on('console', (message) => {
       if (message.type() === 'error') problems.push(`console error: ${message.text()}`);
     });
     page.on('pageerror', (error) => problems.push(`page error: ${error.message}`));
-    page.on('requestfailed', (request) => problems.push(`request failed: ${request.url()} (${request.failure()?.errorText})`));
+    page.on('requestfailed', (request) => {
+      const reason = request.failure()?.errorText;
+      if (cancelledRequestsAllowed && reason === 'net::ERR_ABORTED') return;
+      problems.push(`request failed: ${request.url()} (${reason})`);
+    });
     page.on('response', (response) => {
       if (response.status() >= 400) problems.push(`HTTP ${response.status()}: ${response.url()}`);
     });
@@ -270,7 +287,7 @@ export function createBrowserTest(name, { watchdogMs }) {
   }
 
   return {
-    log, fail, abort, failures, runToEnd, tile, startServer, stopProcess, stopServer,
+    log, fail, abort, failures, runToEnd, tile, startServer, serve, stopProcess, stopServer,
     requireChromium, setUp, launchChromium, closeChromium, openPage, closePage, run,
   };
 }

@@ -268,13 +268,7 @@ async function main() {
   }
 
   // 2. The server, and the test page on its origin.
-  let server;
-  try {
-    server = await t.startServer(terrabake, tilesDir, kServeStartTimeoutMs);
-  } catch (error) {
-    await t.abort(error.message);
-  }
-  log(`server at ${server.url}`);
+  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
   const context = await t.launchChromium({ viewport: { width: kCanvas, height: kCanvas } });
   const pageBase = `${server.url}three-shading-test/`;
   const pageModule = await readFile(path.join(kHere, 'three_shading_page.mjs'));

@@ -72,6 +72,8 @@ async function screenshot(serverUrl, out, name, query) {
   const url = `${serverUrl}viewer/tiles3d.html?${new URLSearchParams(query)}`;
   const { page, ms, ok } = await t.openPage(url, name, {
     timeoutMs: kPageTimeoutMs,
+    // 3D Tiles viewers cancel the downloads of tiles the view no longer needs.
+    cancelledRequestsAllowed: true,
     notReadyDetail: async (p) => p.locator('#status').textContent({ timeout: 1000 }).catch(() => ''),
   });
   let result = null;
@@ -143,13 +145,7 @@ async function main() {
       '--max-error-texels', kCoarseErrorTexels, '--out', tilesDir, '--layer', `skirts_${skirts}`], kTileTimeoutMs);
   }
 
-  let server;
-  try {
-    server = await t.startServer(terrabake, tilesDir, kServeStartTimeoutMs);
-  } catch (error) {
-    await t.abort(error.message);
-  }
-  log(`server at ${server.url}`);
+  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
   await t.launchChromium({ viewport: kViewport });
 
   const results = [];

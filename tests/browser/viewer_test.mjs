@@ -294,13 +294,7 @@ async function main() {
     '--nodata-surface', 'cut', '--out', tilesDir, '--layer', kCutLayer], kTileTimeoutMs);
 
   // 2. The server.
-  let server;
-  try {
-    server = await t.startServer(terrabake, tilesDir, kServeStartTimeoutMs);
-  } catch (error) {
-    await t.abort(error.message);
-  }
-  log(`server at ${server.url}`);
+  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
 
   // 3. The browser, with a fresh profile and nothing from the network.
   // Room for the panel (220 px) beside the fixed-size canvas.

@@ -65,24 +65,6 @@ DatasetPtr createGeoTiff(const std::filesystem::path& path, int width, int heigh
   return dataset;
 }
 
-// Float32 DEM whose pixel (col, row) holds value(x, y) at the pixel centre.
-void writeFloatDem(const std::filesystem::path& path, int epsg,
-                   const std::array<double, 6>& geotransform, int width, int height,
-                   const std::function<double(double, double)>& value) {
-  std::vector<float> data(std::size_t(width) * height);
-  for (int row = 0; row < height; ++row) {
-    const double y = geotransform[3] + (row + 0.5) * geotransform[5];
-    for (int col = 0; col < width; ++col) {
-      const double x = geotransform[0] + (col + 0.5) * geotransform[1];
-      data[std::size_t(row) * width + col] = float(value(x, y));
-    }
-  }
-  DatasetPtr dataset = createGeoTiff(path, width, height, GDT_Float32, epsg, geotransform, {});
-  if (dataset->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, width, height, data.data(), width, height,
-                                          GDT_Float32, 0, 0) != CE_None) {
-    throw std::runtime_error("cannot write " + path.string());
-  }
-}
 
 // --- Sample DEM noise. Own hash and gradient table, so the file is the same
 // on every platform and library version.
@@ -189,6 +171,24 @@ double sampleShape(double x, double y) {
 }
 
 }  // namespace
+
+void writeFloatDem(const std::filesystem::path& path, int epsg,
+                   const std::array<double, 6>& geotransform, int width, int height,
+                   const std::function<double(double, double)>& value) {
+  std::vector<float> data(std::size_t(width) * height);
+  for (int row = 0; row < height; ++row) {
+    const double y = geotransform[3] + (row + 0.5) * geotransform[5];
+    for (int col = 0; col < width; ++col) {
+      const double x = geotransform[0] + (col + 0.5) * geotransform[1];
+      data[std::size_t(row) * width + col] = float(value(x, y));
+    }
+  }
+  DatasetPtr dataset = createGeoTiff(path, width, height, GDT_Float32, epsg, geotransform, {});
+  if (dataset->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, width, height, data.data(), width, height,
+                                          GDT_Float32, 0, 0) != CE_None) {
+    throw std::runtime_error("cannot write " + path.string());
+  }
+}
 
 glm::dvec2 utm33(double lon_deg, double lat_deg) {
   constexpr double kZone33CentralMeridian = 15.0;

@@ -3,7 +3,9 @@
 // compare what terrabake bakes with the true surface without using its code.
 // The terrain is defined on UTM zone 33N (EPSG:32633) coordinates, so a DEM of
 // it in any CRS describes the same physical surface.
+#include <array>
 #include <filesystem>
+#include <functional>
 #include <glm/vec2.hpp>
 #include <glm/vec3.hpp>
 
@@ -39,6 +41,11 @@ glm::dvec3 ellipsoidUpEcef(double lon_deg, double lat_deg);
 // Exact unit normal of the analytic surface at a point, in ECEF (WGS84),
 // pointing away from the earth.
 glm::dvec3 normalEcef(double lon_deg, double lat_deg, const Relief& relief = kHills);
+
+// Float32 GeoTIFF in EPSG:`epsg` (x east, y north) with `geotransform`
+// (GDAL's, north-up); pixel (col, row) holds value(x, y) at its centre. No nodata.
+void writeFloatDem(const std::filesystem::path& path, int epsg, const std::array<double, 6>& geotransform,
+                   int width, int height, const std::function<double(double, double)>& value);
 
 // Float32 GeoTIFF in EPSG:32633, north-up, centred on the given point; each
 // pixel holds heightUtm at its centre. No nodata.

@@ -108,6 +108,7 @@ const ui = {
   triangles: el('triangles'),
   tiles: el('tiles'),
   status: el('status'),
+  tiles3d: el('tiles3d'),
   meshRadios: document.querySelectorAll('input[name="mesh"]'),
 };
 
@@ -668,6 +669,11 @@ async function showLayer(name, zoom) {
   if (generation !== state.generation) return;
   state.tilejson = tilejson;
   state.tilejsonUrl = tilejsonUrl;
+  // A layer with a tileset (output.tileset) opens in the 3D Tiles viewers too.
+  ui.tiles3d.hidden = !tilejson.terrabake?.tileset;
+  for (const link of ui.tiles3d.querySelectorAll('a')) {
+    link.href = `/viewer/tiles3d.html?${new URLSearchParams({ layer: name, renderer: link.dataset.renderer })}`;
+  }
   ui.zoom.replaceChildren();
   for (let z = tilejson.minzoom ?? 0; z <= (tilejson.maxzoom ?? 0); ++z) {
     ui.zoom.add(new Option(`${z}`, `${z}`));
