@@ -16,6 +16,7 @@
 #include "core/error.hpp"
 #include "io/pmtiles.hpp"
 #include "layer_check.hpp"
+#include "server_helpers.hpp"
 #include "test_helpers.hpp"
 
 namespace terrabake {
@@ -106,6 +107,63 @@ TEST(Pmtiles, NpmPmtilesReadsTheFolderLayoutsBytesFromEveryArchive) {
   const auto metadata = nlohmann::json::parse(reader.metadata());
   EXPECT_EQ(metadata.at("terrabake").at("elevation").at("encoding"), "terrarium");
   EXPECT_EQ(metadata.at(io::kPmtilesJobKey), config::layerFingerprint(archive_job));
+}
+
+TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
+  const fs::path tiles_dir = test::caseDir() / "tiles";
+  config::TileJob folder_job = coastJob("unused", OutputFormat::kFiles);
+  config::TileJob archive_job = coastJob("unused", OutputFormat::kPmtiles);
+  folder_job.output_dir = archive_job.output_dir = tiles_dir.string();
+  folder_job.layer = "folder";
+  archive_job.layer = "packed";
+  ASSERT_GT(pipeline::runTileJob(folder_job).written, 20);
+  ASSERT_GT(pipeline::runTileJob(archive_job).written, 20);
+
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (tiles_dir / "no_viewer").string();
+  const test::ServerThread server(config);
+  const int port = server.port();
+
+  // The same tiles at the same URLs, every kind of them.
+  int compared = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(tiles_dir / "folder")) {
+    const std::string relative = fs::relative(entry.path(), tiles_dir / "folder").string();
+    if (!entry.is_regular_file() || relative.find('/') == std::string::npos) continue;  // z/x/y files only
+    const auto packed = test::get(port, "/packed/" + relative);
+    ASSERT_TRUE(packed) << relative;
+    EXPECT_EQ(packed->status, 200) << relative;
+    EXPECT_EQ(packed->body, test::readBytes(entry.path())) << relative;
+    ++compared;
+  }
+  EXPECT_GT(compared, 80);
+  const auto tilejson = test::get(port, "/packed/tilejson.json");
+  const auto elevation = test::get(port, "/packed/elevation.json");
+  ASSERT_TRUE(tilejson && elevation);
+  EXPECT_EQ(tilejson->status, 200);
+  EXPECT_EQ(elevation->status, 200);
+  const auto layer_tilejson = nlohmann::json::parse(tilejson->body);
+  EXPECT_FALSE(layer_tilejson.contains(io::kPmtilesJobKey)) << "the job record stays in the archive";
+  EXPECT_EQ(layer_tilejson.at("tiles").at(0), "http://127.0.0.1:" + std::to_string(port) + "/packed/{z}/{x}/{y}.png");
+
+  // The archive itself, for clients that read PMTiles by ranges.
+  const std::string archive = test::readBytes(tiles_dir / "packed.meshes.pmtiles");
+  const auto head = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=0-126"}});
+  ASSERT_TRUE(head);
+  EXPECT_EQ(head->status, 206);
+  EXPECT_EQ(head->get_header_value("Content-Type"), "application/vnd.pmtiles");
+  EXPECT_EQ(head->get_header_value("Content-Range"), "bytes 0-126/" + std::to_string(archive.size()));
+  EXPECT_EQ(head->body, archive.substr(0, 127));
+  const auto again = test::get(port, "/packed/packed.meshes.pmtiles", {{"If-None-Match", head->get_header_value("ETag")}});
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->status, 304);
+  const auto past = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=" + std::to_string(archive.size()) + "-"}});
+  ASSERT_TRUE(past);
+  EXPECT_EQ(past->status, 416);
+  const auto other = test::get(port, "/packed/folder.pmtiles");
+  ASSERT_TRUE(other);
+  EXPECT_EQ(other->status, 404) << "only the layer's own archives";
 }
 
 TEST(Pmtiles, FlatSeaIsStoredOnceSoTheArchiveIsSmallerThanTheFolder) {

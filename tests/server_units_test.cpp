@@ -122,6 +122,11 @@ TEST(ServeRoutes, KnownRoutes) {
   const Route external = server::parseRoute("/sample/tilesets/14/8886/4757.json");
   ASSERT_EQ(external.kind, Route::Kind::kTileset);
   EXPECT_EQ(external.file, "tilesets/14/8886/4757.json");
+  const Route archive = server::parseRoute("/sample/sample.meshes.pmtiles");
+  ASSERT_EQ(archive.kind, Route::Kind::kArchive);
+  EXPECT_EQ(archive.layer, "sample");
+  EXPECT_EQ(archive.file, "sample.meshes.pmtiles");
+  EXPECT_EQ(server::parseRoute("/sample/.pmtiles").kind, Route::Kind::kNotFound);
 }
 
 TEST(ServeRoutes, MalformedPathsAreBadRequests) {

@@ -32,6 +32,7 @@ constexpr MediaType kMediaTypes[] = {
     {".ktx2", "image/ktx2"},
     {".wasm", "application/wasm"},
     {".txt", "text/plain; charset=utf-8"},
+    {".pmtiles", "application/vnd.pmtiles"},
 };
 
 bool endsWith(std::string_view text, std::string_view end) {

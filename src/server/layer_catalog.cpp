@@ -12,6 +12,7 @@
 #include "server/directory_layer.hpp"
 #include "server/mbtiles_layer.hpp"
 #include "server/on_demand_layer.hpp"
+#include "server/pmtiles_layer.hpp"
 #include "server/route.hpp"
 
 namespace terrabake::server {
@@ -31,13 +32,15 @@ std::vector<std::string> folderNames(const std::string& tiles_dir) {
   return names;
 }
 
-// "<name>" of each "<name>.mbtiles" file in the tiles folder, sorted.
-std::vector<std::string> mbtilesNames(const std::string& tiles_dir) {
+// "<name>" of each "<name><extension>" file in the tiles folder, sorted;
+// PMTiles companions (<name>.meshes.pmtiles, ...) belong to their layer.
+std::vector<std::string> layerFileNames(const std::string& tiles_dir, const std::string& extension) {
   std::error_code ec;
   std::vector<std::string> names;
   for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code ignored;
-    if (it->is_regular_file(ignored) && it->path().extension() == io::kMbtilesExtension) {
+    const std::string file = it->path().filename().string();
+    if (it->is_regular_file(ignored) && it->path().extension() == extension && !io::isPmtilesCompanion(file)) {
       names.push_back(it->path().stem().string());
     }
   }
@@ -82,25 +85,34 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
     }
   }
 
-  for (const std::string& name : mbtilesNames(config.tiles_dir)) {
-    if (name.front() == '.') continue;
-    const fs::path file = fs::path(config.tiles_dir) / (name + io::kMbtilesExtension);
-    if (names.count(name)) {
-      log::warning("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from its folder");
-      continue;
+  // One file per layer: MBTiles, or the PMTiles archive of its normal maps.
+  const auto openFileLayer = [&](const std::string& extension, const auto& open) {
+    for (const std::string& name : layerFileNames(config.tiles_dir, extension)) {
+      if (name.front() == '.') continue;
+      const fs::path file = fs::path(config.tiles_dir) / (name + extension);
+      if (names.count(name)) {
+        log::warning("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from elsewhere");
+        continue;
+      }
+      if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
+        log::warning("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
+        continue;
+      }
+      try {
+        layers.push_back(open(name, file.string()));
+        names.insert(name);
+        log::info("layer " + name + ": tiles from " + file.string());
+      } catch (const std::exception& e) {
+        log::warning("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
+      }
     }
-    if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
-      log::warning("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
-      continue;
-    }
-    try {
-      layers.push_back(std::make_unique<MbtilesLayer>(name, file.string()));
-      names.insert(name);
-      log::info("layer " + name + ": tiles from " + file.string());
-    } catch (const std::exception& e) {
-      log::warning("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
-    }
-  }
+  };
+  openFileLayer(io::kMbtilesExtension, [](const std::string& name, const std::string& path) {
+    return std::unique_ptr<LayerSource>(std::make_unique<MbtilesLayer>(name, path));
+  });
+  openFileLayer(io::kPmtilesExtension, [](const std::string& name, const std::string& path) {
+    return std::unique_ptr<LayerSource>(std::make_unique<PmtilesLayer>(name, path));
+  });
   return layers;
 }
 

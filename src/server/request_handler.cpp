@@ -189,6 +189,14 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
       }
       return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
     }
+    case Route::Kind::kArchive: {
+      const auto layer = m_layers.find(route.layer);
+      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<FileContent> content = layer->second->archive(route.file);
+      if (!content) return text(404, "not found: layer '" + route.layer + "' is stored in no archive " + route.file);
+      return validated(request, contentTypeFor(route.file), std::move(content->bytes), content->etag,
+                       m_tile_cache_control);
+    }
     case Route::Kind::kElevationTileJson: {
       const auto layer = m_layers.find(route.layer);
       if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");

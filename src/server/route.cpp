@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <optional>
+#include <string_view>
 #include <vector>
 
 #include "core/layer_name.hpp"
@@ -139,6 +140,14 @@ Route parseRoute(const std::string& path) {
       Route route = simple(Route::Kind::kTileset);
       route.layer = first;
       route.file = io::kTilesetFile;
+      return route;
+    }
+    const std::string_view extension(io::kPmtilesExtension);
+    if (parts[1].size() > extension.size() &&
+        parts[1].compare(parts[1].size() - extension.size(), extension.size(), extension) == 0) {
+      Route route = simple(Route::Kind::kArchive);
+      route.layer = first;
+      route.file = parts[1];
       return route;
     }
     Route route;

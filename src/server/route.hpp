@@ -21,6 +21,7 @@ struct Route {
     kElevationTileJson,  // /<layer>/elevation.json
     kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>
     kTileset,     // /<layer>/tileset.json, /<layer>/tilesets/<z>/<x>/<y>.json
+    kArchive,     // /<layer>/<file>.pmtiles: an archive the layer is stored in
     kBadRequest,  // 400
     kNotFound,    // 404
   };
@@ -29,7 +30,7 @@ struct Route {
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
   std::string package;  // kVendorFile: one of vendorPackages()
-  std::string file;     // kViewerFile, kVendorFile, kTileset: relative to the folder, segments checked
+  std::string file;     // kViewerFile, kVendorFile, kTileset, kArchive: relative to the folder, segments checked
   std::string problem;  // kBadRequest, kNotFound: what is wrong, for the response body
 };
 
