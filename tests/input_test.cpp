@@ -215,7 +215,7 @@ TEST(Inputs, WorldDemTilesAHundredMetreBoxAtZoom16Quickly) {
   args.insert(args.end(), {"--bbox", "10,45,10.0009,45.0009"});
   const RunResult r = run(args, limits);
   ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
-  EXPECT_LT(r.seconds, 20) << describe(r);
+  EXPECT_LT(r.seconds, 20 * test::kSanitizerSlowdown) << describe(r);
   EXPECT_EQ(tilesOf(dir / "out" / "world").size(), 2u) << "one tile: .png and .glb\n" << describe(r);
 }
 
@@ -228,7 +228,7 @@ TEST(Inputs, WorldDemAtZoom16WithoutABoxIsRefusedAtOnceWithItsTileCount) {
   EXPECT_EQ(r.exit_code, kExitUsage) << describe(r);
   EXPECT_TRUE(contains(r.err, "4294967296 tiles")) << describe(r);
   EXPECT_TRUE(contains(r.err, "--bbox")) << describe(r);
-  EXPECT_LT(r.seconds, 5) << describe(r);
+  EXPECT_LT(r.seconds, 5 * test::kSanitizerSlowdown) << describe(r);
   EXPECT_FALSE(fs::exists(dir / "out" / "world" / "16")) << describe(r);
 }
 
@@ -248,7 +248,7 @@ TEST(Inputs, VrtTwoToTheThirtyOnePixelsWideIsRefusedFast) {
   const RunResult r = run(tileArgs(dir / "wide.vrt", dir / "out", "wide", "3"), limits, std::chrono::seconds(60));
   EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
   EXPECT_TRUE(contains(r.err, "2147483647 x 4 pixels")) << describe(r);
-  EXPECT_LT(r.seconds, 5) << describe(r);
+  EXPECT_LT(r.seconds, 5 * test::kSanitizerSlowdown) << describe(r);
 }
 
 TEST(Inputs, FifoAsDemOrConfigIsRefusedAtOnce) {
@@ -258,11 +258,11 @@ TEST(Inputs, FifoAsDemOrConfigIsRefusedAtOnce) {
   const RunResult dem = run(tileArgs(fifo, dir / "out", "fifo"), {}, std::chrono::seconds(10));
   EXPECT_EQ(dem.exit_code, kExitInput) << describe(dem);
   EXPECT_TRUE(contains(dem.err, "FIFO")) << describe(dem);
-  EXPECT_LT(dem.seconds, 5) << describe(dem);
+  EXPECT_LT(dem.seconds, 5 * test::kSanitizerSlowdown) << describe(dem);
   const RunResult config = run({"tile", "--config", fifo.string()}, {}, std::chrono::seconds(10));
   EXPECT_EQ(config.exit_code, kExitInput) << describe(config);
   EXPECT_TRUE(contains(config.err, "FIFO")) << describe(config);
-  EXPECT_LT(config.seconds, 5) << describe(config);
+  EXPECT_LT(config.seconds, 5 * test::kSanitizerSlowdown) << describe(config);
   const RunResult device = run({"tile", "--config", "/dev/zero"}, {}, std::chrono::seconds(10));
   EXPECT_EQ(device.exit_code, kExitInput) << describe(device);
   EXPECT_TRUE(contains(device.err, "character device")) << describe(device);
