@@ -11,6 +11,8 @@
 
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
+#include "dem/reduced_levels.hpp"
+#include "dem/void_samples.hpp"
 #include "layer_check.hpp"
 #include "support/analytic_terrain.hpp"
 #include "tiling/scheme.hpp"
@@ -479,6 +481,119 @@ TEST_F(DemEdgeRead, HeightsUpToTheEdgeAreAsAccurateAsInside) {
   std::printf("height error: %.3f m within 2 pixels of the edge, %.3f m further in\n", worst_edge, worst_inside);
   EXPECT_LE(worst_inside, kMaxInsideErrorM);
   EXPECT_LE(worst_edge, kMaxEdgeErrorM);
+}
+
+}  // namespace
+}  // namespace terrabake
+
+namespace terrabake {
+namespace {
+
+namespace ts = test_support;
+
+// Reduced levels against the means they stand for, on a tilted plane: the
+// mean of any block of a plane is the plane at the block's centroid, so
+// float rounding is all that may differ.
+constexpr double kPlaneMeanToleranceM = 1e-3;
+
+TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
+  GDALAllRegister();
+  constexpr int kWidth = 1100, kHeight = 1030;  // two levels: 550 and 275 wide
+  std::unique_ptr<GDALDataset> file(
+      GetGDALDriverManager()->GetDriverByName("MEM")->Create("", kWidth, kHeight, 1, GDT_Float32, nullptr));
+  std::vector<float> heights(std::size_t(kWidth) * kHeight);
+  const auto plane = [](double c, double r) { return 100 + 0.5 * c - 0.25 * r; };
+  for (int r = 0; r < kHeight; ++r) {
+    for (int c = 0; c < kWidth; ++c) heights[std::size_t(r) * kWidth + c] = float(plane(c + 0.5, r + 0.5));
+  }
+  // A void of 64 x 64 pixels, on block boundaries of every level down to 64.
+  for (int r = 128; r < 192; ++r) {
+    for (int c = 256; c < 320; ++c) heights[std::size_t(r) * kWidth + c] = -32768;
+  }
+  GDALRasterBand& band = *file->GetRasterBand(1);
+  ASSERT_EQ(band.RasterIO(GF_Write, 0, 0, kWidth, kHeight, heights.data(), kWidth, kHeight, GDT_Float32, 0, 0,
+                          nullptr),
+            CE_None);
+  dem::VoidRule voids;  // -32768 is a void marker, declared or not
+  const auto levels = dem::ReducedLevels::build(band, voids, "plane");
+  ASSERT_TRUE(levels);
+  ASSERT_GE(levels->count(), 2u);
+  const double gt[6] = {0, 1, 0, 0, 0, -1};
+  std::size_t bytes = 0;
+  for (std::size_t i = 0; i < levels->count(); ++i) {
+    std::unique_ptr<GDALDataset> level(levels->open(i, gt, ""));
+    ASSERT_TRUE(level);
+    const int w = level->GetRasterXSize(), h = level->GetRasterYSize();
+    double level_gt[6];
+    level->GetGeoTransform(level_gt);
+    const int factor = int(level_gt[1]);
+    EXPECT_EQ(w, (kWidth + factor - 1) / factor);
+    EXPECT_EQ(h, (kHeight + factor - 1) / factor);
+    bytes += sizeof(float) * std::size_t(w) * std::size_t(h);
+    std::vector<float> values(std::size_t(w) * h);
+    ASSERT_EQ(level->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, GDT_Float32, 0, 0,
+                                                nullptr),
+              CE_None);
+    // Whole blocks only: a block cut by the raster's edge means the part inside.
+    for (int r = 0; r < kHeight / factor; ++r) {
+      for (int c = 0; c < kWidth / factor; ++c) {
+        const float v = values[std::size_t(r) * w + c];
+        const bool in_void = c * factor >= 256 && (c + 1) * factor <= 320 && r * factor >= 128 &&
+                             (r + 1) * factor <= 192;
+        if (in_void) {
+          EXPECT_TRUE(std::isnan(v)) << "level " << i << " pixel " << c << "," << r;
+        } else if (!(c * factor < 320 && (c + 1) * factor > 256 && r * factor < 192 && (r + 1) * factor > 128)) {
+          EXPECT_NEAR(v, plane((c + 0.5) * factor, (r + 0.5) * factor), kPlaneMeanToleranceM)
+              << "level " << i << " pixel " << c << "," << r;
+        } else {
+          EXPECT_FALSE(std::isnan(v)) << "a block with valid pixels is valid";
+        }
+      }
+    }
+  }
+  EXPECT_LE(bytes, dem::ReducedLevels::kMaxBytes);
+}
+
+// Coarse zooms of one file without overviews read its reduced levels; a
+// mosaic of files reads full resolution. Averaging blocks first widens the
+// footprint's kernel by up to a block, which on the analytic hills moves
+// heights by up to 1.3 % of a texel's size (0.45 % on average; 2.1 m at
+// 300 m texels): a slope changes by well under a degree.
+constexpr double kMaxReducedDifferenceOfTexel = 0.02;
+constexpr double kMaxMeanReducedDifferenceOfTexel = 0.01;
+
+TEST(DemSource, CoarseZoomsOfOneFileWithoutOverviewsReadReducedLevels) {
+  const auto path = test::sharedFixture("analytic_utm33_1024.tif", [](const auto& p) {
+    ts::writeUtmDem(p, 15.3, 60.0, 30.0, 1024, 1024);
+  });
+  const dem::DemSource reduced({path.string()});
+  const dem::DemSource full({path.string(), path.string()});  // a mosaic: never reduced
+  const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 64);
+  // Texels of about 2.5, 5 and 10 DEM pixels.
+  for (int zoom : {12, 11, 10}) {
+    const std::vector<TileId> tiles = scheme->tilesCovering(reduced.boundsIn(scheme->crs()), zoom);
+    const GridSpec grid = scheme->texelGrid(tiles[tiles.size() / 2], 2);
+    const dem::ReadPlan reduced_plan = reduced.planFor(grid), full_plan = full.planFor(grid);
+    EXPECT_GE(reduced_plan.files.front().overview, 0) << "zoom " << zoom;
+    EXPECT_EQ(full_plan.files.front().overview, -1) << "zoom " << zoom;
+    const Raster<float> a = reduced.read(grid, reduced_plan), b = full.read(grid, full_plan);
+    double worst = 0, total = 0;
+    std::size_t compared = 0;
+    for (std::size_t k = 0; k < a.data.size(); ++k) {
+      ASSERT_EQ(std::isnan(a.data[k]), std::isnan(b.data[k])) << "zoom " << zoom << " texel " << k;
+      if (std::isnan(a.data[k])) continue;
+      worst = std::max(worst, double(std::abs(a.data[k] - b.data[k])));
+      total += std::abs(a.data[k] - b.data[k]);
+      ++compared;
+    }
+    const double texel_m = grid.cell_w * std::cos(60.0 * M_PI / 180);  // Web Mercator's scale at 60 N
+    const double mean = total / double(std::max<std::size_t>(compared, 1));
+    std::printf("zoom %d (%.0f m texels): reduced level %d, %zu texels, difference worst %.3g m, mean %.3g m\n",
+                zoom, texel_m, reduced_plan.files.front().overview, compared, worst, mean);
+    EXPECT_GT(compared, 1000u) << "zoom " << zoom;
+    EXPECT_LE(worst, kMaxReducedDifferenceOfTexel * texel_m) << "zoom " << zoom;
+    EXPECT_LE(mean, kMaxMeanReducedDifferenceOfTexel * texel_m) << "zoom " << zoom;
+  }
 }
 
 }  // namespace

@@ -10,6 +10,7 @@
 #include <sys/stat.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -19,6 +20,7 @@
 #include <tuple>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/footprint_average.hpp"
 #include "dem/gdal_util.hpp"
@@ -155,6 +157,21 @@ GDALDataset* decimatedView(GDALDataset& level, int band, int factor) {
     return nullptr;
   }
   return GDALDataset::FromHandle(vrt);
+}
+
+// The file opened again, north-up (through a mirror when stored flipped),
+// and the band of it that holds the heights.
+std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta) {
+  const std::string& path = meta.info().path;
+  CPLErrorReset();
+  DatasetPtr dataset(GDALDataset::FromHandle(
+      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
+  if (!meta.flipX() && !meta.flipY()) return {std::move(dataset), meta.band()};
+  double gt[6];
+  meta.northUpGeoTransform(gt);
+  DatasetPtr mirrored(new MirroredDataset(std::move(dataset), meta.band(), meta.flipX(), meta.flipY(), gt));
+  return {std::move(mirrored), 1};
 }
 
 // Rasters no wider or taller than this: beyond, sizes overflow the integer
@@ -447,7 +464,35 @@ Extent FileMeta::boundsIn(const std::string& crs) const {
   return m_bounds.emplace(crs, out).first->second;
 }
 
-FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file) const {
+void FileMeta::northUpGeoTransform(double* gt) const {
+  const GridSpec& g = m_info.grid;
+  const double north_up[6] = {g.origin_x, g.cell_w, 0, g.origin_y, 0, -g.cell_h};
+  std::copy(north_up, north_up + 6, gt);
+}
+
+std::shared_ptr<const ReducedLevels> FileMeta::makeReducedLevels() const {
+  std::lock_guard<std::mutex> lock(m_reduced_mutex);
+  if (m_reduced_tried) return m_reduced;
+  m_reduced_tried = true;
+  const auto start = std::chrono::steady_clock::now();
+  const auto [dataset, band] = openNorthUp(*this);
+  m_reduced = ReducedLevels::build(*dataset->GetRasterBand(band), m_voids, m_info.path);
+  if (m_reduced) {
+    const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    char text[200];
+    std::snprintf(text, sizeof text, "dem: made %zu reduced levels of '%s' for its coarse zooms in %.1f s",
+                  m_reduced->count(), shortened(m_info.path).c_str(), seconds);
+    log::info(text);
+  }
+  return m_reduced;
+}
+
+std::shared_ptr<const ReducedLevels> FileMeta::reducedLevels() const {
+  std::lock_guard<std::mutex> lock(m_reduced_mutex);
+  return m_reduced;
+}
+
+FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file, bool may_reduce) const {
   // Size of one grid cell in DEM pixels, measured at the grid's centre.
   const double cx = grid.centreX(grid.width / 2.0), cy = grid.centreY(grid.height / 2.0);
   double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
@@ -460,10 +505,16 @@ FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to
 
   FilePlan plan;
   plan.average = pixels_per_cell > 1.0;
+  std::vector<int> level_widths = m_overview_widths;
+  if (level_widths.empty() && may_reduce && pixels_per_cell >= 2) {
+    if (const auto reduced = makeReducedLevels()) {
+      for (std::size_t i = 0; i < reduced->count(); ++i) level_widths.push_back(reduced->widthOf(i));
+    }
+  }
   // The coarsest overview still at least as fine as a cell.
   double level_factor = 1;
-  for (std::size_t i = 0; i < m_overview_widths.size(); ++i) {
-    const double factor = double(m_info.grid.width) / m_overview_widths[i];
+  for (std::size_t i = 0; i < level_widths.size(); ++i) {
+    const double factor = double(m_info.grid.width) / level_widths[i];
     if (factor <= pixels_per_cell) plan.overview = int(i), level_factor = factor;
   }
   const double level_pixels =
@@ -488,7 +539,14 @@ struct DemFile::Impl {
     const std::string& path = meta.info().path;
     LevelReader reader;
     GDALDataset* level = dataset.get();
-    if (overview >= 0) {
+    const std::shared_ptr<const ReducedLevels> reduced = meta.reducedLevels();
+    if (overview >= 0 && reduced) {
+      double gt[6];
+      meta.northUpGeoTransform(gt);
+      reader.file.reset(reduced->open(std::size_t(overview), gt, meta.srsWkt()));
+      if (!reader.file) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
+      level = reader.file.get();
+    } else if (overview >= 0) {
       const std::string option = "OVERVIEW_LEVEL=" + std::to_string(overview);
       const char* options[] = {option.c_str(), nullptr};
       reader.file.reset(GDALDataset::FromHandle(
@@ -516,20 +574,9 @@ struct DemFile::Impl {
 
 DemFile::DemFile(std::shared_ptr<const FileMeta> meta) : m_meta(std::move(meta)), m_impl(std::make_unique<Impl>()) {
   ensureGdalReady();
-  const std::string& path = m_meta->info().path;
-  CPLErrorReset();
-  DatasetPtr dataset(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
-  if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
-  if (m_meta->flipX() || m_meta->flipY()) {
-    const GridSpec& g = m_meta->info().grid;
-    const double gt[6] = {g.origin_x, g.cell_w, 0, g.origin_y, 0, -g.cell_h};
-    m_impl->dataset.reset(new MirroredDataset(std::move(dataset), m_meta->band(), m_meta->flipX(), m_meta->flipY(), gt));
-    m_impl->band = 1;
-  } else {
-    m_impl->dataset = std::move(dataset);
-    m_impl->band = m_meta->band();
-  }
+  auto [dataset, band] = openNorthUp(*m_meta);
+  m_impl->dataset = std::move(dataset);
+  m_impl->band = band;
 }
 
 DemFile::~DemFile() = default;

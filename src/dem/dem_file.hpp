@@ -14,6 +14,7 @@
 
 #include "core/types.hpp"
 #include "dem/dem_source.hpp"
+#include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
@@ -37,14 +38,26 @@ class FileMeta {
   long long implausibleSamples() const { return m_implausible.load(); }
   // Warnings about the file (several bands, an image's colours), for the log.
   const std::vector<std::string>& warnings() const { return m_warnings; }
+  // The file's geotransform, north-up.
+  void northUpGeoTransform(double* gt) const;
 
   // The file's extent in another CRS, edges densified before transforming;
   // computed once per CRS.
   Extent boundsIn(const std::string& crs) const;
 
   // How to read this file onto grids of the cell size `representative` has;
-  // `to_file` maps the grid's CRS to the file's.
-  FilePlan planFor(const GridSpec& representative, OGRCoordinateTransformation& to_file) const;
+  // `to_file` maps the grid's CRS to the file's. With `may_reduce`, a file
+  // without overviews whose cells span two pixels or more gets reduced
+  // levels (reduced_levels.hpp), made on the first such plan, and the plan
+  // reads them as overviews.
+  FilePlan planFor(const GridSpec& representative, OGRCoordinateTransformation& to_file, bool may_reduce) const;
+
+  // The reduced levels made for this file; null when none were.
+  std::shared_ptr<const ReducedLevels> reducedLevels() const;
+
+ private:
+  // Makes the reduced levels on the first call; null when the file gains none.
+  std::shared_ptr<const ReducedLevels> makeReducedLevels() const;
 
  private:
   DemInfo m_info;
@@ -57,6 +70,9 @@ class FileMeta {
   std::vector<std::string> m_warnings;
   mutable std::mutex m_bounds_mutex;
   mutable std::map<std::string, Extent> m_bounds;
+  mutable std::mutex m_reduced_mutex;
+  mutable bool m_reduced_tried = false;
+  mutable std::shared_ptr<const ReducedLevels> m_reduced;
 };
 
 // A file's open GDAL handles, for one thread.

@@ -173,7 +173,9 @@ ReadPlan DemSource::planFor(const GridSpec& representative) const {
       throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" +
                        shortened(file->info().path) + "'");
     }
-    plan.files.push_back(file->planFor(representative, *ct));
+    // Reduced levels for one file only: a mosaic's files are many, and a
+    // job may reach a few of them.
+    plan.files.push_back(file->planFor(representative, *ct, m_shared->files.size() == 1));
   }
   return plan;
 }

@@ -73,45 +73,60 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   return GDALDataset::FromHandle(vrt);
 }
 
+// Non-zero where any of `mask`'s samples within `reach` along one axis
+// (stride 1: rows; stride width: columns) is: a running count over the window.
+std::vector<std::uint8_t> dilated(const std::vector<std::uint8_t>& mask, int width, int height, bool along_rows,
+                                  int reach) {
+  std::vector<std::uint8_t> out(mask.size(), 0);
+  const int lines = along_rows ? height : width, length = along_rows ? width : height;
+  const std::size_t step = along_rows ? 1 : std::size_t(width);
+  for (int line = 0; line < lines; ++line) {
+    const std::size_t first = along_rows ? std::size_t(line) * std::size_t(width) : std::size_t(line);
+    const auto at = [&](int k) { return mask[first + std::size_t(k) * step] != 0; };
+    int in_window = 0;
+    for (int k = 0; k < std::min(reach, length); ++k) in_window += at(k);
+    for (int k = 0; k < length; ++k) {
+      if (k + reach < length) in_window += at(k + reach);
+      if (k - reach - 1 >= 0) in_window -= at(k - reach - 1);
+      out[first + std::size_t(k) * step] = in_window > 0;
+    }
+  }
+  return out;
+}
+
 void extendIntoVoids(float* values, std::vector<std::uint8_t>& valid, int width, int height) {
   constexpr int kReach = EdgeExtension::kPixels;
   if (std::all_of(valid.begin(), valid.end(), [](std::uint8_t v) { return v != 0; })) return;
-  const std::size_t w = std::size_t(width);
-  // Pixels within kReach of data, in rows and columns and diagonally: the
-  // data dilated along rows, then along columns.
-  std::vector<std::uint8_t> along_rows(valid.size(), 0), near_data(valid.size(), 0);
-  for (int r = 0; r < height; ++r) {
-    for (int c = 0; c < width; ++c) {
-      for (int cc = std::max(0, c - kReach); cc <= std::min(width - 1, c + kReach); ++cc) {
-        along_rows[std::size_t(r) * w + std::size_t(c)] |= valid[std::size_t(r) * w + std::size_t(cc)];
-      }
-    }
-  }
-  for (int r = 0; r < height; ++r) {
-    for (int c = 0; c < width; ++c) {
-      for (int rr = std::max(0, r - kReach); rr <= std::min(height - 1, r + kReach); ++rr) {
-        near_data[std::size_t(r) * w + std::size_t(c)] |= along_rows[std::size_t(rr) * w + std::size_t(c)];
-      }
-    }
+  // Void pixels within kReach of data, in rows and columns and diagonally:
+  // the data dilated along rows, then along columns.
+  const std::vector<std::uint8_t> near_data =
+      dilated(dilated(valid, width, height, true, kReach), width, height, false, kReach);
+  std::vector<std::size_t> pending;
+  for (std::size_t i = 0; i < valid.size(); ++i) {
+    if (!valid[i] && near_data[i]) pending.push_back(i);
   }
   // Ring by ring, each from the data and the rings before it; a pixel
   // diagonal to the data waits for the rings beside it. Twice kReach rings
   // reach the far corner.
   const PixelGrid grid{width, height, values, &valid};
   std::vector<std::pair<std::size_t, float>> ring;
-  for (int pass = 0; pass < 2 * kReach; ++pass) {
+  std::vector<std::size_t> still_pending;
+  for (int pass = 0; pass < 2 * kReach && !pending.empty(); ++pass) {
     ring.clear();
-    for (int r = 0; r < height; ++r) {
-      for (int c = 0; c < width; ++c) {
-        const std::size_t i = std::size_t(r) * std::size_t(width) + std::size_t(c);
-        if (valid[i] || !near_data[i]) continue;
-        if (const auto value = extrapolated(grid, c, r)) ring.emplace_back(i, *value);
+    still_pending.clear();
+    for (const std::size_t i : pending) {
+      const int r = int(i / std::size_t(width)), c = int(i % std::size_t(width));
+      if (const auto value = extrapolated(grid, c, r)) {
+        ring.emplace_back(i, *value);
+      } else {
+        still_pending.push_back(i);
       }
     }
     for (const auto& [i, value] : ring) {
       values[i] = value;
       valid[i] = 1;
     }
+    pending.swap(still_pending);
   }
 }
 

@@ -13,9 +13,9 @@
 namespace terrabake::dem {
 namespace {
 
-// Samples read at once: 32 MiB a worker, half of what GDAL's warper allows a
-// chunk by default.
-constexpr long kMaxStripPixels = 8L << 20;
+// Samples read at once: 1 Mi, about 32 MiB a worker with their masks and
+// three prefix sums (31 bytes a sample).
+constexpr long kMaxStripPixels = 1L << 20;
 // A texel is covered when at least half its weight lies on valid samples,
 // which is about when its centre lies on the data: that is where the DEM's
 // edge and its voids end for alpha and for the hole fill.
@@ -95,6 +95,119 @@ std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const G
   return footprints;
 }
 
+// The mean along one row over a span, as two ends: the samples joined by
+// straight lines and integrated from minus infinity to each end (tentIntegral
+// of each sample's tent) give the integral over the span as the difference
+// of the two, divided by the span's width. Pixels up to `full` lie wholly
+// before an end (prefix sums count them); at most two more lie part way.
+struct SpanEnd {
+  long full = 0;                 // prefix sums up to this pixel index (from col0), exclusive
+  int partial_count = 0;
+  long partial[2] = {0, 0};      // pixel indices from col0
+  double partial_share[2] = {0, 0};
+};
+
+struct RowSpan {
+  SpanEnd low, high;
+  double width = 1;
+};
+
+SpanEnd spanEndAt(double end, long col0, long col1) {
+  const long count = col1 - col0 + 1;
+  SpanEnd e;
+  // Pixel x (centre x + 0.5) lies wholly before `end` when x <= end - 1.5,
+  // not at all when x >= end + 0.5.
+  const long last_full = long(std::floor(end - 1.5));
+  e.full = std::clamp(last_full + 1 - col0, 0L, count);
+  for (long x = last_full + 1; double(x) < end + 0.5; ++x) {
+    if (x < col0 || x > col1) continue;
+    const double share = tentIntegral(end - (double(x) + 0.5));
+    if (share <= 0) continue;
+    e.partial[e.partial_count] = x - col0;
+    e.partial_share[e.partial_count] = share;
+    ++e.partial_count;
+  }
+  return e;
+}
+
+std::vector<RowSpan> rowSpansOf(const std::vector<Footprint>& footprints, long col0, long col1) {
+  std::vector<RowSpan> spans(footprints.size());
+  for (std::size_t k = 0; k < footprints.size(); ++k) {
+    if (!footprints[k].known) continue;
+    const Span& x = footprints[k].x;
+    spans[k] = {spanEndAt(x.low, col0, col1), spanEndAt(x.low + x.width, col0, col1), x.width};
+  }
+  return spans;
+}
+
+// A row's tent-weighted means over a span, of the heights on valid samples,
+// of validity and of the DEM's own data.
+struct RowSums {
+  double height = 0, valid = 0, data = 0;
+};
+
+// Of each row of a strip, prefix sums of the three along the row, so that
+// a mean over a span of a row costs the same whatever the span's width.
+class RowPrefixSums {
+ public:
+  // Rows [first_row, first_row + row_count) of the strip, pixels
+  // [first_col, first_col + col_count) of each, the strip being `stride` wide.
+  void build(const std::vector<float>& strip, const std::vector<std::uint8_t>& valid,
+             const std::vector<std::uint8_t>& data, long stride, long first_col, long col_count, long first_row,
+             long row_count) {
+    m_width = col_count + 1;
+    m_height_sums.resize(std::size_t(m_width * row_count));
+    m_valid_sums.resize(m_height_sums.size());
+    m_data_sums.resize(m_height_sums.size());
+    m_strip = &strip, m_valid = &valid, m_data = &data;
+    m_stride = stride, m_first_col = first_col, m_first_row = first_row;
+    for (long r = 0; r < row_count; ++r) {
+      const std::size_t in = std::size_t((first_row + r) * stride + first_col);
+      const std::size_t out = std::size_t(r * m_width);
+      double height = 0, valid_count = 0, data_count = 0;
+      m_height_sums[out] = m_valid_sums[out] = m_data_sums[out] = 0;
+      for (long i = 0; i < col_count; ++i) {
+        if (valid[in + std::size_t(i)]) {
+          height += strip[in + std::size_t(i)];
+          valid_count += 1;
+          data_count += data[in + std::size_t(i)];
+        }
+        m_height_sums[out + std::size_t(i) + 1] = height;
+        m_valid_sums[out + std::size_t(i) + 1] = valid_count;
+        m_data_sums[out + std::size_t(i) + 1] = data_count;
+      }
+    }
+  }
+
+  RowSums meanAlong(long row, const RowSpan& span) const {
+    const std::size_t base = std::size_t(row * m_width);
+    RowSums high = integralTo(base, row, span.high), low = integralTo(base, row, span.low);
+    return {(high.height - low.height) / span.width, (high.valid - low.valid) / span.width,
+            (high.data - low.data) / span.width};
+  }
+
+ private:
+  // Each quantity along the row, joined by straight lines, integrated up to an end.
+  RowSums integralTo(std::size_t base, long row, const SpanEnd& end) const {
+    RowSums sums{m_height_sums[base + std::size_t(end.full)], m_valid_sums[base + std::size_t(end.full)],
+                 m_data_sums[base + std::size_t(end.full)]};
+    for (int p = 0; p < end.partial_count; ++p) {
+      const std::size_t i = std::size_t((m_first_row + row) * m_stride + m_first_col + end.partial[p]);
+      if (!(*m_valid)[i]) continue;
+      sums.height += end.partial_share[p] * (*m_strip)[i];
+      sums.valid += end.partial_share[p];
+      if ((*m_data)[i]) sums.data += end.partial_share[p];
+    }
+    return sums;
+  }
+
+  long m_width = 0, m_stride = 0, m_first_col = 0, m_first_row = 0;
+  std::vector<double> m_height_sums, m_valid_sums, m_data_sums;
+  const std::vector<float>* m_strip = nullptr;
+  const std::vector<std::uint8_t>* m_valid = nullptr;
+  const std::vector<std::uint8_t>* m_data = nullptr;
+};
+
 }  // namespace
 
 std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const LatticeTransformer& to_source,
@@ -115,21 +228,22 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
   if (col0 > col1 || row0 > row1) return heights;
 
   // Strips of whole rows, top to bottom; every texel adds its rows in that
-  // order, so its sum does not depend on where strips break, nor on which
-  // window it was read for. Each strip is read with a halo, so that the void
-  // samples next to data are extended (extendIntoVoids) from the same
-  // samples whatever the strip or the window: a footprint that reaches past
-  // the data then averages the data carried on, not the part on data alone,
-  // whose middle lies off the texel's.
+  // order, so its sum does not depend on where strips break. Each strip is
+  // read with a halo, so that the void samples next to data are extended
+  // (extendIntoVoids) from the same samples whatever the strip or the
+  // window: a footprint that reaches past the data then averages the data
+  // carried on, not the part on data alone, whose middle lies off the texel's.
   const long halo = EdgeExtension::kSourceExtra;
   const long read_col0 = std::max(0L, col0 - halo), read_col1 = std::min(raster_w - 1, col1 + halo);
   const long cols = read_col1 - read_col0 + 1;
   const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
+  const std::vector<RowSpan> x_spans = rowSpansOf(footprints, col0, col1);
   std::vector<float> strip;
   std::vector<std::uint8_t> valid, data;
+  RowPrefixSums prefix;
   std::vector<double> sum(footprints.size(), 0.0), weight(footprints.size(), 0.0);
   std::vector<double> data_weight(footprints.size(), 0.0);
-  std::vector<double> x_weights, y_weights;
+  std::vector<double> y_weights;
   for (long top = row0; top <= row1; top += strip_rows) {
     const long bottom = std::min(row1, top + strip_rows - 1);
     const long read_top = std::max(0L, top - halo), read_bottom = std::min(raster_h - 1, bottom + halo);
@@ -149,28 +263,18 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
     voids.count(implausible);
     valid = data;
     extendIntoVoids(strip.data(), valid, int(cols), rows);
+    prefix.build(strip, valid, data, cols, col0 - read_col0, col1 - col0 + 1, top - read_top, bottom - top + 1);
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom) continue;
-      spanWeights(f.x, x_weights);
       spanWeights(f.y, y_weights);
-      const long x_from = std::max(f.x.first, col0), x_to = std::min(f.x.last, col1);
       const long y_from = std::max(f.y.first, top), y_to = std::min(f.y.last, bottom);
       for (long y = y_from; y <= y_to; ++y) {
-        const std::size_t row = std::size_t(y - read_top) * std::size_t(cols);
-        double row_sum = 0, row_weight = 0, row_data = 0;
-        for (long x = x_from; x <= x_to; ++x) {
-          const std::size_t i = row + std::size_t(x - read_col0);
-          if (!valid[i]) continue;
-          const double w = x_weights[std::size_t(x - f.x.first)];
-          row_sum += w * strip[i];
-          row_weight += w;
-          if (data[i]) row_data += w;
-        }
+        const RowSums row = prefix.meanAlong(y - top, x_spans[k]);
         const double row_share = y_weights[std::size_t(y - f.y.first)];
-        sum[k] += row_share * row_sum;
-        weight[k] += row_share * row_weight;
-        data_weight[k] += row_share * row_data;
+        sum[k] += row_share * row.height;
+        weight[k] += row_share * row.valid;
+        data_weight[k] += row_share * row.data;
       }
     }
   }

@@ -91,6 +91,8 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
   std::once_flag renderer_logged;
+  std::mutex times_mutex;
+  StageTimes times;  // of every worker, summed when each ends
   Progress progress(count, ::isatty(STDERR_FILENO));
 
   auto worker = [&] {
@@ -107,6 +109,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
       summary.renderer = maker->bakerDescription();
       log::info("baking with " + summary.renderer);
     });
+    StageTimes::Seconds written_for{0};
     for (std::size_t i = next++; i < count; i = next++) {
       if (options.stop && *options.stop) break;
       const TileId tile = tileOf(i);
@@ -114,7 +117,9 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         if (options.resume && sink->hasTile(tile)) {
           ++skipped;
         } else if (const auto files = maker->make(tile)) {
+          const auto write_start = std::chrono::steady_clock::now();
           sink->write(tile, *files);
+          written_for += std::chrono::steady_clock::now() - write_start;
           ++written;
         } else {
           ++empty;
@@ -125,6 +130,10 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
       }
       progress.tileDone();
     }
+    StageTimes worker_times = maker->stageTimes();
+    worker_times.write = written_for;
+    std::lock_guard<std::mutex> lock(times_mutex);
+    times += worker_times;
   };
 
   std::vector<std::thread> threads;
@@ -132,6 +141,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   for (auto& t : threads) t.join();
   progress.finish();
   if (fatal) std::rethrow_exception(fatal);
+  if (times.tiles > 0) log::info("time per tile, in the workers: " + times.perTile());
 
   summary.written = written;
   summary.skipped = skipped;

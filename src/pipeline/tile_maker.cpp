@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <utility>
 
 #include <glm/geometric.hpp>
@@ -81,6 +82,25 @@ GridSpec northStrip(const tiling::Scheme& scheme, const TileId& tile) {
 
 }  // namespace
 
+StageTimes& StageTimes::operator+=(const StageTimes& other) {
+  read += other.read;
+  meshes += other.meshes;
+  bake += other.bake;
+  encode += other.encode;
+  write += other.write;
+  tiles += other.tiles;
+  return *this;
+}
+
+std::string StageTimes::perTile() const {
+  const double n = double(std::max<std::size_t>(tiles, 1));
+  const auto ms = [&](Seconds s) { return 1000 * s.count() / n; };
+  char text[160];
+  std::snprintf(text, sizeof text, "read %.1f ms, meshes %.1f ms, bake %.1f ms, encode %.1f ms, write %.1f ms",
+                ms(read), ms(meshes), ms(bake), ms(encode), ms(write));
+  return text;
+}
+
 struct TileMaker::Impl {
   dem::DemSource dem;
   std::shared_ptr<const LayerPlan> plan;
@@ -88,6 +108,7 @@ struct TileMaker::Impl {
   const TileSettings& settings;
   dem::ToLonLat to_lon_lat;
   std::unique_ptr<bake::Baker> baker;
+  StageTimes times;
 
   explicit Impl(std::shared_ptr<const LayerPlan> p)
       : dem(p->dem->reader()),
@@ -230,17 +251,31 @@ TileMaker::~TileMaker() = default;
 
 std::string TileMaker::bakerDescription() const { return m_impl->baker->description(); }
 
+const StageTimes& TileMaker::stageTimes() const { return m_impl->times; }
+
 std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   Impl& s = *m_impl;
+  using Clock = std::chrono::steady_clock;
+  Clock::time_point last = Clock::now();
+  const auto lap = [&](StageTimes::Seconds& stage) {
+    const Clock::time_point now = Clock::now();
+    stage += now - last;
+    last = now;
+  };
+  ++s.times.tiles;
   const dem::ReadPlan& read_plan = s.plan->read_plans.at(tile.z);
   const int size = s.scheme.tileSize();
   const int apron = s.settings.apron;
   const GridSpec grid = s.scheme.texelGrid(tile, apron);
   Raster<float> read = s.dem.read(grid, read_plan);
-  if (!hasValidSample(read, apron, size)) return std::nullopt;
+  if (!hasValidSample(read, apron, size)) {
+    lap(s.times.read);
+    return std::nullopt;
+  }
   // Coverage is what the DEM itself gives, before any fill.
   Raster<std::uint8_t> from_dem;
   const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem);
+  lap(s.times.read);
 
   const geo::LocalFrame frame = s.frameAtCentre(tile);
   mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
@@ -248,7 +283,9 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);
   mesh::MeasuredMesh low_poly = s.lowPolyMesh(tile, samples, read_plan);
   mesh::TriangleMesh& low = low_poly.mesh;
+  lap(s.times.meshes);
   const bake::NormalMap map = s.baker->bake(high, low, size);
+  lap(s.times.bake);
   const bool cut = s.settings.nodata_surface == NodataSurface::kCut;
   if (cut) mesh::dropTrianglesWithoutData(low, samples);
   if (s.settings.skirts) mesh::addSkirts(low, s.skirtDepthM(tile, samples, low_poly.max_error_m));
@@ -261,6 +298,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.max_error_m = low_poly.max_error_m;
   const geo::Region region = geo::regionOfMesh(low.position, frame, mesh::longestEdgeM(low));
   glb_info.region = {region.west, region.south, region.east, region.north, region.min_height_m, region.max_height_m};
+  lap(s.times.meshes);
   io::TileFiles files;
   Image<std::uint16_t> image = bake::encodeNormalMap(map, s.settings.bits, s.settings.green);
   if (s.settings.alpha) {
@@ -287,6 +325,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
     if (cut) mesh::dropTrianglesWithoutData(display, samples);
     files.high_res_glb = io::encodeGlb(display, glb_info);
   }
+  lap(s.times.encode);
   return files;
 }
 

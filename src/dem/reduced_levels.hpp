@@ -1,0 +1,52 @@
+#pragma once
+// Coarser copies of a DEM file that has no overviews, made once per job and
+// kept in memory, internal to the dem module: a coarse zoom then averages a
+// few pixels of a reduced level per texel instead of thousands of the file's,
+// so every zoom costs about what a tile of the deepest does.
+//
+// Level i is `factor(i)` times coarser than the file, each level made from
+// the one below it (as GDAL makes overviews): a pixel is the mean of the
+// valid pixels below it, void (NaN) where none is. The finest level is the
+// first whose levels together fit kMaxBytes, so memory stays bounded
+// whatever the file's size; coarser ones go on halving down to a tile's size.
+#include <gdal_priv.h>
+
+#include <memory>
+#include <vector>
+
+#include "dem/void_samples.hpp"
+
+namespace terrabake::dem {
+
+class ReducedLevels {
+ public:
+  // Every level together, in memory, shared by the job's readers.
+  static constexpr std::size_t kMaxBytes = std::size_t(128) << 20;
+  // Files above this many pixels are not reduced (building reads the whole
+  // file once: about two seconds for 16384 x 16384 here); their coarse zooms
+  // read decimated instead.
+  static constexpr double kMaxSourcePixels = double(1L << 28);
+
+  // The levels of `band` (north-up), or nullptr when the file is too large
+  // or too small to gain from them. Void samples are those `voids` says.
+  // Throws InputError when GDAL cannot read the band.
+  static std::shared_ptr<const ReducedLevels> build(GDALRasterBand& band, const VoidRule& voids,
+                                                    const std::string& path);
+
+  std::size_t count() const { return m_levels.size(); }
+  int widthOf(std::size_t level) const { return m_levels[level].width; }
+
+  // A dataset of its own over level `level`'s shared pixels, for one reader,
+  // georeferenced from the file's north-up geotransform and CRS (WKT).
+  GDALDataset* open(std::size_t level, const double* file_gt, const std::string& wkt) const;
+
+ private:
+  struct Level {
+    int factor = 1;
+    int width = 0, height = 0;
+    std::vector<float> heights;
+  };
+  std::vector<Level> m_levels;
+};
+
+}  // namespace terrabake::dem

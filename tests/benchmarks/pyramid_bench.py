@@ -1,0 +1,182 @@
+#!/usr/bin/python3
+"""Whole-pyramid throughput: terrabake per backend against the GDAL chain, in one run.
+
+    tests/benchmarks/pyramid_bench.py [--build DIR] [--size PIXELS] [--zoom 8-14] [--workers 2]
+                                      [--backends cpu,osmesa] [--per-zoom REPEATS] [--keep DIR]
+
+1. Pyramid: the bundled sample DEM warped to EPSG:3857 (--size x --size
+   pixels, Float32, cubic), tiled over --zoom by
+   - the GDAL chain a user runs for shaded tiles: `gdaldem hillshade` then
+     `gdal2tiles.py --processes N` (grey shading only, no mesh);
+   - `terrabake tile --backend B --workers N` for each backend.
+   It prints tiles/s, the ratio to the GDAL chain, peak memory (RSS of the
+   process tree's largest process) and terrabake's per-stage milliseconds per
+   tile (the workers' time, from its `time per tile` log line).
+2. With --per-zoom R: a DEM of (1024 R)^2 pixels without overviews (a VRT
+   repeating the sample, so nothing on disk), tiled zoom by zoom from 0 to the
+   deepest `auto` picks; each zoom is limited to at most --max-tiles tiles
+   round the DEM's centre. It prints the mean time per tile of each zoom and
+   its ratio to the deepest zoom's.
+
+Timings on a shared machine are noisy: compare rows of one run.
+"""
+import argparse
+import math
+import os
+import re
+import shutil
+import subprocess
+import sys
+import tempfile
+import time
+
+repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+parser.add_argument("--build", default=os.path.join(repo, "build"))
+parser.add_argument("--size", type=int, default=4096)
+parser.add_argument("--zoom", default="8-14")
+parser.add_argument("--workers", type=int, default=2)
+parser.add_argument("--backends", default="cpu,osmesa")
+parser.add_argument("--per-zoom", type=int, default=0, metavar="REPEATS")
+parser.add_argument("--max-tiles", type=int, default=48)
+parser.add_argument("--keep", default=None, help="work in this folder and keep it")
+args = parser.parse_args()
+
+terrabake = os.path.join(args.build, "src", "app", "terrabake")
+sample = os.path.join(repo, "tests", "data", "sample_dem.tif")
+SAMPLE_PIXELS = 1024
+SAMPLE_PIXEL_M = 30.0
+SAMPLE_ORIGIN = (561360.0, 5165460.0)  # EPSG:32632, the sample's own
+SAMPLE_INNER_LON_LAT = ("9.81", "46.37", "10.19", "46.63")  # west south east north, inside its data
+
+# Runs a command in a child of its own and returns (seconds, peak RSS MiB, stdout + stderr).
+PROBE = ("import resource, subprocess, sys, time; t = time.monotonic(); "
+         "r = subprocess.run(sys.argv[1:], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True); "
+         "print(r.stdout, end=''); "
+         "print('PROBE', time.monotonic() - t, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+         "sys.exit(r.returncode)")
+
+
+def measured(command, env=None):
+    result = subprocess.run([sys.executable, "-c", PROBE] + command, capture_output=True, text=True, env=env)
+    probe = re.search(r"PROBE ([0-9.]+) (\d+)\s*$", result.stdout)
+    if result.returncode != 0 or not probe:
+        print(" ".join(command) + " failed:\n" + result.stdout[-3000:] + result.stderr[-2000:], file=sys.stderr)
+        sys.exit(1)
+    return float(probe.group(1)), int(probe.group(2)) / 1024, result.stdout
+
+
+def count_files(folder, suffix):
+    return sum(1 for _, _, files in os.walk(folder) for f in files if f.endswith(suffix))
+
+
+def terrabake_run(dem, out, layer, zoom, backend, extra=()):
+    command = [terrabake, "tile", "--dem", dem, "--zoom", zoom, "--out", out, "--layer", layer,
+               "--workers", str(args.workers), "--backend", backend, "--force", *extra]
+    seconds, peak, output = measured(command)
+    summary = re.search(r"wrote (\d+) tiles .*\((\d+) skipped, (\d+) empty, (\d+) failed\) in ([0-9.]+) s", output)
+    if not summary or int(summary.group(4)) != 0:
+        print(output[-3000:], file=sys.stderr)
+        sys.exit(1)
+    stages = re.search(r"time per tile, in the workers: (.*)", output)
+    return int(summary.group(1)), seconds, peak, stages.group(1).strip() if stages else ""
+
+
+def pyramid(work):
+    dem = os.path.join(work, "dem3857.tif")
+    # The sample's lon/lat box less a margin, so that every pixel holds data.
+    subprocess.run(["gdalwarp", "-q", "-overwrite", "-t_srs", "EPSG:3857", "-te_srs", "EPSG:4326",
+                    "-te", *SAMPLE_INNER_LON_LAT, "-ts", str(args.size), str(args.size), "-r", "cubic",
+                    "-ot", "Float32", "-co", "TILED=YES", sample, dem], check=True)
+    print(f"Pyramid: {args.size} x {args.size} EPSG:3857 DEM (the sample, warped), zooms {args.zoom}, "
+          f"{args.workers} workers or processes each")
+    rows = []
+    shade = os.path.join(work, "hillshade.tif")
+    gdal_out = os.path.join(work, "gdal2tiles")
+    shutil.rmtree(gdal_out, ignore_errors=True)
+    t_shade, peak_shade, _ = measured(["gdaldem", "hillshade", "-q", "-compute_edges", dem, shade])
+    t_tiles, peak_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
+                                       "-w", "none", "-r", "average", "--xyz", shade, gdal_out])
+    gdal_tiles = count_files(gdal_out, ".png")
+    gdal_rate = gdal_tiles / (t_shade + t_tiles)
+    rows.append(("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_rate,
+                 max(peak_shade, peak_tiles), ""))
+    for backend in args.backends.split(","):
+        tiles, seconds, peak, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
+        rows.append((f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, peak, stages))
+    print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
+    for name, tiles, seconds, rate, peak, _ in rows:
+        print(f"{name:<34}{tiles:>7}{seconds:>9.2f}{rate:>9.1f}{rate / gdal_rate:>8.2f}x{peak:>10.0f}")
+    print("\nterrabake, milliseconds per tile by stage (summed over the workers):")
+    for name, _, _, _, _, stages in rows[1:]:
+        print(f"  {name:<32}{stages}")
+
+
+def write_vrt(path, repeats):
+    size = repeats * SAMPLE_PIXELS
+    sources = "".join(
+        f'<SimpleSource><SourceFilename relativeToVRT="0">{sample}</SourceFilename>'
+        f'<SourceBand>1</SourceBand>'
+        f'<SrcRect xOff="0" yOff="0" xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/>'
+        f'<DstRect xOff="{col * SAMPLE_PIXELS}" yOff="{row * SAMPLE_PIXELS}" '
+        f'xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/></SimpleSource>'
+        for row in range(repeats) for col in range(repeats))
+    with open(path, "w") as f:
+        f.write(f'<VRTDataset rasterXSize="{size}" rasterYSize="{size}"><SRS>EPSG:32632</SRS>'
+                f'<GeoTransform>{SAMPLE_ORIGIN[0]}, {SAMPLE_PIXEL_M}, 0, {SAMPLE_ORIGIN[1]}, 0, '
+                f'{-SAMPLE_PIXEL_M}</GeoTransform>'
+                f'<VRTRasterBand dataType="Int16" band="1">{sources}</VRTRasterBand></VRTDataset>\n')
+    return size
+
+
+def lon_lat_of_centre(repeats):
+    from osgeo import osr
+    utm = osr.SpatialReference()
+    utm.ImportFromEPSG(32632)
+    wgs84 = osr.SpatialReference()
+    wgs84.ImportFromEPSG(4326)
+    wgs84.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
+    half = repeats * SAMPLE_PIXELS * SAMPLE_PIXEL_M / 2
+    lon, lat, _ = osr.CoordinateTransformation(utm, wgs84).TransformPoint(SAMPLE_ORIGIN[0] + half,
+                                                                          SAMPLE_ORIGIN[1] - half)
+    return lon, lat
+
+
+def deepest_zoom(vrt):
+    output = subprocess.run([terrabake, "info", vrt], capture_output=True, text=True).stdout
+    match = re.search(r"webmercator +\d+-(\d+)", output)
+    return int(match.group(1)) if match else 12
+
+
+def per_zoom(work):
+    vrt = os.path.join(work, "big.vrt")
+    size = write_vrt(vrt, args.per_zoom)
+    lon, lat = lon_lat_of_centre(args.per_zoom)
+    deepest = deepest_zoom(vrt)
+    print(f"\nPer zoom: {size} x {size} DEM without overviews (30 m, EPSG:32632), zooms 0-{deepest}, "
+          f"at most about {args.max_tiles} tiles round the centre each, backend cpu")
+    print(f"{'zoom':>5}{'tiles':>7}{'seconds':>9}{'ms/tile':>9}{'vs deepest':>12}{'peak MiB':>10}")
+    results = []
+    for z in range(0, deepest + 1):
+        # A box of about max_tiles tiles of zoom z round the centre (webmercator tile size at lat).
+        tile_deg = 360.0 / 2 ** z
+        half_deg = tile_deg * math.sqrt(args.max_tiles) / 2 * 0.999
+        half_lat = half_deg * math.cos(math.radians(lat))
+        bbox = f"{max(lon - half_deg, -180)},{max(lat - half_lat, -85)},{min(lon + half_deg, 180)}," \
+               f"{min(lat + half_lat, 85)}"
+        tiles, seconds, peak, _ = terrabake_run(vrt, os.path.join(work, "zooms"), f"z{z}", str(z), "cpu",
+                                                ["--bbox", bbox])
+        results.append((z, tiles, seconds, peak))
+    deepest_ms = 1000 * results[-1][2] * args.workers / results[-1][1]
+    for z, tiles, seconds, peak in results:
+        ms = 1000 * seconds * args.workers / tiles
+        print(f"{z:>5}{tiles:>7}{seconds:>9.2f}{ms:>9.1f}{ms / deepest_ms:>11.2f}x{peak:>10.0f}")
+    print("ms/tile: wall time x workers / tiles, start-up included.")
+
+
+with tempfile.TemporaryDirectory(prefix="terrabake-pyramid-") as tmp:
+    work = args.keep or tmp
+    os.makedirs(work, exist_ok=True)
+    pyramid(work)
+    if args.per_zoom:
+        per_zoom(work)
