@@ -167,25 +167,29 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
   const double reach_sq = double(reach) * reach;
   Raster<float> filled(around.width - 2 * margin, around.height - 2 * margin);
   for (int r = margin; r < around.height - margin; ++r) {
-    const std::size_t first = edge.row_start[std::size_t(std::max(0, r - reach))];
-    const std::size_t last = edge.row_start[std::size_t(std::min(around.height, r + reach + 1))];
+    const int row_from = std::max(0, r - reach + 1), row_to = std::min(around.height - 1, r + reach - 1);
     for (int c = margin; c < around.width - margin; ++c) {
       float& out = filled.at(c - margin, r - margin);
       out = around.at(c, r);
       if (!std::isnan(out)) continue;
       // Inverse-distance weighted mean of the edge samples' planes within
       // reach, each weight tapered to zero at reach, and the same mean of
-      // their distances: a smooth distance to the edge.
+      // their distances: a smooth distance to the edge. Row by row, only the
+      // samples of a row less than reach away along it (the row is sorted).
       double weight_sum = 0, height_sum = 0, distance_sum = 0;
-      for (std::size_t k = first; k < last; ++k) {
-        const EdgePlane& e = edge.planes[k];
-        const double dc = c - e.c, dr = r - e.r, d_sq = dc * dc + dr * dr;
-        if (d_sq >= reach_sq) continue;
-        const double taper = (1 - d_sq / reach_sq) * (1 - d_sq / reach_sq);
-        const double weight = taper / (d_sq * d_sq * d_sq);
-        weight_sum += weight;
-        height_sum += weight * e.at(c, r);
-        distance_sum += weight * std::sqrt(d_sq);
+      for (int rr = row_from; rr <= row_to; ++rr) {
+        const auto row_end = edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr) + 1]);
+        auto e = std::lower_bound(edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr)]), row_end,
+                                  c - reach + 1, [](const EdgePlane& p, int col) { return p.c < col; });
+        for (; e != row_end && e->c < c + reach; ++e) {
+          const double dc = c - e->c, dr = r - e->r, d_sq = dc * dc + dr * dr;
+          if (d_sq >= reach_sq) continue;
+          const double taper = (1 - d_sq / reach_sq) * (1 - d_sq / reach_sq);
+          const double weight = taper / (d_sq * d_sq * d_sq);
+          weight_sum += weight;
+          height_sum += weight * e->at(c, r);
+          distance_sum += weight * std::sqrt(d_sq);
+        }
       }
       const double far = backdrop.at(c - margin, r - margin);
       const double blend = weight_sum > 0 ? fadeOut(distance_sum / weight_sum / reach) : 0.0;

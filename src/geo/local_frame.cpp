@@ -2,7 +2,9 @@
 
 #include <GeographicLib/Geocentric.hpp>
 #include <GeographicLib/LocalCartesian.hpp>
+#include <GeographicLib/Math.hpp>
 
+#include <cmath>
 #include <vector>
 
 namespace terrabake::geo {
@@ -25,6 +27,41 @@ glm::dvec3 LocalFrame::toLocal(double lon_deg, double lat_deg, double height_m) 
   double east = 0, north = 0, up = 0;
   m_impl->enu.Forward(lat_deg, lon_deg, height_m, east, north, up);
   return {east, up, -north};
+}
+
+std::vector<glm::dvec3> LocalFrame::toLocalGraticule(const std::vector<double>& lon_deg,
+                                                     const std::vector<double>& lat_deg,
+                                                     const std::vector<float>& heights_m) const {
+  using GeographicLib::Math;
+  const GeographicLib::Geocentric& earth = GeographicLib::Geocentric::WGS84();
+  const double a = earth.EquatorialRadius(), f = earth.Flattening();
+  const double e2 = f * (2 - f), e2m = Math::sq(1 - f);
+  // The origin and the rotation from ECEF to east-north-up, as LocalCartesian keeps them.
+  double x0 = 0, y0 = 0, z0 = 0;
+  std::vector<double> m(9);
+  earth.Forward(m_lat_deg, m_lon_deg, 0.0, x0, y0, z0, m);
+  // Geocentric's forward formula, its trigonometry once per column and per row.
+  std::vector<double> sin_lon(lon_deg.size()), cos_lon(lon_deg.size());
+  for (std::size_t c = 0; c < lon_deg.size(); ++c) Math::sincosd(lon_deg[c], sin_lon[c], cos_lon[c]);
+  std::vector<glm::dvec3> local(lon_deg.size() * lat_deg.size());
+  for (std::size_t r = 0; r < lat_deg.size(); ++r) {
+    double sin_lat = 0, cos_lat = 0;
+    Math::sincosd(Math::LatFix(lat_deg[r]), sin_lat, cos_lat);
+    const double n = a / std::sqrt(1 - e2 * Math::sq(sin_lat));
+    for (std::size_t c = 0; c < lon_deg.size(); ++c) {
+      const std::size_t k = r * lon_deg.size() + c;
+      const double h = heights_m[k];
+      const double z = (e2m * n + h) * sin_lat - z0;
+      const double xy = (n + h) * cos_lat;
+      const double y = xy * sin_lon[c] - y0;
+      const double x = xy * cos_lon[c] - x0;
+      const double east = m[0] * x + m[3] * y + m[6] * z;
+      const double north = m[1] * x + m[4] * y + m[7] * z;
+      const double up = m[2] * x + m[5] * y + m[8] * z;
+      local[k] = {east, up, -north};
+    }
+  }
+  return local;
 }
 
 glm::dvec3 LocalFrame::toGeodetic(const glm::dvec3& local) const {

@@ -3,6 +3,7 @@
 // WGS84 ellipsoid, with glTF's axes (+X east, +Y up, +Z south).
 #include <array>
 #include <memory>
+#include <vector>
 
 #include <glm/vec3.hpp>
 
@@ -21,6 +22,11 @@ class LocalFrame {
 
   // Geodetic point (height in metres above the ellipsoid) to glTF-axis metres.
   glm::dvec3 toLocal(double lon_deg, double lat_deg, double height_m) const;
+  // toLocal of every point of a graticule, row by row: (lon_deg[c],
+  // lat_deg[r]) at height heights_m[r * lon_deg.size() + c]. One sine and
+  // cosine per column and per row instead of per point.
+  std::vector<glm::dvec3> toLocalGraticule(const std::vector<double>& lon_deg, const std::vector<double>& lat_deg,
+                                           const std::vector<float>& heights_m) const;
   // glTF-axis metres to (lon_deg, lat_deg, height_m); lon in [-180, 180).
   glm::dvec3 toGeodetic(const glm::dvec3& local) const;
 

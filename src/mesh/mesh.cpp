@@ -23,9 +23,17 @@ glm::dvec3 interpolatePosition(const Raster<glm::dvec3>& grid, double s_col, dou
   return top * (1 - fr) + bottom * fr;
 }
 
+namespace {
+
+// cross(dv, du) points up for a surface seen from above.
+glm::dvec3 normalFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
+  return glm::normalize(glm::cross(dv, du));
+}
+
+}  // namespace
+
 VertexFrame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
-  // cross(dv, du) points up for a surface seen from above.
-  const glm::dvec3 n = glm::normalize(glm::cross(dv, du));
+  const glm::dvec3 n = normalFromDifferences(du, dv);
   const glm::dvec3 t = glm::normalize(du - n * glm::dot(n, du));
   const double w = glm::dot(glm::cross(n, t), -dv) >= 0 ? 1.0 : -1.0;
   return {n, glm::dvec4(t, w)};
@@ -74,6 +82,11 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
   return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
+// Its normal alone, the same as sampleFrame's.
+glm::dvec3 sampleNormal(const SampleGrid& samples, int c, int r) {
+  return normalFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> gridIndices(int cols, int rows) {
@@ -115,7 +128,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
       const int c = a + i, r = a + j;
       mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
       mesh.position.emplace_back(p.at(c, r));
-      mesh.normal.emplace_back(sampleFrame(samples, c, r).normal);
+      mesh.normal.emplace_back(sampleNormal(samples, c, r));
     }
   }
   return mesh;

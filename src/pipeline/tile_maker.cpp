@@ -151,14 +151,28 @@ struct TileMaker::Impl {
   // Positions of every sample in the frame of the tile's centre.
   mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
                                    const geo::LocalFrame& frame) const {
-    const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(grid);
     mesh::SampleGrid samples;
     samples.tile_size = scheme.tileSize();
     samples.apron = settings.apron;
     samples.position = Raster<glm::dvec3>(grid.width, grid.height);
-    for (std::size_t k = 0; k < lon_lat.size(); ++k) {
-      samples.position.data[k] = frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+    if (scheme.kind() == SchemeKind::kNative) {
+      const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(grid);
+      for (std::size_t k = 0; k < lon_lat.size(); ++k) {
+        samples.position.data[k] = frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+      }
+      return samples;
     }
+    // Web Mercator and geodetic grids are graticules: a column's longitude
+    // and a row's latitude are each one for the whole column or row.
+    std::vector<glm::dvec2> along_row(std::size_t(grid.width)), along_column(std::size_t(grid.height));
+    for (int c = 0; c < grid.width; ++c) along_row[std::size_t(c)] = {grid.centreX(c), grid.centreY(0)};
+    for (int r = 0; r < grid.height; ++r) along_column[std::size_t(r)] = {grid.centreX(0), grid.centreY(r)};
+    to_lon_lat.transform(along_row);
+    to_lon_lat.transform(along_column);
+    std::vector<double> lon(along_row.size()), lat(along_column.size());
+    for (std::size_t c = 0; c < lon.size(); ++c) lon[c] = along_row[c].x;
+    for (std::size_t r = 0; r < lat.size(); ++r) lat[r] = along_column[r].y;
+    samples.position.data = frame.toLocalGraticule(lon, lat, heights.data);
     return samples;
   }
 
