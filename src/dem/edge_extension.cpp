@@ -1,5 +1,7 @@
 #include "dem/edge_extension.hpp"
 
+#include "dem/mask_dilation.hpp"
+
 #include <gdal_vrt.h>
 
 #include <algorithm>
@@ -73,34 +75,12 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   return GDALDataset::FromHandle(vrt);
 }
 
-// Non-zero where any of `mask`'s samples within `reach` along one axis
-// (stride 1: rows; stride width: columns) is: a running count over the window.
-std::vector<std::uint8_t> dilated(const std::vector<std::uint8_t>& mask, int width, int height, bool along_rows,
-                                  int reach) {
-  std::vector<std::uint8_t> out(mask.size(), 0);
-  const int lines = along_rows ? height : width, length = along_rows ? width : height;
-  const std::size_t step = along_rows ? 1 : std::size_t(width);
-  for (int line = 0; line < lines; ++line) {
-    const std::size_t first = along_rows ? std::size_t(line) * std::size_t(width) : std::size_t(line);
-    const auto at = [&](int k) { return mask[first + std::size_t(k) * step] != 0; };
-    int in_window = 0;
-    for (int k = 0; k < std::min(reach, length); ++k) in_window += at(k);
-    for (int k = 0; k < length; ++k) {
-      if (k + reach < length) in_window += at(k + reach);
-      if (k - reach - 1 >= 0) in_window -= at(k - reach - 1);
-      out[first + std::size_t(k) * step] = in_window > 0;
-    }
-  }
-  return out;
-}
-
 void extendIntoVoids(float* values, std::vector<std::uint8_t>& valid, int width, int height) {
   constexpr int kReach = EdgeExtension::kPixels;
   if (std::all_of(valid.begin(), valid.end(), [](std::uint8_t v) { return v != 0; })) return;
   // Void pixels within kReach of data, in rows and columns and diagonally:
   // the data dilated along rows, then along columns.
-  const std::vector<std::uint8_t> near_data =
-      dilated(dilated(valid, width, height, true, kReach), width, height, false, kReach);
+  const std::vector<std::uint8_t> near_data = dilatedMask(valid, width, height, kReach);
   std::vector<std::size_t> pending;
   for (std::size_t i = 0; i < valid.size(); ++i) {
     if (!valid[i] && near_data[i]) pending.push_back(i);

@@ -1,5 +1,7 @@
 #include "dem/fill_holes.hpp"
 
+#include "dem/mask_dilation.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -165,6 +167,11 @@ bool fillHoles(Raster<float>& heights) {
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
   const EdgePlanes edge = edgePlanes(around);
   const double reach_sq = double(reach) * reach;
+  // Samples less than reach from an edge sample along both axes: the others
+  // are the backdrop's alone, with no plane to visit.
+  std::vector<std::uint8_t> is_edge(around.data.size(), 0);
+  for (const EdgePlane& e : edge.planes) is_edge[std::size_t(e.r) * std::size_t(around.width) + std::size_t(e.c)] = 1;
+  const std::vector<std::uint8_t> near_edge = dilatedMask(is_edge, around.width, around.height, reach - 1);
   Raster<float> filled(around.width - 2 * margin, around.height - 2 * margin);
   for (int r = margin; r < around.height - margin; ++r) {
     const int row_from = std::max(0, r - reach + 1), row_to = std::min(around.height - 1, r + reach - 1);
@@ -172,6 +179,10 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
       float& out = filled.at(c - margin, r - margin);
       out = around.at(c, r);
       if (!std::isnan(out)) continue;
+      if (!near_edge[std::size_t(r) * std::size_t(around.width) + std::size_t(c)]) {
+        out = backdrop.at(c - margin, r - margin);
+        continue;
+      }
       // Inverse-distance weighted mean of the edge samples' planes within
       // reach, each weight tapered to zero at reach, and the same mean of
       // their distances: a smooth distance to the edge. Row by row, only the
