@@ -14,9 +14,9 @@
    tile (the workers' time, from its `time per tile` log line).
 2. With --per-zoom R: a DEM of (1024 R)^2 pixels without overviews (a VRT
    repeating the sample, so nothing on disk), tiled zoom by zoom from 0 to the
-   deepest `auto` picks; each zoom is limited to at most --max-tiles tiles
-   round the DEM's centre. It prints the mean time per tile of each zoom and
-   its ratio to the deepest zoom's.
+   deepest `auto` picks, one worker; each zoom is limited to about
+   --max-tiles tiles round the DEM's centre. It prints the mean time per tile
+   of each zoom and its ratio to the deepest zoom's with as many tiles.
 
 Timings on a shared machine are noisy: compare rows of one run.
 """
@@ -70,9 +70,9 @@ def count_files(folder, suffix):
     return sum(1 for _, _, files in os.walk(folder) for f in files if f.endswith(suffix))
 
 
-def terrabake_run(dem, out, layer, zoom, backend, extra=()):
+def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
     command = [terrabake, "tile", "--dem", dem, "--zoom", zoom, "--out", out, "--layer", layer,
-               "--workers", str(args.workers), "--backend", backend, "--force", *extra]
+               "--workers", str(workers or args.workers), "--backend", backend, "--force", *extra]
     seconds, peak, output = measured(command)
     summary = re.search(r"wrote (\d+) tiles .*\((\d+) skipped, (\d+) empty, (\d+) failed\) in ([0-9.]+) s", output)
     if not summary or int(summary.group(4)) != 0:
@@ -155,24 +155,31 @@ def per_zoom(work):
     deepest = deepest_zoom(vrt)
     print(f"\nPer zoom: {size} x {size} DEM without overviews (30 m, EPSG:32632), zooms 0-{deepest}, "
           f"at most about {args.max_tiles} tiles round the centre each, backend cpu")
-    print(f"{'zoom':>5}{'tiles':>7}{'run s':>8}{'ms/tile':>9}{'vs deepest':>12}{'peak MiB':>10}")
-    results = []
-    for z in range(0, deepest + 1):
-        # A box of about max_tiles tiles of zoom z round the centre (webmercator tile size at lat).
-        tile_deg = 360.0 / 2 ** z
-        half_deg = tile_deg * math.sqrt(args.max_tiles) / 2 * 0.999
+    print(f"{'zoom':>5}{'tiles':>7}{'run s':>8}{'ms/tile':>9}{'deepest, as many tiles':>24}{'ratio':>7}"
+          f"{'peak MiB':>10}")
+
+    def run_zoom(z, budget):
+        """ms per tile (all stages, the workers' time) of about `budget` tiles of zoom z round the centre."""
+        tile_deg = 360.0 / 2 ** z  # a webmercator tile's width; its height at lat is cos(lat) of it
+        half_deg = tile_deg * math.sqrt(budget) / 2 * 0.999
         half_lat = half_deg * math.cos(math.radians(lat))
         bbox = f"{max(lon - half_deg, -180)},{max(lat - half_lat, -85)},{min(lon + half_deg, 180)}," \
                f"{min(lat + half_lat, 85)}"
         tiles, seconds, peak, stages = terrabake_run(vrt, os.path.join(work, "zooms"), f"z{z}", str(z), "cpu",
-                                                     ["--bbox", bbox])
-        ms = sum(float(v) for v in re.findall(r"([0-9.]+) ms", stages))
-        results.append((z, tiles, seconds, ms, peak))
-    deepest_ms = results[-1][3]
-    for z, tiles, seconds, ms, peak in results:
-        print(f"{z:>5}{tiles:>7}{seconds:>8.2f}{ms:>9.1f}{ms / deepest_ms:>11.2f}x{peak:>10.0f}")
-    print("ms/tile: the workers' time per tile, all stages (terrabake's `time per tile` line); run s: the whole\n"
-          "run's wall time, with what it does once (opening the DEM, making its reduced levels, the backdrop).")
+                                                     ["--bbox", bbox], workers=1)
+        return tiles, seconds, sum(float(v) for v in re.findall(r"([0-9.]+) ms", stages)), peak
+
+    # Each zoom against the deepest zoom with as many tiles, so that what a
+    # worker does on its first tile (opening files, GDAL's caches) weighs the same.
+    references = {}
+    for z in range(0, deepest + 1):
+        tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
+        if tiles not in references:
+            references[tiles] = run_zoom(deepest, tiles)[2]
+        print(f"{z:>5}{tiles:>7}{seconds:>8.2f}{ms:>9.1f}{references[tiles]:>24.1f}"
+              f"{ms / references[tiles]:>6.2f}x{peak:>10.0f}", flush=True)
+    print("ms/tile: the worker's time per tile (1 worker), all stages (terrabake's `time per tile` line); run s: the\n"
+          "whole run's wall time, with what it does once (opening the DEM, making its reduced levels, the backdrop).")
 
 
 with tempfile.TemporaryDirectory(prefix="terrabake-pyramid-") as tmp:
