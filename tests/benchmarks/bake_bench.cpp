@@ -6,7 +6,9 @@
 #include <benchmark/benchmark.h>
 #include <stdlib.h>
 
+#include <algorithm>
 #include <array>
+#include <cmath>
 #include <cstdio>
 #include <exception>
 #include <filesystem>
@@ -16,12 +18,14 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "bake/cpu_baker.hpp"
 #include "bake/encode.hpp"
 #include "dem/dem_source.hpp"
 #include "gl/baker_factory.hpp"
+#include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/mesh.hpp"
 #include "pipeline/tile_maker.hpp"
@@ -93,6 +97,7 @@ struct BenchData {
   dem::ReadPlan plan;         // the zoom's plan, judged at the middle tile as a job does
   std::map<int, SyntheticTile> synthetic;  // by tile size
   bake::NormalMap normal_map;              // CPU bake of the 256 synthetic tile, to encode
+  bake::NormalMap sample_normal_map;       // CPU bake of a 256 window of the bundled sample DEM
 };
 
 BenchData& benchData() {
@@ -126,6 +131,19 @@ void prepareBenchData() {
   for (int size : {kTileSize, kLargeTileSize}) data.synthetic.emplace(size, makeSyntheticTile(size));
   const SyntheticTile& tile = data.synthetic.at(kTileSize);
   data.normal_map = bake::CpuBaker().bake(tile.high, tile.low, kTileSize);
+
+  // Real terrain for the PNG cases: the sample DEM's own pixels (30 m) round its middle.
+  const dem::DemSource sample({std::string(TERRABAKE_SOURCE_DIR) + "/tests/data/sample_dem.tif"});
+  const GridSpec& grid = sample.info().grid;
+  const Raster<float> pixels = sample.read(grid, sample.planFor(grid));
+  const auto sample_height = [&](double east_m, double north_m) {
+    const int c = std::clamp(grid.width / 2 + int(std::lround(east_m / grid.cell_w)), 0, grid.width - 1);
+    const int r = std::clamp(grid.height / 2 - int(std::lround(north_m / grid.cell_h)), 0, grid.height - 1);
+    return double(pixels.at(c, r));
+  };
+  const mesh::SampleGrid sample_grid = test::sampleHeightField(sample_height, kTileSize, kGrid, grid.cell_w);
+  data.sample_normal_map = bake::CpuBaker().bake(mesh::buildHighResMesh(sample_grid),
+                                                 mesh::buildLowPolyMesh(sample_grid, kGrid), kTileSize);
 }
 
 // GlBaker::bake does not make its context current, so at most one GL user (a
@@ -218,6 +236,22 @@ void benchEncodePng(benchmark::State& state) {
   }
 }
 
+// PNG compression settings against each other (README, "PNG encoding"), on
+// a normal map of the sample DEM's real terrain and on the smooth synthetic
+// one: time, and bytes as a counter.
+void benchPngCompression(benchmark::State& state, io::PngCompression compression, bool real_terrain) {
+  const BenchData& data = benchData();
+  const Image<std::uint16_t> image =
+      bake::encodeNormalMap(real_terrain ? data.sample_normal_map : data.normal_map, 8, Green::kUp);
+  std::size_t bytes = 0;
+  for (auto _ : state) {
+    const std::vector<std::uint8_t> png = io::encodePng(image, 8, compression);
+    bytes = png.size();
+    benchmark::DoNotOptimize(png.data());
+  }
+  state.counters["KiB"] = double(bytes) / 1024;
+}
+
 void benchEncodeGlb(benchmark::State& state) {
   const mesh::TriangleMesh& low = benchData().synthetic.at(kTileSize).low;
   io::GlbInfo info;
@@ -254,7 +288,7 @@ void benchWholeTile(benchmark::State& state, BackendCase backend) {
     const TileId& tile = data.tiles[next++ % data.tiles.size()];
     const std::optional<io::TileFiles> files = maker->make(tile);
     if (!files) return false;
-    pipeline::writeTileFiles(layer_dir, tile, *files);
+    io::writeTileFiles(layer_dir, tile, *files);
     return true;
   };
   // Untimed: shader compilation and the GDAL handle's first read.
@@ -283,6 +317,19 @@ void registerBenchmarks() {
   benchmark::RegisterBenchmark("BM_ReadWindow", benchReadWindow)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodeGlb", benchEncodeGlb)->Unit(benchmark::kMillisecond)->UseRealTime();
+  constexpr std::pair<const char*, int> kPngFilters[] = {{"default", 0}, {"sub", 0x10}, {"up", 0x20}, {"paeth", 0x80}};
+  for (const bool real_terrain : {true, false}) {
+    for (const int level : {1, 2, 4, 6}) {
+      for (const auto& [filter_name, filters] : kPngFilters) {
+        const std::string name = std::string("BM_PngCompression/") + (real_terrain ? "sample" : "synthetic") +
+                                 "/level" + std::to_string(level) + "/" + filter_name;
+        benchmark::RegisterBenchmark(name.c_str(), benchPngCompression, io::PngCompression{level, filters},
+                                     real_terrain)
+            ->Unit(benchmark::kMillisecond)
+            ->UseRealTime();
+      }
+    }
+  }
   for (const BackendCase& backend : kBackends) {
     benchmark::RegisterBenchmark((std::string("BM_WholeTile/") + backend.name).c_str(), benchWholeTile, backend)
         ->MinTime(kWholeTileMinTimeS)
