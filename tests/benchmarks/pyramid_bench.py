@@ -13,9 +13,9 @@
    process tree's largest process) and terrabake's per-stage milliseconds per
    tile (the workers' time, from its `time per tile` log line).
 2. With --per-zoom R: a DEM of (1024 R)^2 pixels without overviews (a VRT
-   repeating the sample, so nothing on disk), tiled zoom by zoom from 0 to the
-   deepest `auto` picks, one worker; each zoom is limited to about
-   --max-tiles tiles round the DEM's centre. It prints the mean time per tile
+   repeating the sample, so nothing on disk), tiled zoom by zoom from the one
+   where it fits a tile to the deepest `auto` picks, one worker; each zoom is
+   limited to about --max-tiles tiles round the DEM's centre. It prints the mean time per tile
    of each zoom and its ratio to the deepest zoom's with as many tiles.
 
 Timings on a shared machine are noisy: compare rows of one run.
@@ -31,6 +31,8 @@ import tempfile
 import time
 
 repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+sys.path.insert(0, os.path.join(repo, "tests", "scale"))
+from repeated_sample import ORIGIN_X, ORIGIN_Y, PIXEL_M, SAMPLE, SAMPLE_PIXELS, write_vrt  # noqa: E402
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
 parser.add_argument("--build", default=os.path.join(repo, "build"))
 parser.add_argument("--size", type=int, default=4096)
@@ -43,10 +45,6 @@ parser.add_argument("--keep", default=None, help="work in this folder and keep i
 args = parser.parse_args()
 
 terrabake = os.path.join(args.build, "src", "app", "terrabake")
-sample = os.path.join(repo, "tests", "data", "sample_dem.tif")
-SAMPLE_PIXELS = 1024
-SAMPLE_PIXEL_M = 30.0
-SAMPLE_ORIGIN = (561360.0, 5165460.0)  # EPSG:32632, the sample's own
 SAMPLE_INNER_LON_LAT = ("9.81", "46.37", "10.19", "46.63")  # west south east north, inside its data
 
 # Runs a command in a child of its own and returns (seconds, peak RSS MiB, stdout + stderr).
@@ -87,7 +85,7 @@ def pyramid(work):
     # The sample's lon/lat box less a margin, so that every pixel holds data.
     subprocess.run(["gdalwarp", "-q", "-overwrite", "-t_srs", "EPSG:3857", "-te_srs", "EPSG:4326",
                     "-te", *SAMPLE_INNER_LON_LAT, "-ts", str(args.size), str(args.size), "-r", "cubic",
-                    "-ot", "Float32", "-co", "TILED=YES", sample, dem], check=True)
+                    "-ot", "Float32", "-co", "TILED=YES", SAMPLE, dem], check=True)
     print(f"Pyramid: {args.size} x {args.size} EPSG:3857 DEM (the sample, warped), zooms {args.zoom}, "
           f"{args.workers} workers or processes each")
     rows = []
@@ -112,23 +110,6 @@ def pyramid(work):
         print(f"  {name:<32}{stages}")
 
 
-def write_vrt(path, repeats):
-    size = repeats * SAMPLE_PIXELS
-    sources = "".join(
-        f'<SimpleSource><SourceFilename relativeToVRT="0">{sample}</SourceFilename>'
-        f'<SourceBand>1</SourceBand>'
-        f'<SrcRect xOff="0" yOff="0" xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/>'
-        f'<DstRect xOff="{col * SAMPLE_PIXELS}" yOff="{row * SAMPLE_PIXELS}" '
-        f'xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/></SimpleSource>'
-        for row in range(repeats) for col in range(repeats))
-    with open(path, "w") as f:
-        f.write(f'<VRTDataset rasterXSize="{size}" rasterYSize="{size}"><SRS>EPSG:32632</SRS>'
-                f'<GeoTransform>{SAMPLE_ORIGIN[0]}, {SAMPLE_PIXEL_M}, 0, {SAMPLE_ORIGIN[1]}, 0, '
-                f'{-SAMPLE_PIXEL_M}</GeoTransform>'
-                f'<VRTRasterBand dataType="Int16" band="1">{sources}</VRTRasterBand></VRTDataset>\n')
-    return size
-
-
 def lon_lat_of_centre(repeats):
     from osgeo import osr
     utm = osr.SpatialReference()
@@ -136,24 +117,26 @@ def lon_lat_of_centre(repeats):
     wgs84 = osr.SpatialReference()
     wgs84.ImportFromEPSG(4326)
     wgs84.SetAxisMappingStrategy(osr.OAMS_TRADITIONAL_GIS_ORDER)
-    half = repeats * SAMPLE_PIXELS * SAMPLE_PIXEL_M / 2
-    lon, lat, _ = osr.CoordinateTransformation(utm, wgs84).TransformPoint(SAMPLE_ORIGIN[0] + half,
-                                                                          SAMPLE_ORIGIN[1] - half)
+    half = repeats * SAMPLE_PIXELS * PIXEL_M / 2
+    lon, lat, _ = osr.CoordinateTransformation(utm, wgs84).TransformPoint(ORIGIN_X + half, ORIGIN_Y - half)
     return lon, lat
 
 
-def deepest_zoom(vrt):
+def zoom_range(vrt):
+    """The webmercator zooms `terrabake info` gives: from where the DEM fits one tile to auto's."""
     output = subprocess.run([terrabake, "info", vrt], capture_output=True, text=True).stdout
-    match = re.search(r"webmercator +\d+-(\d+)", output)
-    return int(match.group(1)) if match else 12
+    match = re.search(r"webmercator +(\d+)-(\d+)", output)
+    if not match:
+        sys.exit("pyramid_bench.py: `terrabake info` gave no webmercator zooms:\n" + output)
+    return int(match.group(1)), int(match.group(2))
 
 
 def per_zoom(work):
     vrt = os.path.join(work, "big.vrt")
     size = write_vrt(vrt, args.per_zoom)
     lon, lat = lon_lat_of_centre(args.per_zoom)
-    deepest = deepest_zoom(vrt)
-    print(f"\nPer zoom: {size} x {size} DEM without overviews (30 m, EPSG:32632), zooms 0-{deepest}, "
+    shallowest, deepest = zoom_range(vrt)
+    print(f"\nPer zoom: {size} x {size} DEM without overviews (30 m, EPSG:32632), zooms {shallowest}-{deepest}, "
           f"at most about {args.max_tiles} tiles round the centre each, backend cpu")
     print(f"{'zoom':>5}{'tiles':>7}{'run s':>8}{'ms/tile':>9}{'deepest, as many tiles':>24}{'ratio':>7}"
           f"{'peak MiB':>10}")
@@ -172,7 +155,7 @@ def per_zoom(work):
     # Each zoom against the deepest zoom with as many tiles, so that what a
     # worker does on its first tile (opening files, GDAL's caches) weighs the same.
     references = {}
-    for z in range(0, deepest + 1):
+    for z in range(shallowest, deepest + 1):
         tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
         if tiles not in references:
             references[tiles] = run_zoom(deepest, tiles)[2]

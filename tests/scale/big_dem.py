@@ -21,10 +21,7 @@ import subprocess
 import sys
 import tempfile
 
-SAMPLE_PIXELS = 1024
-PIXEL_M = 30.0
-# The sample's own origin (EPSG:32632), so the mosaic starts where it does.
-ORIGIN_X, ORIGIN_Y = 561360.0, 5165460.0
+from repeated_sample import write_vrt
 
 repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
@@ -34,23 +31,6 @@ parser.add_argument("--zoom", default="auto")
 parser.add_argument("--workers", default="1,2")
 parser.add_argument("--max-rss-mib", type=float, default=None)
 args = parser.parse_args()
-sample = os.path.join(repo, "tests", "data", "sample_dem.tif")
-
-
-def write_vrt(path, repeats):
-    size = repeats * SAMPLE_PIXELS
-    sources = "".join(
-        f'<SimpleSource><SourceFilename relativeToVRT="0">{sample}</SourceFilename>'
-        f'<SourceBand>1</SourceBand>'
-        f'<SrcRect xOff="0" yOff="0" xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/>'
-        f'<DstRect xOff="{col * SAMPLE_PIXELS}" yOff="{row * SAMPLE_PIXELS}" '
-        f'xSize="{SAMPLE_PIXELS}" ySize="{SAMPLE_PIXELS}"/></SimpleSource>'
-        for row in range(repeats) for col in range(repeats))
-    with open(path, "w") as f:
-        f.write(f'<VRTDataset rasterXSize="{size}" rasterYSize="{size}"><SRS>EPSG:32632</SRS>'
-                f'<GeoTransform>{ORIGIN_X}, {PIXEL_M}, 0, {ORIGIN_Y}, 0, {-PIXEL_M}</GeoTransform>'
-                f'<VRTRasterBand dataType="Int16" band="1">{sources}</VRTRasterBand></VRTDataset>\n')
-    return size
 
 
 def run(vrt, out, workers):
