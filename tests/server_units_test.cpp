@@ -105,6 +105,10 @@ TEST(ServeRoutes, KnownRoutes) {
   const Route three = server::parseRoute("/vendor/three/examples/jsm/controls/OrbitControls.js");
   EXPECT_EQ(three.kind, Route::Kind::kVendorFile);
   EXPECT_EQ(three.file, "examples/jsm/controls/OrbitControls.js");
+  const Route maplibre = server::parseRoute("/vendor/maplibre-gl/maplibre-gl-worker.mjs");
+  EXPECT_EQ(maplibre.kind, Route::Kind::kVendorFile);
+  EXPECT_EQ(maplibre.package, "maplibre-gl");
+  EXPECT_EQ(maplibre.file, "maplibre-gl-worker.mjs");
   const Route tilejson = server::parseRoute("/sample/tilejson.json");
   EXPECT_EQ(tilejson.kind, Route::Kind::kTileJson);
   EXPECT_EQ(tilejson.layer, "sample");

@@ -167,7 +167,10 @@ Route parseRoute(const std::string& path) {
 
 const std::vector<VendorPackage>& vendorPackages() {
   static const std::vector<VendorPackage> kPackages = {
-      {"three", "three"}, {"cesium", "cesium/Build/Cesium"}, {"3d-tiles-renderer", "3d-tiles-renderer/build"}};
+      {"three", "three"},
+      {"cesium", "cesium/Build/Cesium"},
+      {"3d-tiles-renderer", "3d-tiles-renderer/build"},
+      {"maplibre-gl", "maplibre-gl/dist"}};
   return kPackages;
 }
 

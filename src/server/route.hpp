@@ -16,7 +16,7 @@ struct Route {
     kLayerList,   // /layers.json
     kHealth,      // /health
     kViewerFile,  // /viewer/<file>
-    kVendorFile,  // /vendor/<package>/<file>: three, cesium, 3d-tiles-renderer
+    kVendorFile,  // /vendor/<package>/<file>: three, cesium, 3d-tiles-renderer, maplibre-gl
     kTileJson,    // /<layer>/tilejson.json
     kElevationTileJson,  // /<layer>/elevation.json
     kTile,        // /<layer>/<z>/<x>/<y>.<png|glb|hires.glb|elevation.png>
@@ -39,7 +39,8 @@ Route parseRoute(const std::string& path);
 
 // The npm packages of the viewer served under /vendor/<package>/, each with
 // the folder under the viewer's node_modules its files come from: three.js
-// whole (examples included), CesiumJS's built bundle, 3d-tiles-renderer's build.
+// whole (examples included), CesiumJS's built bundle, 3d-tiles-renderer's build,
+// MapLibre GL JS's dist (its module and the worker module it loads beside it).
 struct VendorPackage {
   const char* name;
   const char* folder;

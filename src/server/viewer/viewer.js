@@ -109,6 +109,7 @@ const ui = {
   tiles: el('tiles'),
   status: el('status'),
   tiles3d: el('tiles3d'),
+  maplibre: el('maplibre'),
   meshRadios: document.querySelectorAll('input[name="mesh"]'),
 };
 
@@ -674,6 +675,9 @@ async function showLayer(name, zoom) {
   for (const link of ui.tiles3d.querySelectorAll('a')) {
     link.href = `/viewer/tiles3d.html?${new URLSearchParams({ layer: name, renderer: link.dataset.renderer })}`;
   }
+  // A layer with elevation tiles (output.elevation) opens in MapLibre too.
+  ui.maplibre.hidden = !tilejson.terrabake?.elevation;
+  ui.maplibre.querySelector('a').href = `/viewer/maplibre.html?${new URLSearchParams({ layer: name })}`;
   ui.zoom.replaceChildren();
   for (let z = tilejson.minzoom ?? 0; z <= (tilejson.maxzoom ?? 0); ++z) {
     ui.zoom.add(new Option(`${z}`, `${z}`));
