@@ -1,9 +1,12 @@
 // Tests of `terrabake serve` that need no server: the serve config (file,
-// defaults, errors), the router (routes, malformed and unknown paths) and the
-// HTTP rules (If-None-Match, content types, hosts).
+// defaults, errors), the router (routes, malformed and unknown paths), the
+// HTTP rules (If-None-Match, content types, hosts) and the tile cache (its
+// bound and eviction order).
 #include <gtest/gtest.h>
 
+#include <cstddef>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -15,13 +18,16 @@
 #include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
 #include "server/route.hpp"
+#include "server/tile_cache.hpp"
 #include "test_helpers.hpp"
 
 namespace terrabake {
 namespace {
 
 namespace fs = std::filesystem;
+using server::FileContent;
 using server::Route;
+using server::TileCache;
 using io::TileFormat;
 using test::caseDir;
 using test::readBytes;
@@ -248,6 +254,64 @@ TEST(ServeTileJson, ServedSourcesAreFileNamesOnly) {
   // Whatever "sources" holds that terrabake never writes is not passed on.
   const std::string odd = io::servedTileJson(R"({"terrabake": {"sources": "/srv/dems/alps.tif"}})", "http://h/l/");
   EXPECT_EQ(odd.find("/srv/dems"), std::string::npos) << odd;
+}
+
+// --- The tile cache ----------------------------------------------------------
+
+constexpr std::size_t kMib = 1024 * 1024;
+
+std::shared_ptr<const FileContent> content(const std::string& bytes, const std::string& etag = "\"e\"") {
+  return std::make_shared<const FileContent>(FileContent{bytes, etag});
+}
+
+const TileCache::IsCurrent kAlwaysCurrent = [](const FileContent&) { return true; };
+
+TEST(TileCache, KeepsWithinItsBoundDroppingTheLeastRecentlyUsed) {
+  const std::string bytes(1000, 'x');
+  const std::size_t one = TileCache::entryBytes("a", *content(bytes));
+  TileCache cache(3 * one + one / 2);  // room for three tiles, not four
+  for (const char* key : {"a", "b", "c"}) cache.insert(key, content(bytes));
+  EXPECT_EQ(cache.counters().tiles, 3u);
+  ASSERT_TRUE(cache.find("a", kAlwaysCurrent));  // now the most recently used
+  cache.insert("d", content(bytes));
+  EXPECT_EQ(cache.counters().tiles, 3u);
+  EXPECT_EQ(cache.counters().bytes, 3 * one);
+  EXPECT_TRUE(cache.find("a", kAlwaysCurrent));
+  EXPECT_FALSE(cache.find("b", kAlwaysCurrent)) << "the least recently used goes first";
+  EXPECT_TRUE(cache.find("c", kAlwaysCurrent));
+  EXPECT_TRUE(cache.find("d", kAlwaysCurrent));
+  EXPECT_EQ(cache.counters().hits, 4u);
+  EXPECT_EQ(cache.counters().misses, 1u);
+}
+
+TEST(TileCache, ATileLargerThanTheBoundIsNotKeptAndEvictsNothing) {
+  TileCache cache(4096);
+  cache.insert("small", content("s"));
+  cache.insert("big", content(std::string(5000, 'x')));
+  EXPECT_FALSE(cache.find("big", kAlwaysCurrent));
+  EXPECT_TRUE(cache.find("small", kAlwaysCurrent));
+  EXPECT_EQ(cache.counters().tiles, 1u);
+}
+
+TEST(TileCache, ReplacingATileCountsOnlyTheNewOne) {
+  TileCache cache(kMib);
+  cache.insert("a", content(std::string(100, 'x'), "\"1\""));
+  cache.insert("a", content(std::string(300, 'y'), "\"2\""));
+  const auto kept = cache.find("a", kAlwaysCurrent);
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->etag, "\"2\"");
+  EXPECT_EQ(cache.counters().tiles, 1u);
+  EXPECT_EQ(cache.counters().bytes, TileCache::entryBytes("a", *kept));
+}
+
+TEST(TileCache, AKeptTileThatIsNoLongerCurrentIsDropped) {
+  TileCache cache(kMib);
+  cache.insert("a", content("old"));
+  EXPECT_FALSE(cache.find("a", [](const FileContent&) { return false; }));
+  EXPECT_EQ(cache.counters().tiles, 0u);
+  EXPECT_EQ(cache.counters().bytes, 0u);
+  EXPECT_EQ(cache.counters().misses, 1u);
+  EXPECT_FALSE(cache.find("a", kAlwaysCurrent));
 }
 
 }  // namespace

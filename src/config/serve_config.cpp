@@ -14,6 +14,7 @@ using kt::text;
 
 constexpr int kMaxPort = 65535;
 constexpr int kYearS = 365 * 24 * 3600;  // the longest max-age caches are asked to honour
+constexpr int kMaxCacheMib = 65536;      // 64 GiB of tiles in memory
 
 // A base URL: http:// or https://, a host, an optional port and path, no query; "" = none.
 std::string publicUrlProblem(const std::string& url) {
@@ -50,6 +51,9 @@ const kt::KeyTable<ServeConfig>& table() {
        number(&ServeConfig::max_header_bytes, 1024, 1048576)},
       {"http.tile_max_age_s", "", "integer", "seconds browsers may keep a tile without asking again, 0..31536000",
        number(&ServeConfig::tile_max_age_s, 0, kYearS)},
+      {"http.cache_mib", "--cache-mib", "integer",
+       "MiB of tiles kept in memory, the most recently asked for; 0 = none, 0..65536",
+       number(&ServeConfig::cache_mib, 0, kMaxCacheMib)},
       {"server.public_url", "--public-url", "URL",
        "base of the tile URLs in tilejson and layers.json (https://tiles.example.org/); \"\" = the address the "
        "client connected to",

@@ -23,6 +23,7 @@ struct ServeConfig {
   int max_header_bytes = 16384;              // http.max_header_bytes: request line and headers
   std::string public_url;                    // server.public_url: base of tilejson URLs; "" = the listen address
   int tile_max_age_s = 3600;                 // http.tile_max_age_s: Cache-Control max-age of tiles
+  int cache_mib = 64;                        // http.cache_mib: tiles kept in memory, MiB; 0 = none
   std::string viewer_dir = defaultViewerDir();  // viewer.dir
   int queue_size = 64;                       // bake.queue_size: bakes waiting, per layer
   int retry_after_s = 1;                     // bake.retry_after_s: Retry-After of a 503

@@ -46,6 +46,12 @@ TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
 }
 
+// A tile file is replaced only by renaming a new one into place (`terrabake
+// tile --resume`, --force), which changes its ETag: one stat tells.
+bool DirectoryLayer::isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const {
+  return m_folder.stillHas(io::relativeTilePath(tile, format), kept.etag);
+}
+
 std::optional<FileContent> DirectoryLayer::tilesetFile(const std::string& path) { return m_folder.read(path); }
 
 }  // namespace terrabake::server

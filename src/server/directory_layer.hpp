@@ -22,6 +22,8 @@ class DirectoryLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
+  bool tilesMayBeKept() const override { return true; }
+  bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
 
  private:

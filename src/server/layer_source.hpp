@@ -72,6 +72,16 @@ class LayerSource {
   // `later` when the bake is done (layers that never bake never do).
   virtual TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) = 0;
 
+  // Whether the server may keep this layer's tiles in memory (TileCache):
+  // only when isCurrent() tells, without reading the tile, that kept bytes
+  // are still the layer's.
+  virtual bool tilesMayBeKept() const { return false; }
+  // Whether `kept`, which tile() answered for this tile before, is still what
+  // it would answer. Called from many HTTP threads at once, on every hit.
+  virtual bool isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& /*kept*/) const {
+    return false;
+  }
+
   virtual BakeCounters bakeCounters() const { return {}; }
 
   // Finish or abandon background work before the server goes away; tile()

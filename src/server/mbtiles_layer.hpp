@@ -13,6 +13,9 @@
 
 namespace terrabake::server {
 
+// Its tiles are not kept in memory (LayerSource::tilesMayBeKept): SQLite
+// rewrites pages in place, so neither the file's size nor its coarse mtime
+// tells that a row is unchanged, and asking SQLite costs what reading the row does.
 class MbtilesLayer : public LayerSource {
  public:
   // Opens the file read-only. Throws InputError when it is not an MBTiles

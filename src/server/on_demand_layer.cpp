@@ -95,6 +95,12 @@ TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const 
   return {TileAnswer::Status::kPending, nullptr, {}};
 }
 
+// Tiles read from the folder and tiles baked carry the ETag of their file
+// (bake() reads it back after writing), so one stat tells either.
+bool OnDemandLayer::isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const {
+  return m_folder.stillHas(io::relativeTilePath(tile, format), kept.etag);
+}
+
 TileAnswer OnDemandLayer::answerOf(const BakeOutcome& outcome, io::TileFormat format) {
   switch (outcome.status) {
     case BakeOutcome::Status::kBaked: {

@@ -48,6 +48,8 @@ class OnDemandLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
+  bool tilesMayBeKept() const override { return true; }
+  bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
   BakeCounters bakeCounters() const override { return m_queue.counters(); }
   void stop() override { m_queue.stop(); }
 

@@ -27,6 +27,13 @@ class PmtilesLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
+  // Tiles are read through the archives opened at start, and an archive is
+  // only ever replaced whole by renaming a new file into place: what this
+  // layer answers never changes.
+  bool tilesMayBeKept() const override { return true; }
+  bool isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& /*kept*/) const override {
+    return true;
+  }
   std::optional<FileContent> archive(const std::string& file_name) override;
 
  private:

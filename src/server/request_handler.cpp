@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "io/layer_layout.hpp"
 #include "server/http_rules.hpp"
 
 namespace terrabake::server {
@@ -19,6 +20,7 @@ constexpr const char* kPreflightMaxAgeS = "86400";  // browsers cap it lower any
 // (cheap: an unchanged file is a 304).
 constexpr const char* kRevalidate = "no-cache";
 constexpr const char* kNoStore = "no-store";
+constexpr std::size_t kMib = 1024 * 1024;
 
 HttpReply text(int status, const std::string& message) {
   HttpReply reply;
@@ -88,7 +90,8 @@ RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<st
       m_public_url(config.public_url.empty() || config.public_url.back() == '/' ? config.public_url
                                                                                  : config.public_url + "/"),
       m_tile_cache_control("public, max-age=" + std::to_string(config.tile_max_age_s)),
-      m_retry_after_s(std::to_string(config.retry_after_s)) {
+      m_retry_after_s(std::to_string(config.retry_after_s)),
+      m_tile_cache(config.cache_mib > 0 ? std::make_unique<TileCache>(std::size_t(config.cache_mib) * kMib) : nullptr) {
   for (const VendorPackage& package : vendorPackages()) {
     m_vendor.emplace(package.name, ServedFolder(std::filesystem::path(config.viewer_dir) / "node_modules" / package.folder));
   }
@@ -124,12 +127,25 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
     if (layer == m_layers.end()) {
       reply = answerNow(request, route);
     } else {
+      LayerSource& source = *layer->second;
+      const bool cached = m_tile_cache && source.tilesMayBeKept();
+      const std::string key = cached ? route.layer + "/" + io::relativeTilePath(route.tile, route.format) : "";
+      if (cached) {
+        const std::shared_ptr<const FileContent> kept = m_tile_cache->find(
+            key, [&](const FileContent& content) { return source.isCurrent(route.tile, route.format, content); });
+        if (kept) {
+          reply = fromTile(request, route, {TileAnswer::Status::kFound, kept, {}});
+          finish(reply);
+          return respond(std::move(reply));
+        }
+      }
       // The answer may need a bake: then it comes later, from the bake worker,
       // and this thread goes on to other requests.
       const auto waiting = std::make_shared<const HttpRequest>(request);
-      const LayerSource::Later later = [this, waiting, route, respond](TileAnswer answer) {
+      const LayerSource::Later later = [this, waiting, route, respond, &source, key](TileAnswer answer) {
         HttpReply late;
         try {
+          keep(source, key, answer, true);
           late = fromTile(*waiting, route, answer);
         } catch (const std::exception& e) {
           // The request must be answered: it waits with no timeout of its own.
@@ -138,8 +154,9 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
         finish(late);
         respond(std::move(late));
       };
-      const TileAnswer answer = layer->second->tile(route.tile, route.format, later);
+      const TileAnswer answer = source.tile(route.tile, route.format, later);
       if (answer.status == TileAnswer::Status::kPending) return;
+      keep(source, key, answer, false);
       reply = fromTile(request, route, answer);
     }
   }
@@ -235,6 +252,14 @@ HttpReply RequestHandler::fromTile(const HttpRequest& request, const Route& rout
   return text(404, "not found: tile " + route.tile.str() + ": " + answer.reason);
 }
 
+void RequestHandler::keep(const LayerSource& layer, const std::string& key, const TileAnswer& answer,
+                          bool from_bake) const {
+  if (!m_tile_cache || !layer.tilesMayBeKept() || answer.status != TileAnswer::Status::kFound) return;
+  // A bake's answer shares the whole baked tile (every format): the cache
+  // keeps a copy of this one file, so that it holds no more than it counts.
+  m_tile_cache->insert(key, from_bake ? std::make_shared<const FileContent>(*answer.content) : answer.content);
+}
+
 HttpReply RequestHandler::layerList(const HttpRequest& request) const {
   const std::string base_url = baseUrl(request);
   Json list = Json::array();
@@ -260,6 +285,7 @@ HttpReply RequestHandler::health() const {
     total.rejected += c.rejected;
     total.waiting += c.waiting;
   }
+  const TileCacheCounters cache = m_tile_cache ? m_tile_cache->counters() : TileCacheCounters{};
   HttpReply reply;
   reply.content_type = "application/json";
   reply.body = Json{{"status", "ok"},
@@ -270,7 +296,11 @@ HttpReply RequestHandler::health() const {
                     {"bakes_empty", total.empty},
                     {"bakes_failed", total.failed},
                     {"bakes_rejected", total.rejected},
-                    {"bakes_waiting", total.waiting}}
+                    {"bakes_waiting", total.waiting},
+                    {"tile_cache_bytes", cache.bytes},
+                    {"tile_cache_tiles", cache.tiles},
+                    {"tile_cache_hits", cache.hits},
+                    {"tile_cache_misses", cache.misses}}
                    .dump() +
                "\n";
   reply.headers.emplace_back("Cache-Control", kNoStore);

@@ -13,6 +13,7 @@
 #include "server/layer_source.hpp"
 #include "server/route.hpp"
 #include "server/served_folder.hpp"
+#include "server/tile_cache.hpp"
 
 namespace terrabake::server {
 
@@ -57,6 +58,9 @@ class RequestHandler {
  private:
   HttpReply answerNow(const HttpRequest& request, const Route& route) const;
   HttpReply fromTile(const HttpRequest& request, const Route& route, const TileAnswer& answer) const;
+  // Keeps a found tile of a layer that allows it, when the cache is on;
+  // `from_bake`: the answer a bake handed to LayerSource::Later.
+  void keep(const LayerSource& layer, const std::string& key, const TileAnswer& answer, bool from_bake) const;
   HttpReply layerList(const HttpRequest& request) const;
   HttpReply health() const;
   std::string baseUrl(const HttpRequest& request) const;
@@ -67,6 +71,7 @@ class RequestHandler {
   std::string m_public_url;  // ending in '/'; "" when not set
   std::string m_tile_cache_control;
   std::string m_retry_after_s;
+  std::unique_ptr<TileCache> m_tile_cache;  // null with http.cache_mib 0
 };
 
 }  // namespace terrabake::server

@@ -80,4 +80,10 @@ std::optional<std::string> ServedFolder::etag(const std::string& relative) const
   return etagOf(info);
 }
 
+bool ServedFolder::stillHas(const std::string& relative, const std::string& etag) const {
+  struct stat info;
+  if (m_root.empty() || ::stat((m_root + relative).c_str(), &info) != 0 || !S_ISREG(info.st_mode)) return false;
+  return etagOf(info) == etag;
+}
+
 }  // namespace terrabake::server

@@ -27,6 +27,11 @@ class ServedFolder {
   // The ETag read() would give the file, without reading it.
   std::optional<std::string> etag(const std::string& relative) const;
 
+  // Whether the file at `relative` still has `etag`, from one stat() and no
+  // symlink resolution: for bytes read() gave before, which were read inside
+  // the folder; a tag that matches names that very file.
+  bool stillHas(const std::string& relative, const std::string& etag) const;
+
  private:
   // The real path of `relative` when it lies inside the folder.
   std::optional<std::string> resolve(const std::string& relative) const;

@@ -1,10 +1,11 @@
 #!/usr/bin/env bash
-# Load test on loopback: requests per second and latency of cached tiles from
-# `terrabake serve`, against nginx serving the same files in the same run,
-# then the latency of tiles baked on demand. Prints a table; fails on any
-# request error.
+# Load test on loopback: requests per second and latency of the tiles of a
+# layer on disk from `terrabake serve` with its tile cache (http.cache_mib at
+# its default) and without it (0), against nginx serving the same files, taking
+# turns in one run; then the latency of tiles baked on demand. Prints a table;
+# fails on any request error.
 #
-#   tests/load/run_load.sh [build_dir] [seconds_per_run]
+#   tests/load/run_load.sh [build_dir] [seconds_per_run] [rounds]
 #
 # Needs nginx and wrk (Debian: nginx-light wrk); installs them if missing and
 # run as root. Traffic stays on 127.0.0.1.
@@ -12,6 +13,7 @@ set -euo pipefail
 repo=$(cd "$(dirname "$0")/../.." && pwd)
 build=$(cd "${1:-$repo/build}" && pwd)
 seconds=${2:-10}
+rounds=${3:-2}
 terrabake=$build/src/app/terrabake
 connections=32
 threads=2
@@ -57,7 +59,8 @@ echo "run_load.sh: making the sample layer..." >&2
 (cd "$work/tiles" && find sample -name '*.png' -o -name '*.glb' | sed 's|^|/|' | sort) >"$work/paths.txt"
 export TILE_LIST=$work/paths.txt
 
-terrabake_port=$(start_terrabake --tiles "$work/tiles")
+cached_port=$(start_terrabake --tiles "$work/tiles")
+uncached_port=$(start_terrabake --tiles "$work/tiles" --cache-mib 0)
 
 nginx_port=$(free_port)
 mkdir -p "$work/nginx"
@@ -83,17 +86,22 @@ CONF
 nginx -c "$work/nginx.conf" -p "$work/nginx"
 for _ in $(seq 50); do curl -fs -o /dev/null "http://127.0.0.1:$nginx_port$(head -1 "$TILE_LIST")" && break; sleep 0.1; done
 
-# One pass over every file first, so both servers answer from the page cache.
+# One pass over every file first, so every server answers from the page cache
+# (and terrabake's tile cache holds every tile when it is on).
 run_wrk() {
   local port=$1
   while read -r path; do curl -fs -o /dev/null "http://127.0.0.1:$port$path"; done <"$TILE_LIST"
   wrk -t"$threads" -c"$connections" -d"${seconds}s" --latency -s "$repo/tests/load/tile_paths.lua" \
     "http://127.0.0.1:$port" | sed -n 's/^RESULT //p'
 }
-field() { echo "$1" | tr ' ' '\n' | sed -n "s/^$2=//p"; }
 
-terrabake_result=$(run_wrk "$terrabake_port")
-nginx_result=$(run_wrk "$nginx_port")
+# Turns: each server once per round, so drift on a shared machine hits all alike.
+for round in $(seq "$rounds"); do
+  for server in cached:$cached_port uncached:$uncached_port nginx:$nginx_port; do
+    echo "run_load.sh: round $round, ${server%%:*}..." >&2
+    echo "${server%%:*} $(run_wrk "${server#*:}")" >>"$work/results.txt"
+  done
+done
 
 # On demand: a fresh server whose sample layer is empty, asked for every
 # zoom-12 tile once, one request at a time; each answer is a bake.
@@ -109,24 +117,27 @@ while read -r path; do
     { echo "run_load.sh: on-demand request failed: $path" >&2; exit 1; }
 done <"$work/on_demand_paths.txt" >"$work/on_demand_times.txt"
 
-/usr/bin/python3 - "$terrabake_result" "$nginx_result" "$work/on_demand_times.txt" "$seconds" "$connections" <<'PY'
+/usr/bin/python3 - "$work/results.txt" "$work/on_demand_times.txt" "$seconds" "$connections" <<'PY'
 import statistics
 import sys
 
-def parse(text):
-    return {k: float(v) for k, v in (item.split("=") for item in text.split())}
-
-terrabake, nginx = parse(sys.argv[1]), parse(sys.argv[2])
-times_ms = sorted(float(line) * 1000 for line in open(sys.argv[3]))
-seconds, connections = sys.argv[4], sys.argv[5]
-print(f"cached tiles: wrk, {connections} connections, 2 threads, {seconds} s each, loopback")
-print(f"{'server':<12}{'requests/s':>12}{'p50 ms':>10}{'p99 ms':>10}{'errors':>8}")
-for name, r in (("terrabake", terrabake), ("nginx", nginx)):
-    print(f"{name:<12}{r['rps']:>12.0f}{r['p50_ms']:>10.2f}{r['p99_ms']:>10.2f}{int(r['errors']):>8}")
-print(f"terrabake / nginx: {terrabake['rps'] / nginx['rps']:.2f}x the requests per second, "
-      f"{terrabake['p99_ms'] / nginx['p99_ms']:.2f}x the p99 latency")
+NAMES = {"cached": "terrabake, tile cache on", "uncached": "terrabake, tile cache off", "nginx": "nginx"}
+runs = {name: [] for name in NAMES}
+for line in open(sys.argv[1]):
+    name, *items = line.split()
+    runs[name].append({k: float(v) for k, v in (item.split("=") for item in items)})
+times_ms = sorted(float(line) * 1000 for line in open(sys.argv[2]))
+seconds, connections = sys.argv[3], sys.argv[4]
+print(f"tiles on disk: wrk, {connections} connections, 2 threads, {seconds} s each, loopback, servers taking turns")
+print(f"{'server':<28}{'requests/s':>12}{'p50 ms':>10}{'p99 ms':>10}{'errors':>8}")
+for name, label in NAMES.items():
+    for r in runs[name]:
+        print(f"{label:<28}{r['rps']:>12.0f}{r['p50_ms']:>10.2f}{r['p99_ms']:>10.2f}{int(r['errors']):>8}")
+mean = {name: statistics.mean(r["rps"] for r in rs) for name, rs in runs.items()}
+for name in ("cached", "uncached"):
+    print(f"{NAMES[name]} / nginx: {mean[name] / mean['nginx']:.2f}x the requests per second (means of the runs)")
 p99 = times_ms[min(len(times_ms) - 1, int(len(times_ms) * 0.99))]
 print(f"on-demand tiles (baked per request, one at a time): {len(times_ms)} tiles, "
       f"median {statistics.median(times_ms):.0f} ms, p99 {p99:.0f} ms, max {times_ms[-1]:.0f} ms")
-sys.exit(1 if terrabake["errors"] or nginx["errors"] else 0)
+sys.exit(1 if any(r["errors"] for rs in runs.values() for r in rs) else 0)
 PY
