@@ -200,7 +200,8 @@ inline std::unique_ptr<server::OnDemandLayer> fakeLayer(const std::filesystem::p
                                            workers,
                                            queue_size,
                                            false,
-                                           ""};
+                                           "",
+                                           nullptr};
   return std::make_unique<server::OnDemandLayer>(std::move(settings), [make] { return make; });
 }
 

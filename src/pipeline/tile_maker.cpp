@@ -18,6 +18,7 @@
 #include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
 #include "mesh/skirt.hpp"
+#include "pipeline/tile_frame.hpp"
 
 namespace terrabake::pipeline {
 namespace {
@@ -251,12 +252,6 @@ struct TileMaker::Impl {
     return bound + 2 * texel_m;
   }
 
-  geo::LocalFrame frameAtCentre(const TileId& tile) const {
-    const Extent e = scheme.tileExtent(tile);
-    std::vector<glm::dvec2> centre = {{(e.min_x + e.max_x) / 2, (e.min_y + e.max_y) / 2}};
-    to_lon_lat.transform(centre);
-    return geo::LocalFrame(centre[0].x, centre[0].y);
-  }
 };
 
 TileMaker::TileMaker(std::shared_ptr<const LayerPlan> plan) : m_impl(std::make_unique<Impl>(std::move(plan))) {}
@@ -291,7 +286,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem);
   lap(s.times.read);
 
-  const geo::LocalFrame frame = s.frameAtCentre(tile);
+  const geo::LocalFrame frame = tileFrame(s.scheme, s.to_lon_lat, tile);
   mesh::SampleGrid samples = s.samplePositions(grid, heights, frame);
   samples.from_dem = from_dem;
   const mesh::HighResMesh high = mesh::buildHighResMesh(samples);

@@ -10,7 +10,9 @@
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "pipeline/layer_plan.hpp"
+#include "pipeline/planned_tileset.hpp"
 #include "pipeline/tile_maker.hpp"
+#include "server/http_rules.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -53,6 +55,7 @@ OnDemandLayer::OnDemandLayer(Settings settings, const MakeTileFactory& make_tile
       m_high_res_mesh(settings.high_res_mesh),
       m_elevation(settings.elevation),
       m_elevation_tilejson(settings.elevation_tilejson),
+      m_plan_tileset(settings.plan_tileset),
       m_queue(settings.workers, settings.queue_size, [this, &make_tile]() -> BakeQueue::Bake {
         MakeTile make = make_tile();
         return [this, make = std::move(make)](const TileId& tile) { return bake(make, tile); };
@@ -65,6 +68,28 @@ std::string OnDemandLayer::tileJson(const std::string& layer_url) const {
 std::optional<std::string> OnDemandLayer::elevationTileJson(const std::string& layer_url) const {
   if (!m_elevation) return std::nullopt;
   return io::servedTileJson(m_elevation_tilejson, layer_url);
+}
+
+std::optional<FileContent> OnDemandLayer::tilesetFile(const std::string& path) {
+  const std::lock_guard<std::mutex> lock(m_tileset_mutex);
+  if (m_plan_tileset) {
+    const PlanTileset plan = std::move(m_plan_tileset);
+    m_plan_tileset = nullptr;  // planned once: a layer too large for it stays without
+    try {
+      for (io::TilesetDocument& doc : plan()) {
+        FileContent content{std::move(doc.json), {}};
+        content.etag = contentEtag(content.bytes);
+        m_tileset.emplace(std::move(doc.path), std::move(content));
+      }
+      log::info("layer " + m_name + ": tileset planned, " + std::to_string(m_tileset.size()) + " file" +
+                (m_tileset.size() == 1 ? "" : "s"));
+    } catch (const std::exception& e) {
+      log::warning("layer " + m_name + ": no tileset: " + oneLine(e.what()));
+    }
+  }
+  const auto found = m_tileset.find(path);
+  if (found == m_tileset.end()) return std::nullopt;
+  return found->second;
 }
 
 TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const Later& later) {
@@ -159,7 +184,9 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
                                    plan->workers,
                                    queue_size,
                                    plan->settings.elevation != Elevation::kNone,
-                                   plan->elevation_tilejson};
+                                   plan->elevation_tilejson,
+                                   nullptr};
+  if (plan->tileset) settings.plan_tileset = [plan] { return pipeline::planTileset(*plan); };
 
   const auto logged = std::make_shared<std::once_flag>();
   const auto make_tile = [plan, logged]() -> OnDemandLayer::MakeTile {

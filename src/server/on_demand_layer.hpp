@@ -3,15 +3,21 @@
 // layer folder is served from there; a missing one is baked by the layer's
 // BakeQueue, written through to the folder (atomically, the image first, as
 // `terrabake tile` writes) and served from memory to everyone who waited.
+// Its 3D Tiles tileset, when the job asks for one, is planned before the
+// tiles exist and kept in memory.
 #include <cstddef>
 #include <filesystem>
 #include <functional>
+#include <map>
 #include <memory>
+#include <mutex>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "config/tile_job.hpp"
 #include "io/layer_layout.hpp"
+#include "io/tileset.hpp"
 #include "server/bake_queue.hpp"
 #include "server/layer_source.hpp"
 #include "server/served_folder.hpp"
@@ -26,6 +32,9 @@ class OnDemandLayer : public LayerSource {
   using MakeTile = std::function<std::optional<io::TileFiles>(const TileId&)>;
   // Called once on each bake worker thread (see BakeQueue::BakeFactory).
   using MakeTileFactory = std::function<MakeTile()>;
+  // The layer's tileset documents (pipeline::planTileset). Throws when the
+  // layer cannot have one.
+  using PlanTileset = std::function<std::vector<io::TilesetDocument>()>;
 
   struct Settings {
     std::string name;
@@ -37,6 +46,7 @@ class OnDemandLayer : public LayerSource {
     std::size_t queue_size = 64;
     bool elevation = false;          // whether bakes make .elevation.png too
     std::string elevation_tilejson;  // with elevation: written to <folder>/elevation.json when that is missing
+    PlanTileset plan_tileset;        // empty: the layer has no tileset
   };
 
   // Throws InputError when the folder cannot be made, and whatever a
@@ -47,6 +57,9 @@ class OnDemandLayer : public LayerSource {
   bool bakesOnDemand() const override { return true; }
   std::string tileJson(const std::string& layer_url) const override;
   std::optional<std::string> elevationTileJson(const std::string& layer_url) const override;
+  // Planned on the first request, on its thread (a coarse read of the DEM),
+  // then answered from memory; nullopt when the layer has no tileset.
+  std::optional<FileContent> tilesetFile(const std::string& path) override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   bool tilesMayBeKept() const override { return true; }
   bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
@@ -67,6 +80,9 @@ class OnDemandLayer : public LayerSource {
   bool m_high_res_mesh;
   bool m_elevation;
   std::string m_elevation_tilejson;
+  std::mutex m_tileset_mutex;  // guards the three below
+  PlanTileset m_plan_tileset;  // reset once used
+  std::map<std::string, FileContent> m_tileset;  // by path: "tileset.json", "tilesets/z/x/y.json"
   BakeQueue m_queue;  // last: its workers use everything above, and stop first
 };
 

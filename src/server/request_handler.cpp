@@ -202,7 +202,7 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
       std::optional<FileContent> content = layer->second->tilesetFile(route.file);
       if (!content) {
         return text(404, "not found: layer '" + route.layer + "' has no " + route.file +
-                             " (made by `terrabake tile` with output.tileset: true)");
+                             " (a layer has one when its job sets output.tileset: true)");
       }
       return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
     }

@@ -1,0 +1,47 @@
+#pragma once
+// The heights a tile's meshes can reach, known before the tile is made: the
+// DEM read once over the layer's area on a coarse grid (each cell the mean of
+// the DEM under it, from the reduced levels or overviews a coarse zoom reads),
+// the backdrop where the DEM has no sample. A cell's mean hides the relief
+// inside it; that relief is taken to be at most the largest step between
+// neighbouring cells around the tile, by which the range is widened.
+#include <optional>
+
+#include "core/types.hpp"
+#include "pipeline/layer_plan.hpp"
+
+namespace terrabake::pipeline {
+
+// Output metres (heights.z_scale and exaggeration applied).
+struct HeightRange {
+  double low_m = 0;   // widened by step_m
+  double high_m = 0;  // widened by step_m
+  double step_m = 0;  // the largest step between neighbouring cells
+  bool holes = false; // some cell has no DEM sample: the tile fills holes
+};
+
+class HeightBounds {
+ public:
+  // Cells along the longer side of the layer's area: one read of 512 x 512
+  // costs about what a few tiles' reads do, and at the deepest zooms of a
+  // small DEM a cell is a few tiles across.
+  static constexpr int kCells = 512;
+
+  // Reads the plan's DEM. Throws InputError when it cannot be read.
+  explicit HeightBounds(const LayerPlan& plan);
+
+  // The heights of the terrain within `extent` (the scheme's CRS), from the
+  // cells it touches and one more around them; nullopt when none of those
+  // cells holds a DEM sample, so the tile there has none either.
+  std::optional<HeightRange> over(const Extent& extent) const;
+
+  // A cell's side in the scheme's CRS.
+  double cellSize() const { return m_grid.cell_w; }
+
+ private:
+  GridSpec m_grid;
+  Raster<float> m_heights;   // NaN where no DEM sample reaches the cell
+  Raster<float> m_backdrop;  // the backdrop at each cell's centre
+};
+
+}  // namespace terrabake::pipeline

@@ -1,0 +1,143 @@
+#include "pipeline/planned_tileset.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <optional>
+#include <set>
+#include <string>
+
+#include <glm/trigonometric.hpp>
+#include <glm/vec2.hpp>
+
+#include "core/error.hpp"
+#include "dem/crs_transform.hpp"
+#include "pipeline/height_bounds.hpp"
+#include "pipeline/tile_frame.hpp"
+
+namespace terrabake::pipeline {
+namespace {
+
+constexpr double kHalfPi = 1.57079632679489661923;
+// The WGS84 ellipsoid's smallest radius of curvature (along the meridian at
+// the equator) and its largest (across it at the poles): a chord sags no
+// more than with the smallest, and an angle spans no more ground than with
+// the largest.
+constexpr double kMinCurvatureRadiusM = 6335439.327;
+constexpr double kMaxCurvatureRadiusM = 6399593.626;
+// The largest angle between the ellipsoid's normal and the direction to the
+// earth's centre (about e^2 / 2, at 45°): a skirt hung towards the centre
+// moves north or south by at most its depth times this.
+constexpr double kMaxDeflectionRad = 0.00337;
+// How far the surface carried into a hole (dem/fill_holes.hpp) rises or
+// falls beyond the edge sample it starts from, in texel steps times its
+// reach: the edge's slope carried on, faded out by a smoothstep, goes
+// furthest, 0.26 reach steps, at 0.42 of the reach; rounded up.
+constexpr double kFillOvershootShare = 0.3;
+// Points along each tile edge taken to longitude and latitude: a native
+// CRS's edges curve there, between the points by far less than a texel.
+constexpr int kEdgePoints = 16;
+
+struct LonLatBox {
+  double west = 0, south = 0, east = 0, north = 0;  // radians
+};
+
+LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
+  std::vector<glm::dvec2> points;
+  for (int k = 0; k <= kEdgePoints; ++k) {
+    const double t = double(k) / kEdgePoints;
+    const double x = e.min_x + t * e.width(), y = e.min_y + t * e.height();
+    points.insert(points.end(), {{x, e.min_y}, {x, e.max_y}, {e.min_x, y}, {e.max_x, y}});
+  }
+  to_lon_lat.transform(points);
+  LonLatBox box{points[0].x, points[0].y, points[0].x, points[0].y};
+  for (const glm::dvec2& p : points) {
+    box = {std::min(box.west, p.x), std::min(box.south, p.y), std::max(box.east, p.x), std::max(box.north, p.y)};
+  }
+  return {glm::radians(box.west), glm::radians(box.south), glm::radians(box.east), glm::radians(box.north)};
+}
+
+// Where the tile's meshes will lie, or nullopt when it holds no DEM sample.
+// Every vertex of a low-poly mesh is a height sample of the tile (or the
+// mean of samples across its edge), so its heights are the terrain's; the
+// mesh sags below its vertices by a chord's sag at most, and skirts hang
+// deeper by their depth (tile_maker.cpp), bounded here from the plan.
+std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightBounds& bounds,
+                                            const dem::ToLonLat& to_lon_lat, const TileId& tile) {
+  const tiling::Scheme& scheme = *plan.scheme;
+  const TileSettings& settings = plan.settings;
+  const Extent extent = scheme.tileExtent(tile);
+  const std::optional<HeightRange> heights = bounds.over(extent);
+  if (!heights) return std::nullopt;
+  // Where the tile fills holes, the surface carried into them goes beyond the
+  // terrain's heights by its slope: one texel's step, estimated from the
+  // cells' largest step and the texel's size in cells (no more than the
+  // terrain's relief), over a share of the fill's reach.
+  const double texel_cells = extent.width() / scheme.tileSize() / bounds.cellSize();
+  const double texel_step_m =
+      std::min(heights->step_m * std::max(1.0, texel_cells), heights->high_m - heights->low_m);
+  const double fill_m = heights->holes ? kFillOvershootShare * settings.max_fill_px * texel_step_m : 0.0;
+  const double low_m = heights->low_m - fill_m, high_m = heights->high_m + fill_m;
+  const double relief_m = high_m - low_m;
+
+  const LonLatBox box = lonLatOf(extent, to_lon_lat);
+  const double widest_cos = box.south <= 0 && box.north >= 0 ? 1.0 : std::max(std::cos(box.south), std::cos(box.north));
+  const double width_m = (box.east - box.west) * widest_cos * kMaxCurvatureRadiusM;
+  const double height_m = (box.north - box.south) * kMaxCurvatureRadiusM;
+  const double texel_m = std::max(width_m, height_m) / scheme.tileSize();
+  // No mesh edge is longer than the tile's diagonal with its relief.
+  const double longest_edge_m = std::hypot(width_m, height_m, relief_m);
+
+  // A grid mesh's distance to its samples is measured as it is made; both lie
+  // within the tile's heights, so their relief bounds it.
+  const bool adaptive = settings.low_poly_mesh == LowPolyMesh::kAdaptive;
+  const double max_error_m = adaptive ? settings.max_error_m.at(std::size_t(tile.z)) : relief_m;
+  double skirt_m = 0;
+  if (settings.skirts) {
+    // skirtDepthM: the zoom's and the coarser zoom's bound (a grid's: four
+    // times its distance) and two texels, measured between samples, so no
+    // longer than a texel on the ground and the tile's relief together.
+    const double bound = adaptive ? std::max(settings.max_error_m.at(std::size_t(std::max(0, tile.z - 1))), max_error_m)
+                                  : 4 * max_error_m;
+    skirt_m = bound + 2 * (texel_m + relief_m);
+  }
+  const double sag_m = longest_edge_m * longest_edge_m / (8 * kMinCurvatureRadiusM);
+  const double bow_rad = std::pow(longest_edge_m / kMinCurvatureRadiusM, 2) / 8;
+  const double drift_rad = skirt_m * kMaxDeflectionRad / kMinCurvatureRadiusM;
+
+  io::GlbPlacement placement;
+  placement.enu_to_ecef = tileFrame(scheme, to_lon_lat, tile).localToEcef();
+  placement.max_error_m = max_error_m;
+  placement.region = {box.west,
+                      std::max(-kHalfPi, box.south - bow_rad - drift_rad),
+                      box.east,
+                      std::min(kHalfPi, box.north + bow_rad + drift_rad),
+                      low_m - sag_m - skirt_m,
+                      high_m};
+  return placement;
+}
+
+}  // namespace
+
+std::vector<io::TilesetDocument> planTileset(const LayerPlan& plan) {
+  const TileList list(plan);
+  if (list.size() > kMaxPlannedTilesetTiles) {
+    throw InputError("layer " + plan.layer_name + ": " + std::to_string(list.size()) + " tiles, more than the " +
+                     std::to_string(kMaxPlannedTilesetTiles) +
+                     " a tileset planned in memory holds; write it with `terrabake tile` and output.tileset: true");
+  }
+  const HeightBounds bounds(plan);
+  const dem::ToLonLat to_lon_lat(plan.scheme->crs());
+  std::set<TileId> listed;  // the areas either side of the antimeridian may share a tile
+  std::vector<io::TilesetTile> tiles;
+  for (std::uint64_t i = 0; i < list.size(); ++i) {
+    const TileId tile = list.at(i);
+    if (!listed.insert(tile).second) continue;
+    if (std::optional<io::GlbPlacement> placement = placementOf(plan, bounds, to_lon_lat, tile)) {
+      tiles.push_back({tile, *placement});
+    }
+  }
+  if (tiles.empty()) throw InputError("layer " + plan.layer_name + ": no tile holds a DEM sample");
+  return io::buildTileset(tiles, plan.scheme->tileSize());
+}
+
+}  // namespace terrabake::pipeline

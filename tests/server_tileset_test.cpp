@@ -1,0 +1,145 @@
+// The 3D Tiles tileset of an on-demand layer, planned before its tiles
+// exist and walked over HTTP as a viewer walks it (tileset_walk.hpp): every
+// content URI bakes, and each baked mesh lies where the tileset's composed
+// transforms put it and inside its tile's region; the tileset names the
+// tiles a batch run makes; it is cached as a folder layer's is.
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <optional>
+#include <set>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "io/tileset.hpp"
+#include "server_helpers.hpp"
+#include "tileset_walk.hpp"
+
+namespace terrabake {
+namespace {
+
+namespace fs = std::filesystem;
+using namespace test;
+using Json = nlohmann::json;
+
+// Zooms 8 to 14: seven levels, so the tileset goes on in external tilesets.
+constexpr int kMinZoom = 8, kMaxZoom = 14;
+static_assert(kMaxZoom - kMinZoom >= io::kTilesetLevelsPerFile);
+
+// The on-demand layer "live" over the small DEM, with output.tileset as given.
+config::ServeConfig liveConfig(const fs::path& dir, bool tileset) {
+  config::ServeConfig config = fakeConfig(dir);
+  const fs::path job = dir / "live.yaml";
+  writeText(job, "dem: " + smallDem().string() + "\noutput:\n  layer: live\n  tileset: " +
+                     (tileset ? "true" : "false") + "\ntiling:\n  zoom: [" + std::to_string(kMinZoom) + ", " +
+                     std::to_string(kMaxZoom) + "]\n  tile_size: 32\nbake:\n  backend: cpu\n  workers: 2\n");
+  config.layer_jobs = {job.string()};
+  return config;
+}
+
+std::set<TileId> meshesIn(const fs::path& layer) {
+  std::set<TileId> ids;
+  for (const auto& entry : fs::recursive_directory_iterator(layer)) {
+    const fs::path& p = entry.path();
+    if (p.extension() != ".glb" || p.stem().extension() == ".hires") continue;
+    ids.insert({std::stoi(p.parent_path().parent_path().filename().string()),
+                std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
+  }
+  return ids;
+}
+
+TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
+  const fs::path dir = caseDir();
+  const config::ServeConfig config = liveConfig(dir, true);
+  ServerThread running(config);
+  const auto tileset = get(running.port(), "/live/tileset.json");
+  ASSERT_TRUE(tileset);
+  ASSERT_EQ(tileset->status, 200) << tileset->body;
+  EXPECT_EQ(tileset->get_header_value("Content-Type"), "application/json");
+  EXPECT_EQ(Json::parse(tileset->body)["asset"]["version"], "1.1");
+  EXPECT_FALSE(fs::exists(fs::path(config.tiles_dir) / "live" / std::to_string(kMaxZoom)))
+      << "the tileset is planned without baking a tile";
+
+  const fs::path layer = fs::path(config.tiles_dir) / "live";
+  TilesetWalk walk(layer, kMaxZoom, [&](const std::string& path) -> std::optional<std::string> {
+    const auto reply = get(running.port(), "/live/" + path);
+    if (!reply || reply->status != 200) return std::nullopt;
+    return reply->body;
+  });
+  walk.run();
+  EXPECT_GT(walk.external_tilesets, 0) << "seven levels continue in external tilesets";
+  EXPECT_EQ(walk.deepest_leaf_errors_nonzero, 0) << "the deepest zoom's tiles are the terrain itself";
+  for (const auto& [id, count] : walk.meshes_seen) EXPECT_EQ(count, 1) << id.str() << " is not in the tileset once";
+  RecordProperty("loosest_floor_m", std::to_string(walk.loosest_floor_m));
+  RecordProperty("loosest_ceiling_m", std::to_string(walk.loosest_ceiling_m));
+
+  // A batch run of the same job makes exactly the tiles the tileset names.
+  config::TileJob batch = tileJob(smallDem(), "server_tileset/batch", SchemeKind::kWebMercator, kMinZoom, kMaxZoom);
+  batch.tile_size = 32;
+  batch.tileset = true;
+  batch.backend = Backend::kCpu;
+  fs::remove_all(layerDir(batch));
+  ASSERT_EQ(pipeline::runTileJob(batch).failed, 0);
+  const std::set<TileId> made = meshesIn(layerDir(batch));
+  std::set<TileId> named;
+  for (const auto& [id, count] : walk.meshes_seen) named.insert(id);
+  EXPECT_EQ(named, made);
+  EXPECT_EQ(meshesIn(layer), made) << "every tile the walk fetched was baked and written";
+}
+
+// The first external tileset a tileset's tile names, depth first.
+std::optional<std::string> firstExternal(const Json& tile) {
+  if (tile.contains("content")) {
+    const std::string uri = tile["content"]["uri"];
+    if (uri.rfind("tilesets/", 0) == 0) return uri;
+  }
+  for (const Json& child : tile.value("children", Json::array())) {
+    if (std::optional<std::string> found = firstExternal(child)) return found;
+  }
+  return std::nullopt;
+}
+
+TEST(ServeOnDemandTileset, IsCachedAsAFolderLayersTilesetIs) {
+  const fs::path dir = caseDir();
+  ServerThread running(liveConfig(dir, true));
+  const auto main_doc = get(running.port(), "/live/tileset.json");
+  ASSERT_TRUE(main_doc && main_doc->status == 200);
+  const std::optional<std::string> external = firstExternal(Json::parse(main_doc->body)["root"]);
+  ASSERT_TRUE(external) << "seven levels continue in an external tileset";
+
+  for (const std::string& url : {std::string("/live/tileset.json"), "/live/" + *external}) {
+    const auto first = get(running.port(), url);
+    ASSERT_TRUE(first);
+    ASSERT_EQ(first->status, 200) << url << ": " << first->body;
+    EXPECT_EQ(first->get_header_value("Cache-Control"), "public, max-age=3600") << url;
+    const std::string etag = first->get_header_value("ETag");
+    ASSERT_FALSE(etag.empty()) << url;
+    const auto again = get(running.port(), url);
+    ASSERT_TRUE(again);
+    EXPECT_EQ(again->body, first->body) << url << ": planned once, the same bytes every time";
+    EXPECT_EQ(again->get_header_value("ETag"), etag);
+    const auto unchanged = get(running.port(), url, {{"If-None-Match", etag}});
+    ASSERT_TRUE(unchanged);
+    EXPECT_EQ(unchanged->status, 304) << url;
+    EXPECT_TRUE(unchanged->body.empty());
+  }
+  EXPECT_EQ(statusOf(running.port(), "/live/tilesets/20/1/1.json"), 404);
+  EXPECT_EQ(health(running.port())["bakes_started"], 0) << "serving the tileset bakes nothing";
+
+  // tilejson names it, so viewers find it.
+  const Json tilejson = Json::parse(get(running.port(), "/live/tilejson.json")->body);
+  EXPECT_EQ(tilejson["terrabake"]["tileset"], "http://127.0.0.1:" + std::to_string(running.port()) + "/live/tileset.json");
+}
+
+TEST(ServeOnDemandTileset, ALayerWhoseJobAsksForNoneHasNone) {
+  const fs::path dir = caseDir();
+  ServerThread running(liveConfig(dir, false));
+  const auto reply = get(running.port(), "/live/tileset.json");
+  ASSERT_TRUE(reply);
+  EXPECT_EQ(reply->status, 404);
+  EXPECT_NE(reply->body.find("output.tileset"), std::string::npos) << reply->body;
+}
+
+}  // namespace
+}  // namespace terrabake
