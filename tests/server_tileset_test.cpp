@@ -38,17 +38,6 @@ config::ServeConfig liveConfig(const fs::path& dir, bool tileset) {
   return config;
 }
 
-std::set<TileId> meshesIn(const fs::path& layer) {
-  std::set<TileId> ids;
-  for (const auto& entry : fs::recursive_directory_iterator(layer)) {
-    const fs::path& p = entry.path();
-    if (p.extension() != ".glb" || p.stem().extension() == ".hires") continue;
-    ids.insert({std::stoi(p.parent_path().parent_path().filename().string()),
-                std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
-  }
-  return ids;
-}
-
 TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
   const fs::path dir = caseDir();
   const config::ServeConfig config = liveConfig(dir, true);
@@ -81,11 +70,11 @@ TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
   batch.backend = Backend::kCpu;
   fs::remove_all(layerDir(batch));
   ASSERT_EQ(pipeline::runTileJob(batch).failed, 0);
-  const std::set<TileId> made = meshesIn(layerDir(batch));
+  const std::set<TileId> made = meshesOnDisk(layerDir(batch));
   std::set<TileId> named;
   for (const auto& [id, count] : walk.meshes_seen) named.insert(id);
   EXPECT_EQ(named, made);
-  EXPECT_EQ(meshesIn(layer), made) << "every tile the walk fetched was baked and written";
+  EXPECT_EQ(meshesOnDisk(layer), made) << "every tile the walk fetched was baked and written";
 }
 
 // The first external tileset a tileset's tile names, depth first.

@@ -54,17 +54,6 @@ config::TileJob tilesetJob(const std::string& name) {
   return job;
 }
 
-std::set<TileId> meshesOnDisk(const fs::path& layer) {
-  std::set<TileId> ids;
-  for (const auto& entry : fs::recursive_directory_iterator(layer)) {
-    const fs::path& p = entry.path();
-    if (p.extension() != ".glb" || p.stem().extension() == ".hires") continue;
-    ids.insert({std::stoi(p.parent_path().parent_path().filename().string()),
-                std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
-  }
-  return ids;
-}
-
 TEST(Tileset, FollowsTheStructuralRulesOf3DTiles) {
   const config::TileJob job = tilesetJob("structure");
   fs::remove_all(test::layerDir(job));
@@ -75,7 +64,7 @@ TEST(Tileset, FollowsTheStructuralRulesOf3DTiles) {
   walk.run();
   EXPECT_GT(walk.external_tilesets, 0) << "seven levels continue in external tilesets";
   EXPECT_EQ(walk.deepest_leaf_errors_nonzero, 0) << "the deepest zoom's tiles are the terrain itself";
-  const std::set<TileId> on_disk = meshesOnDisk(layer);
+  const std::set<TileId> on_disk = test::meshesOnDisk(layer);
   ASSERT_FALSE(on_disk.empty());
   for (const TileId& id : on_disk) EXPECT_EQ(walk.meshes_seen[id], 1) << id.str() << " is not in the tileset once";
   EXPECT_EQ(walk.meshes_seen.size(), on_disk.size());

@@ -15,6 +15,7 @@
 #include <functional>
 #include <map>
 #include <optional>
+#include <set>
 #include <string>
 
 #include <glm/geometric.hpp>
@@ -35,6 +36,18 @@ constexpr double kTransformToleranceM = 1e-3;
 // 1.6e-10 rad on the ground.
 constexpr double kRegionToleranceRad = 1e-9;
 constexpr double kRegionToleranceM = 2e-3;
+
+// The tiles whose low-poly .glb lies in a layer folder ({z}/{x}/{y}.glb).
+inline std::set<TileId> meshesOnDisk(const std::filesystem::path& layer) {
+  std::set<TileId> ids;
+  for (const auto& entry : std::filesystem::recursive_directory_iterator(layer)) {
+    const std::filesystem::path& p = entry.path();
+    if (p.extension() != ".glb" || p.stem().extension() == ".hires") continue;
+    ids.insert({std::stoi(p.parent_path().parent_path().filename().string()),
+                std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
+  }
+  return ids;
+}
 
 struct TilesetRegion {
   double west, south, east, north, low, high;

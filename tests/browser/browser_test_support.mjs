@@ -28,6 +28,10 @@ const kChromiumArgs = ['--headless=new', '--no-sandbox', '--disable-gpu', '--use
   '--disable-extensions', '--disable-default-apps', '--no-default-browser-check'];
 const kChromiumStartTimeoutMs = 60_000;
 const kBrowserCloseTimeoutMs = 10_000;
+// terrabake serve announces its port within this, and exits this soon after SIGTERM.
+const kServeStartTimeoutMs = 30_000;
+const kServeStopTimeoutMs = 10_000;
+const kScreenshotTimeoutMs = 30_000;
 
 export function createBrowserTest(name, { watchdogMs }) {
   const failures = [];
@@ -119,7 +123,7 @@ export function createBrowserTest(name, { watchdogMs }) {
   }
 
   // startServer, ending the test when the server does not start; logs its URL.
-  async function serve(terrabake, tilesDir, timeoutMs) {
+  async function serve(terrabake, tilesDir, timeoutMs = kServeStartTimeoutMs) {
     let server;
     try {
       server = await startServer(terrabake, tilesDir, timeoutMs);
@@ -153,7 +157,7 @@ export function createBrowserTest(name, { watchdogMs }) {
 
   // Stops the server with SIGTERM; fails the test if it had already exited or
   // does not exit within timeoutMs.
-  async function stopServer(server, timeoutMs) {
+  async function stopServer(server, timeoutMs = kServeStopTimeoutMs) {
     const stopped = await stopProcess(server.child, timeoutMs);
     if (stopped.timedOut) {
       fail(`terrabake serve did not exit within ${timeoutMs / 1000} s of SIGTERM (killed)`);
@@ -264,6 +268,25 @@ export function createBrowserTest(name, { watchdogMs }) {
     if (problems) for (const problem of problems.list.slice(problems.reported)) fail(`${problems.label}: ${problem}`);
   }
 
+  // Opens url as openPage does and, once it is ready, saves a screenshot as
+  // <out>/<name>.png and resolves to inspect({page, image, ms, file}), image
+  // decoded; null when the page never got ready or inspecting it threw.
+  async function screenshotPage(url, out, name, pageOptions, inspect) {
+    const { page, ms, ok } = await openPage(url, name, pageOptions);
+    let result = null;
+    if (ok) {
+      const file = path.join(out, `${name}.png`);
+      try {
+        const image = decodePng(await page.screenshot({ path: file, timeout: kScreenshotTimeoutMs }));
+        result = await inspect({ page, image, ms, file });
+      } catch (error) {
+        fail(`${name}: ${error.message}`);
+      }
+    }
+    await closePage(page);
+    return result;
+  }
+
   // Runs main with a watchdog and SIGINT/SIGTERM handling, cleans up, and
   // exits: 0 when nothing failed, else 1.
   async function run(main) {
@@ -288,7 +311,7 @@ export function createBrowserTest(name, { watchdogMs }) {
 
   return {
     log, fail, abort, failures, runToEnd, tile, startServer, serve, stopProcess, stopServer,
-    requireChromium, setUp, launchChromium, closeChromium, openPage, closePage, run,
+    requireChromium, setUp, launchChromium, closeChromium, openPage, closePage, screenshotPage, run,
   };
 }
 

@@ -21,11 +21,9 @@
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core).
 import path from 'node:path';
 
-import { createBrowserTest, decodePng, kRepo } from './browser_test_support.mjs';
+import { createBrowserTest, kRepo } from './browser_test_support.mjs';
 
 const kTileTimeoutMs = 180_000;
-const kServeStartTimeoutMs = 30_000;
-const kServeStopTimeoutMs = 10_000;
 const kPageTimeoutMs = 120_000;
 const kWatchdogMs = 540_000;
 const kViewport = { width: 800, height: 600 };
@@ -91,25 +89,15 @@ function countElevationRequests(context) {
 async function screenshot(serverUrl, out, name, query, requestCounter) {
   const before = requestCounter.count;
   const url = `${serverUrl}viewer/maplibre.html?${new URLSearchParams(query)}`;
-  const { page, ms, ok } = await t.openPage(url, name, {
+  return t.screenshotPage(url, out, name, {
     timeoutMs: kPageTimeoutMs,
     notReadyDetail: async (p) => p.locator('#status').textContent({ timeout: 1000 }).catch(() => ''),
+  }, ({ image, ms, file }) => {
+    const requests = requestCounter.count - before;
+    log(`${name}: ${requests} elevation tile requests, ${ms} ms -> ${file}`);
+    if (requests === 0) fail(`${name}: the page requested no .elevation.png tile`);
+    return { luma: lumaOf(image), requests };
   });
-  let result = null;
-  if (ok) {
-    const file = path.join(out, `${name}.png`);
-    try {
-      const image = decodePng(await page.screenshot({ path: file, timeout: 30_000 }));
-      const requests = requestCounter.count - before;
-      log(`${name}: ${requests} elevation tile requests, ${ms} ms -> ${file}`);
-      if (requests === 0) fail(`${name}: the page requested no .elevation.png tile`);
-      result = { luma: lumaOf(image), requests };
-    } catch (error) {
-      fail(`${name}: ${error.message}`);
-    }
-  }
-  await t.closePage(page);
-  return result;
 }
 
 // The viewer's page for a layer with elevation tiles links to the MapLibre page.
@@ -134,7 +122,7 @@ async function main() {
       kTileTimeoutMs);
   }
 
-  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
+  const server = await t.serve(terrabake, tilesDir);
   const context = await t.launchChromium({ viewport: kViewport });
   const requestCounter = countElevationRequests(context);
 
@@ -170,7 +158,7 @@ async function main() {
   if (measured.terrain !== undefined && !(measured.terrain >= kMinTerrainDifference)) {
     fail(`3D terrain changes the tilted view by ${measured.terrain.toFixed(2)} luma only (at least ${kMinTerrainDifference})`);
   }
-  await t.stopServer(server, kServeStopTimeoutMs);
+  await t.stopServer(server);
 }
 
 await t.run(main);

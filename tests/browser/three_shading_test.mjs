@@ -67,8 +67,6 @@ const kHere = path.dirname(fileURLToPath(import.meta.url));
 
 // Limits. The whole test takes 15 to 40 s on the 2-core development machine.
 const kTileTimeoutMs = 120_000;
-const kServeStartTimeoutMs = 30_000;
-const kServeStopTimeoutMs = 10_000;
 const kPageTimeoutMs = 60_000;
 const kRenderTimeoutMs = 180_000;
 const kWatchdogMs = 420_000;
@@ -268,7 +266,7 @@ async function main() {
   }
 
   // 2. The server, and the test page on its origin.
-  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
+  const server = await t.serve(terrabake, tilesDir);
   const context = await t.launchChromium({ viewport: { width: kCanvas, height: kCanvas } });
   const pageBase = `${server.url}three-shading-test/`;
   const pageModule = await readFile(path.join(kHere, 'three_shading_page.mjs'));
@@ -302,7 +300,7 @@ async function main() {
   log(`loaded and rendered in ${((Date.now() - started) / 1000).toFixed(1)} s: ${JSON.stringify(result.info)}`);
   await t.closePage(page);
   await t.closeChromium();
-  await t.stopServer(server, kServeStopTimeoutMs);
+  await t.stopServer(server);
   for (const problem of result.problems) fail(problem);
   if (!result.renders) return;
 

@@ -24,11 +24,9 @@
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core).
 import path from 'node:path';
 
-import { createBrowserTest, decodePng, kRepo } from './browser_test_support.mjs';
+import { createBrowserTest, kRepo } from './browser_test_support.mjs';
 
 const kTileTimeoutMs = 180_000;
-const kServeStartTimeoutMs = 30_000;
-const kServeStopTimeoutMs = 10_000;
 const kPageTimeoutMs = 180_000;
 const kWatchdogMs = 540_000;
 const kViewport = { width: 800, height: 600 };
@@ -70,26 +68,16 @@ function luma(rgb, p) {
 // Opens the view; resolves to {image, stats} or null, with the screenshot in <out>/<name>.png.
 async function screenshot(serverUrl, out, name, query) {
   const url = `${serverUrl}viewer/tiles3d.html?${new URLSearchParams(query)}`;
-  const { page, ms, ok } = await t.openPage(url, name, {
+  return t.screenshotPage(url, out, name, {
     timeoutMs: kPageTimeoutMs,
     // 3D Tiles viewers cancel the downloads of tiles the view no longer needs.
     cancelledRequestsAllowed: true,
     notReadyDetail: async (p) => p.locator('#status').textContent({ timeout: 1000 }).catch(() => ''),
+  }, async ({ page, image, ms, file }) => {
+    const stats = await page.evaluate(() => window.terrabakeStats);
+    log(`${name}: levels drawn ${stats.visibleLevels.join(',')}, fetched ${stats.requestedLevels.join(',')}, ${ms} ms -> ${file}`);
+    return { image, stats };
   });
-  let result = null;
-  if (ok) {
-    const file = path.join(out, `${name}.png`);
-    try {
-      const image = decodePng(await page.screenshot({ path: file, timeout: 30_000 }));
-      const stats = await page.evaluate(() => window.terrabakeStats);
-      log(`${name}: levels drawn ${stats.visibleLevels.join(',')}, fetched ${stats.requestedLevels.join(',')}, ${ms} ms -> ${file}`);
-      result = { image, stats };
-    } catch (error) {
-      fail(`${name}: ${error.message}`);
-    }
-  }
-  await t.closePage(page);
-  return result;
 }
 
 function countBackground(image) {
@@ -145,7 +133,7 @@ async function main() {
       '--max-error-texels', kCoarseErrorTexels, '--out', tilesDir, '--layer', `skirts_${skirts}`], kTileTimeoutMs);
   }
 
-  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
+  const server = await t.serve(terrabake, tilesDir);
   await t.launchChromium({ viewport: kViewport });
 
   const results = [];
@@ -177,7 +165,7 @@ async function main() {
   if (cracks.off !== undefined && cracks.off < kMinCrackPixelsWithoutSkirts) {
     fail(`cracks: only ${cracks.off} background pixels without skirts (at least ${kMinCrackPixelsWithoutSkirts}): the view shows no gap`);
   }
-  await t.stopServer(server, kServeStopTimeoutMs);
+  await t.stopServer(server);
 }
 
 await t.run(main);

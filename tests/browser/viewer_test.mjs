@@ -38,8 +38,6 @@ import { createBrowserTest, decodePng, encodePngRgb, kRepo } from './browser_tes
 
 // Limits. The whole test takes about 40 s on the 2-core development machine.
 const kTileTimeoutMs = 180_000;
-const kServeStartTimeoutMs = 30_000;
-const kServeStopTimeoutMs = 10_000;
 const kPageTimeoutMs = 180_000;   // 16 high-res tiles (2.1 M triangles) load and draw in ~10 s
 const kWatchdogMs = 540_000;      // everything, including cleanup
 
@@ -294,7 +292,7 @@ async function main() {
     '--nodata-surface', 'cut', '--out', tilesDir, '--layer', kCutLayer], kTileTimeoutMs);
 
   // 2. The server.
-  const server = await t.serve(terrabake, tilesDir, kServeStartTimeoutMs);
+  const server = await t.serve(terrabake, tilesDir);
 
   // 3. The browser, with a fresh profile and nothing from the network.
   // Room for the panel (220 px) beside the fixed-size canvas.
@@ -436,7 +434,7 @@ async function main() {
 
   // 6. Stop the server.
   await t.closeChromium();
-  await t.stopServer(server, kServeStopTimeoutMs);
+  await t.stopServer(server);
 }
 
 await t.run(main);
