@@ -130,6 +130,39 @@ EdgePlanes edgePlanes(const Raster<float>& heights) {
   return edge;
 }
 
+// The weight of an edge sample (dc, dr) samples away from a hole sample, and
+// that weight times the distance, for every offset within reach: the same
+// values the formulas give, looked up instead of recomputed per pair.
+class ReachWeights {
+ public:
+  explicit ReachWeights(int reach) : m_reach(reach), m_side(2 * reach - 1) {
+    const double reach_sq = double(reach) * reach;
+    m_weight.resize(std::size_t(m_side) * std::size_t(m_side), 0.0);
+    m_weighted_distance.resize(m_weight.size(), 0.0);
+    for (int dr = 1 - reach; dr < reach; ++dr) {
+      for (int dc = 1 - reach; dc < reach; ++dc) {
+        const double d_sq = double(dc) * dc + double(dr) * dr;
+        if (d_sq == 0 || d_sq >= reach_sq) continue;
+        // Inverse distance to the sixth power, tapered to zero at reach.
+        const double taper = (1 - d_sq / reach_sq) * (1 - d_sq / reach_sq);
+        const std::size_t k = index(dc, dr);
+        m_weight[k] = taper / (d_sq * d_sq * d_sq);
+        m_weighted_distance[k] = m_weight[k] * std::sqrt(d_sq);
+      }
+    }
+  }
+  // |dc| and |dr| below reach.
+  std::size_t index(int dc, int dr) const {
+    return std::size_t(dr + m_reach - 1) * std::size_t(m_side) + std::size_t(dc + m_reach - 1);
+  }
+  double weight(std::size_t k) const { return m_weight[k]; }
+  double weightedDistance(std::size_t k) const { return m_weighted_distance[k]; }
+
+ private:
+  int m_reach, m_side;
+  std::vector<double> m_weight, m_weighted_distance;  // 0 at reach and beyond
+};
+
 // 1 at t = 0, 0 from t = 1 on, flat at both ends (smoothstep), so the fade
 // adds no kink where it starts or ends. (Smootherstep, flat in curvature too,
 // is a quarter steeper halfway: steeper than the terrain it continues.)
@@ -166,7 +199,7 @@ bool fillHoles(Raster<float>& heights) {
 
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
   const EdgePlanes edge = edgePlanes(around);
-  const double reach_sq = double(reach) * reach;
+  const ReachWeights weights(reach);
   // Samples less than reach from an edge sample along both axes: the others
   // are the backdrop's alone, with no plane to visit.
   std::vector<std::uint8_t> is_edge(around.data.size(), 0);
@@ -193,13 +226,12 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
         auto e = std::lower_bound(edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr)]), row_end,
                                   c - reach + 1, [](const EdgePlane& p, int col) { return p.c < col; });
         for (; e != row_end && e->c < c + reach; ++e) {
-          const double dc = c - e->c, dr = r - e->r, d_sq = dc * dc + dr * dr;
-          if (d_sq >= reach_sq) continue;
-          const double taper = (1 - d_sq / reach_sq) * (1 - d_sq / reach_sq);
-          const double weight = taper / (d_sq * d_sq * d_sq);
+          const std::size_t k = weights.index(c - e->c, r - e->r);
+          const double weight = weights.weight(k);
+          if (weight == 0) continue;
           weight_sum += weight;
           height_sum += weight * e->at(c, r);
-          distance_sum += weight * std::sqrt(d_sq);
+          distance_sum += weights.weightedDistance(k);
         }
       }
       const double far = backdrop.at(c - margin, r - margin);

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 #include <utility>
+#include <vector>
 
 #include <glm/geometric.hpp>
 
@@ -50,6 +52,25 @@ Raster<std::uint8_t> texelsOf(const Raster<std::uint8_t>& samples, int apron, in
     for (int i = 0; i < tile_size; ++i) texels.at(i, j) = samples.at(apron + i, apron + j);
   }
   return texels;
+}
+
+// The middle of `around`, `margin` cells in from each side.
+Raster<float> innerPart(const Raster<float>& around, int margin) {
+  Raster<float> inner(around.width - 2 * margin, around.height - 2 * margin);
+  for (int r = 0; r < inner.height; ++r) {
+    const float* row = &around.at(margin, margin + r);
+    std::copy(row, row + inner.width, &inner.at(0, r));
+  }
+  return inner;
+}
+
+// Whether `grid` lies wholly within one of `areas`.
+bool insideAny(const GridSpec& grid, const std::vector<Extent>& areas) {
+  const double west = grid.origin_x, east = grid.origin_x + grid.width * grid.cell_w;
+  const double north = grid.origin_y, south = grid.origin_y - grid.height * grid.cell_h;
+  return std::any_of(areas.begin(), areas.end(), [&](const Extent& a) {
+    return a.min_x <= west && east <= a.max_x && a.min_y <= south && north <= a.max_y;
+  });
 }
 
 void scaleHeights(Raster<float>& heights, double scale) {
@@ -119,23 +140,40 @@ struct TileMaker::Impl {
         to_lon_lat(scheme.crs()),
         baker(gl::createBaker(plan->backend)) {}
 
-  // `heights` of `grid` with every hole filled so that the result depends
-  // only on where a texel is, not on which tile asks: the surface is carried
-  // on into holes from their edges over max_fill_px, reading the samples it
-  // depends on around the window, and fades into the backdrop there.
-  Raster<float> filledHeights(const GridSpec& grid, const dem::ReadPlan& read_plan) const {
-    const int reach = settings.max_fill_px;
-    const int margin = dem::continuationReach(reach);
+  // The cells of `grid` and the samples a hole fill on it depends on:
+  // fillMargin() more cells each side.
+  int fillMargin() const { return dem::continuationReach(settings.max_fill_px); }
+  GridSpec fillGrid(const GridSpec& grid) const {
+    const int margin = fillMargin();
     GridSpec wide = grid;
     wide.origin_x -= margin * grid.cell_w;
     wide.origin_y += margin * grid.cell_h;
     wide.width += 2 * margin;
     wide.height += 2 * margin;
+    return wide;
+  }
+
+  // `grid`'s heights as read. A grid that reaches past the run's area has
+  // holes, so it is read at once with the fill's margin (`around`), which
+  // the fill would read again otherwise; each cell reads the same either way.
+  Raster<float> readHeights(const GridSpec& grid, const dem::ReadPlan& read_plan,
+                            std::optional<Raster<float>>& around) const {
+    if (insideAny(grid, plan->areas)) return dem.read(grid, read_plan);
+    around = dem.read(fillGrid(grid), read_plan);
+    return innerPart(*around, fillMargin());
+  }
+
+  // `grid`'s heights with every hole filled so that the result depends
+  // only on where a texel is, not on which tile asks: the surface is carried
+  // on into holes from their edges over max_fill_px, from the samples it
+  // depends on around the window (`around`, on fillGrid(grid)), and fades
+  // into the backdrop there.
+  Raster<float> filledHeights(const GridSpec& grid, const Raster<float>& around) const {
     Raster<float> backdrop(grid.width, grid.height);
     for (int r = 0; r < grid.height; ++r) {
       for (int c = 0; c < grid.width; ++c) backdrop.at(c, r) = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
     }
-    return dem::continueIntoHoles(dem.read(wide, read_plan), margin, backdrop, reach);
+    return dem::continueIntoHoles(around, fillMargin(), backdrop, settings.max_fill_px);
   }
 
   // Longitude and latitude of every cell centre of `grid`, row by row.
@@ -179,11 +217,13 @@ struct TileMaker::Impl {
 
   // The heights a tile uses from those read on `grid`: holes filled, scaled.
   // `from_dem`, when given, gets the samples the DEM had (empty: all).
+  // `around`, when read already, holds the heights on fillGrid(grid).
   Raster<float> finishedHeights(Raster<float> read, const GridSpec& grid, const dem::ReadPlan& read_plan,
-                                Raster<std::uint8_t>* from_dem) const {
+                                Raster<std::uint8_t>* from_dem,
+                                const std::optional<Raster<float>>& around = std::nullopt) const {
     if (hasHoles(read)) {
       if (from_dem) *from_dem = demSamples(read);
-      read = filledHeights(grid, read_plan);
+      read = filledHeights(grid, around ? *around : dem.read(fillGrid(grid), read_plan));
     }
     scaleHeights(read, settings.height_scale);
     return read;
@@ -276,14 +316,15 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const int size = s.scheme.tileSize();
   const int apron = s.settings.apron;
   const GridSpec grid = s.scheme.texelGrid(tile, apron);
-  Raster<float> read = s.dem.read(grid, read_plan);
+  std::optional<Raster<float>> around;
+  Raster<float> read = s.readHeights(grid, read_plan, around);
   if (!hasValidSample(read, apron, size)) {
     lap(s.times.read);
     return std::nullopt;
   }
   // Coverage is what the DEM itself gives, before any fill.
   Raster<std::uint8_t> from_dem;
-  const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem);
+  const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem, around);
   lap(s.times.read);
 
   const geo::LocalFrame frame = tileFrame(s.scheme, s.to_lon_lat, tile);
