@@ -95,10 +95,11 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   StageTimes times;  // of every worker, summed when each ends
   Progress progress(count, ::isatty(STDERR_FILENO));
 
+  const auto edge_points = std::make_shared<EdgePointCache>();
   auto worker = [&] {
     std::unique_ptr<TileMaker> maker;
     try {
-      maker = std::make_unique<TileMaker>(plan);
+      maker = std::make_unique<TileMaker>(plan, edge_points);
     } catch (...) {
       std::lock_guard<std::mutex> lock(fatal_mutex);
       if (!fatal) fatal = std::current_exception();

@@ -130,15 +130,17 @@ struct TileMaker::Impl {
   const TileSettings& settings;
   dem::ToLonLat to_lon_lat;
   std::unique_ptr<bake::Baker> baker;
+  std::shared_ptr<EdgePointCache> edge_points;
   StageTimes times;
 
-  explicit Impl(std::shared_ptr<const LayerPlan> p)
+  Impl(std::shared_ptr<const LayerPlan> p, std::shared_ptr<EdgePointCache> edges)
       : dem(p->dem->reader()),
         plan(std::move(p)),
         scheme(*plan->scheme),
         settings(plan->settings),
         to_lon_lat(scheme.crs()),
-        baker(gl::createBaker(plan->backend)) {}
+        baker(gl::createBaker(plan->backend)),
+        edge_points(edges ? std::move(edges) : std::make_shared<EdgePointCache>()) {}
 
   // The cells of `grid` and the samples a hole fill on it depends on:
   // fillMargin() more cells each side.
@@ -255,12 +257,17 @@ struct TileMaker::Impl {
   }
 
   mesh::TileEdgePoints edgePoints(const TileId& tile, const dem::ReadPlan& read_plan, double max_error_m) const {
-    auto kept = [&](const GridSpec& strip) { return mesh::keptEdgePoints(edgeProfile(strip, read_plan), max_error_m); };
+    auto kept = [&](const TileId& strip_tile, bool vertical) {
+      return edge_points->keptPoints({strip_tile, vertical}, [&] {
+        const GridSpec strip = vertical ? westStrip(scheme, strip_tile) : northStrip(scheme, strip_tile);
+        return mesh::keptEdgePoints(edgeProfile(strip, read_plan), max_error_m);
+      });
+    };
     mesh::TileEdgePoints edges;
-    edges.west = kept(westStrip(scheme, tile));
-    edges.east = kept(westStrip(scheme, eastOf(scheme, tile)));
-    edges.north = kept(northStrip(scheme, tile));
-    edges.south = kept(northStrip(scheme, southOf(scheme, tile)));
+    edges.west = kept(tile, true);
+    edges.east = kept(eastOf(scheme, tile), true);
+    edges.north = kept(tile, false);
+    edges.south = kept(southOf(scheme, tile), false);
     return edges;
   }
 
@@ -294,7 +301,8 @@ struct TileMaker::Impl {
 
 };
 
-TileMaker::TileMaker(std::shared_ptr<const LayerPlan> plan) : m_impl(std::make_unique<Impl>(std::move(plan))) {}
+TileMaker::TileMaker(std::shared_ptr<const LayerPlan> plan, std::shared_ptr<EdgePointCache> edges)
+    : m_impl(std::make_unique<Impl>(std::move(plan), std::move(edges))) {}
 
 TileMaker::~TileMaker() = default;
 

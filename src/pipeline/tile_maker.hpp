@@ -9,6 +9,7 @@
 
 #include "core/types.hpp"
 #include "io/layer_layout.hpp"
+#include "pipeline/edge_point_cache.hpp"
 #include "pipeline/layer_plan.hpp"
 
 namespace terrabake::pipeline {
@@ -31,8 +32,9 @@ struct StageTimes {
 class TileMaker {
  public:
   // Opens the plan's DEM and makes its baker on the calling thread. The plan
-  // is the job's, shared by every worker.
-  explicit TileMaker(std::shared_ptr<const LayerPlan> plan);
+  // is the job's, shared by every worker, and so is `edges` when given (else
+  // the maker keeps its own).
+  explicit TileMaker(std::shared_ptr<const LayerPlan> plan, std::shared_ptr<EdgePointCache> edges = nullptr);
   ~TileMaker();
 
   // nullopt when the tile holds no valid DEM sample (it is not written).

@@ -189,9 +189,10 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
   if (plan->tileset) settings.plan_tileset = [plan] { return pipeline::planTileset(*plan); };
 
   const auto logged = std::make_shared<std::once_flag>();
-  const auto make_tile = [plan, logged]() -> OnDemandLayer::MakeTile {
+  const auto edge_points = std::make_shared<pipeline::EdgePointCache>();
+  const auto make_tile = [plan, logged, edge_points]() -> OnDemandLayer::MakeTile {
     // Made on the worker thread that keeps it: its GDAL handle and GL context belong there.
-    auto maker = std::make_shared<pipeline::TileMaker>(plan);
+    auto maker = std::make_shared<pipeline::TileMaker>(plan, edge_points);
     std::call_once(*logged, [&] {
       log::info("layer " + plan->layer_name + ": baking on demand with " + maker->bakerDescription());
     });
