@@ -236,7 +236,9 @@ struct TileMaker::Impl {
   // (westStrip, northStrip), so they read the same heights at the same
   // places and keep the same edge vertices.
   mesh::EdgeProfile edgeProfile(const GridSpec& strip, const dem::ReadPlan& read_plan) const {
-    const Raster<float> heights = finishedHeights(dem.read(strip, read_plan), strip, read_plan, nullptr);
+    std::optional<Raster<float>> around;
+    Raster<float> read = readHeights(strip, read_plan, around);
+    const Raster<float> heights = finishedHeights(std::move(read), strip, read_plan, nullptr, around);
     const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(strip);
     Raster<glm::dvec3> ecef(strip.width, strip.height);
     for (std::size_t k = 0; k < lon_lat.size(); ++k) {
