@@ -5,10 +5,13 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <string>
+#include <thread>
 #include <tuple>
 
 #include "bake/cpu_baker.hpp"
 #include "bake/encode.hpp"
+#include "gl/baker_factory.hpp"
 #include "gl_test_support.hpp"
 #include "mesh/adaptive_mesh.hpp"
 #include "synthetic_surface.hpp"
@@ -211,6 +214,25 @@ INSTANTIATE_TEST_SUITE_P(GlBackends, GlAgreesWithCpu,
                            return std::string(wordOf(std::get<0>(test_info.param))) + "_" +
                                   std::string(wordOf(std::get<1>(test_info.param)));
                          });
+
+// llvmpipe's own threads go only where the workers leave cores free, and a
+// LP_NUM_THREADS the user set stays.
+TEST(SoftwareRasteriser, RasterisesOnTheWorkersOnlyWhenTheyFillTheCores) {
+  const int cores = int(std::thread::hardware_concurrency());
+  ASSERT_GT(cores, 0);
+  ::unsetenv("LP_NUM_THREADS");
+  if (cores > 1) {
+    EXPECT_FALSE(gl::fitSoftwareRasteriserTo(cores - 1));
+    EXPECT_EQ(std::getenv("LP_NUM_THREADS"), nullptr);
+  }
+  EXPECT_TRUE(gl::fitSoftwareRasteriserTo(cores));
+  ASSERT_NE(std::getenv("LP_NUM_THREADS"), nullptr);
+  EXPECT_EQ(std::string(std::getenv("LP_NUM_THREADS")), "0");
+  ::setenv("LP_NUM_THREADS", "3", 1);
+  EXPECT_FALSE(gl::fitSoftwareRasteriserTo(cores + 1));
+  EXPECT_EQ(std::string(std::getenv("LP_NUM_THREADS")), "3");
+  ::unsetenv("LP_NUM_THREADS");
+}
 
 }  // namespace
 }  // namespace terrabake

@@ -12,6 +12,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "gl/baker_factory.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
 #include "pipeline/tile_sink.hpp"
@@ -86,6 +87,9 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const std::size_t count = std::size_t(mine);
 
   const int workers = int(std::max<std::uint64_t>(1, std::min<std::uint64_t>(std::uint64_t(plan->workers), mine)));
+  if (gl::fitSoftwareRasteriserTo(workers)) {
+    log::debug("LP_NUM_THREADS=0: the " + std::to_string(workers) + " workers fill the cores, so llvmpipe rasterises on them");
+  }
   std::atomic<std::size_t> next{0};
   std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
