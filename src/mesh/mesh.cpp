@@ -84,6 +84,12 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
 
 // Its normal alone, the same as sampleFrame's.
 glm::dvec3 sampleNormal(const SampleGrid& samples, int c, int r) {
+  const Raster<glm::dvec3>& p = samples.position;
+  // Where every sample is the DEM's, away from the raster's border, both
+  // differences are central (differenceAt's first case, without its checks).
+  if (samples.from_dem.data.empty() && c > 0 && r > 0 && c + 1 < p.width && r + 1 < p.height) {
+    return normalFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+  }
   return normalFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
