@@ -61,6 +61,10 @@ bool isDemSample(const SampleGrid& samples, int c, int r) {
 glm::dvec3 differenceAt(const SampleGrid& samples, int c, int r, int dc, int dr) {
   const Raster<glm::dvec3>& p = samples.position;
   auto at = [&](int k) { return p.at(c + k * dc, r + k * dr); };
+  // Every sample the DEM's and both neighbours inside the raster: central,
+  // as the checks below would find, without making them.
+  const bool inside = c - dc >= 0 && r - dr >= 0 && c + dc < p.width && r + dr < p.height;
+  if (samples.from_dem.data.empty() && inside) return at(1) - at(-1);
   auto dem = [&](int k) { return isDemSample(samples, c + k * dc, r + k * dr); };
   if (!dem(0) || dem(1) == dem(-1)) return at(1) - at(-1);
   const int side = dem(1) ? 1 : -1;
@@ -84,12 +88,6 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
 
 // Its normal alone, the same as sampleFrame's.
 glm::dvec3 sampleNormal(const SampleGrid& samples, int c, int r) {
-  const Raster<glm::dvec3>& p = samples.position;
-  // Where every sample is the DEM's, away from the raster's border, both
-  // differences are central (differenceAt's first case, without its checks).
-  if (samples.from_dem.data.empty() && c > 0 && r > 0 && c + 1 < p.width && r + 1 < p.height) {
-    return normalFromDifferences(p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
-  }
   return normalFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 

@@ -155,14 +155,20 @@ struct TileMaker::Impl {
     return wide;
   }
 
-  // `grid`'s heights as read. A grid that reaches past the run's area has
-  // holes, so it is read at once with the fill's margin (`around`), which
-  // the fill would read again otherwise; each cell reads the same either way.
-  Raster<float> readHeights(const GridSpec& grid, const dem::ReadPlan& read_plan,
-                            std::optional<Raster<float>>& around) const {
-    if (insideAny(grid, plan->areas)) return dem.read(grid, read_plan);
-    around = dem.read(fillGrid(grid), read_plan);
-    return innerPart(*around, fillMargin());
+  // A grid's heights as read, and those on fillGrid(grid) when read too.
+  struct WindowRead {
+    Raster<float> cells;
+    std::optional<Raster<float>> around;
+  };
+
+  // A grid that reaches past the run's area has holes, so it is read at once
+  // with the fill's margin, which the fill would read again otherwise; each
+  // cell reads the same either way.
+  WindowRead readHeights(const GridSpec& grid, const dem::ReadPlan& read_plan) const {
+    if (insideAny(grid, plan->areas)) return {dem.read(grid, read_plan), std::nullopt};
+    Raster<float> around = dem.read(fillGrid(grid), read_plan);
+    Raster<float> cells = innerPart(around, fillMargin());
+    return {std::move(cells), std::move(around)};
   }
 
   // `grid`'s heights with every hole filled so that the result depends
@@ -219,16 +225,15 @@ struct TileMaker::Impl {
 
   // The heights a tile uses from those read on `grid`: holes filled, scaled.
   // `from_dem`, when given, gets the samples the DEM had (empty: all).
-  // `around`, when read already, holds the heights on fillGrid(grid).
-  Raster<float> finishedHeights(Raster<float> read, const GridSpec& grid, const dem::ReadPlan& read_plan,
-                                Raster<std::uint8_t>* from_dem,
-                                const std::optional<Raster<float>>& around = std::nullopt) const {
-    if (hasHoles(read)) {
-      if (from_dem) *from_dem = demSamples(read);
-      read = filledHeights(grid, around ? *around : dem.read(fillGrid(grid), read_plan));
+  Raster<float> finishedHeights(WindowRead read, const GridSpec& grid, const dem::ReadPlan& read_plan,
+                                Raster<std::uint8_t>* from_dem) const {
+    Raster<float>& heights = read.cells;
+    if (hasHoles(heights)) {
+      if (from_dem) *from_dem = demSamples(heights);
+      heights = filledHeights(grid, read.around ? *read.around : dem.read(fillGrid(grid), read_plan));
     }
-    scaleHeights(read, settings.height_scale);
-    return read;
+    scaleHeights(heights, settings.height_scale);
+    return std::move(heights);
   }
 
   // The profile of the edge a strip straddles (mesh::EdgeProfile), in ECEF.
@@ -236,9 +241,7 @@ struct TileMaker::Impl {
   // (westStrip, northStrip), so they read the same heights at the same
   // places and keep the same edge vertices.
   mesh::EdgeProfile edgeProfile(const GridSpec& strip, const dem::ReadPlan& read_plan) const {
-    std::optional<Raster<float>> around;
-    Raster<float> read = readHeights(strip, read_plan, around);
-    const Raster<float> heights = finishedHeights(std::move(read), strip, read_plan, nullptr, around);
+    const Raster<float> heights = finishedHeights(readHeights(strip, read_plan), strip, read_plan, nullptr);
     const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(strip);
     Raster<glm::dvec3> ecef(strip.width, strip.height);
     for (std::size_t k = 0; k < lon_lat.size(); ++k) {
@@ -300,7 +303,6 @@ struct TileMaker::Impl {
     }
     return bound + 2 * texel_m;
   }
-
 };
 
 TileMaker::TileMaker(std::shared_ptr<const LayerPlan> plan, std::shared_ptr<EdgePointCache> edges)
@@ -326,15 +328,14 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   const int size = s.scheme.tileSize();
   const int apron = s.settings.apron;
   const GridSpec grid = s.scheme.texelGrid(tile, apron);
-  std::optional<Raster<float>> around;
-  Raster<float> read = s.readHeights(grid, read_plan, around);
-  if (!hasValidSample(read, apron, size)) {
+  Impl::WindowRead read = s.readHeights(grid, read_plan);
+  if (!hasValidSample(read.cells, apron, size)) {
     lap(s.times.read);
     return std::nullopt;
   }
   // Coverage is what the DEM itself gives, before any fill.
   Raster<std::uint8_t> from_dem;
-  const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem, around);
+  const Raster<float> heights = s.finishedHeights(std::move(read), grid, read_plan, &from_dem);
   lap(s.times.read);
 
   const geo::LocalFrame frame = tileFrame(s.scheme, s.to_lon_lat, tile);
