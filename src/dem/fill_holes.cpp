@@ -139,6 +139,7 @@ class ReachWeights {
     const double reach_sq = double(reach) * reach;
     m_weight.resize(std::size_t(m_side) * std::size_t(m_side), 0.0);
     m_weighted_distance.resize(m_weight.size(), 0.0);
+    m_half_width.resize(std::size_t(m_side), 0);
     for (int dr = 1 - reach; dr < reach; ++dr) {
       for (int dc = 1 - reach; dc < reach; ++dc) {
         const double d_sq = double(dc) * dc + double(dr) * dr;
@@ -148,6 +149,8 @@ class ReachWeights {
         const std::size_t k = index(dc, dr);
         m_weight[k] = taper / (d_sq * d_sq * d_sq);
         m_weighted_distance[k] = m_weight[k] * std::sqrt(d_sq);
+        int& half = m_half_width[std::size_t(dr + reach - 1)];
+        half = std::max(half, std::abs(dc));
       }
     }
   }
@@ -157,10 +160,14 @@ class ReachWeights {
   }
   double weight(std::size_t k) const { return m_weight[k]; }
   double weightedDistance(std::size_t k) const { return m_weighted_distance[k]; }
+  // The largest |dc| of a non-zero weight dr rows away (|dr| below reach):
+  // the reach's circle cut along a row.
+  int halfWidth(int dr) const { return m_half_width[std::size_t(dr + m_reach - 1)]; }
 
  private:
   int m_reach, m_side;
   std::vector<double> m_weight, m_weighted_distance;  // 0 at reach and beyond
+  std::vector<int> m_half_width;                      // per dr
 };
 
 // 1 at t = 0, 0 from t = 1 on, flat at both ends (smoothstep), so the fade
@@ -219,16 +226,16 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
       // Inverse-distance weighted mean of the edge samples' planes within
       // reach, each weight tapered to zero at reach, and the same mean of
       // their distances: a smooth distance to the edge. Row by row, only the
-      // samples of a row less than reach away along it (the row is sorted).
+      // samples of a row inside the reach's circle (the row is sorted).
       double weight_sum = 0, height_sum = 0, distance_sum = 0;
       for (int rr = row_from; rr <= row_to; ++rr) {
+        const int half = weights.halfWidth(r - rr);
         const auto row_end = edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr) + 1]);
         auto e = std::lower_bound(edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr)]), row_end,
-                                  c - reach + 1, [](const EdgePlane& p, int col) { return p.c < col; });
-        for (; e != row_end && e->c < c + reach; ++e) {
+                                  c - half, [](const EdgePlane& p, int col) { return p.c < col; });
+        for (; e != row_end && e->c <= c + half; ++e) {
           const std::size_t k = weights.index(c - e->c, r - e->r);
           const double weight = weights.weight(k);
-          if (weight == 0) continue;
           weight_sum += weight;
           height_sum += weight * e->at(c, r);
           distance_sum += weights.weightedDistance(k);

@@ -49,13 +49,22 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
                           m_valid.data());
 }
 
-bool LatticeTransformer::targetToSource(double& x, double& y) const {
+LatticeTransformer::Step LatticeTransformer::stepAlongX(double x) const {
   const double fx = (m_gt[0] + x * m_gt[1]) / m_spacing_x - double(m_first_x);
-  const double fy = (m_gt[3] + y * m_gt[5]) / m_spacing_y - double(m_first_y);
   const int i = std::clamp(int(std::floor(fx)), 0, m_nodes_x - 2);
+  return {i, fx - i};
+}
+
+LatticeTransformer::Step LatticeTransformer::stepAlongY(double y) const {
+  const double fy = (m_gt[3] + y * m_gt[5]) / m_spacing_y - double(m_first_y);
   const int j = std::clamp(int(std::floor(fy)), 0, m_nodes_y - 2);
-  const double tx = fx - i, ty = fy - j;
-  const std::size_t k00 = std::size_t(j) * m_nodes_x + i, k10 = k00 + 1, k01 = k00 + m_nodes_x, k11 = k01 + 1;
+  return {j, fy - j};
+}
+
+bool LatticeTransformer::interpolate(Step column, Step row, double& x, double& y) const {
+  const double tx = column.fraction, ty = row.fraction;
+  const std::size_t k00 = std::size_t(row.node) * m_nodes_x + column.node, k10 = k00 + 1, k01 = k00 + m_nodes_x,
+                    k11 = k01 + 1;
   if (!(m_valid[k00] && m_valid[k10] && m_valid[k01] && m_valid[k11])) return false;
   auto mix = [&](const std::vector<double>& v) {
     return (v[k00] * (1 - tx) + v[k10] * tx) * (1 - ty) + (v[k01] * (1 - tx) + v[k11] * tx) * ty;
@@ -63,6 +72,10 @@ bool LatticeTransformer::targetToSource(double& x, double& y) const {
   x = mix(m_source_x);
   y = mix(m_source_y);
   return true;
+}
+
+bool LatticeTransformer::targetToSource(double& x, double& y) const {
+  return interpolate(stepAlongX(x), stepAlongY(y), x, y);
 }
 
 bool LatticeTransformer::sourceToTarget(double& x, double& y) const {
@@ -78,8 +91,16 @@ bool LatticeTransformer::sourceToTarget(double& x, double& y) const {
 int LatticeTransformer::transform(void* self, int dst_to_src, int count, double* x, double* y, double*,
                                   int* ok) {
   const auto& t = *static_cast<const LatticeTransformer*>(self);
+  if (!dst_to_src) {
+    for (int k = 0; k < count; ++k) ok[k] = t.sourceToTarget(x[k], y[k]);
+    return TRUE;
+  }
+  // The warper asks a row of points at a time: their step along y is shared.
+  double row_y = NAN;
+  Step row{};
   for (int k = 0; k < count; ++k) {
-    ok[k] = dst_to_src ? t.targetToSource(x[k], y[k]) : t.sourceToTarget(x[k], y[k]);
+    if (!(y[k] == row_y)) row_y = y[k], row = t.stepAlongY(y[k]);
+    ok[k] = t.interpolate(t.stepAlongX(x[k]), row, x[k], y[k]);
   }
   return TRUE;
 }

@@ -40,6 +40,16 @@ class LatticeTransformer {
   bool targetToSource(double& x, double& y) const;
 
  private:
+  // Where a target pixel coordinate falls along one axis of the lattice: the
+  // node before it and how far towards the next.
+  struct Step {
+    int node;
+    double fraction;
+  };
+  Step stepAlongX(double x) const;
+  Step stepAlongY(double y) const;
+  // The source position between the nodes of `column` and `row`, into x and y.
+  bool interpolate(Step column, Step row, double& x, double& y) const;
   bool sourceToTarget(double& x, double& y) const;
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
