@@ -98,7 +98,7 @@ nlohmann::json tileJsonOf(const fs::path& layer) {
 config::TileJob cpuJob(const fs::path& dem, const std::string& out_name, SchemeKind scheme, int min_zoom,
                        int max_zoom) {
   config::TileJob job = test::tileJob(dem, "job_options/" + out_name, scheme, min_zoom, max_zoom);
-  job.backend = Backend::kCpu;  // the reference baker: these tests are about inputs, not about GL
+  job.backend = Backend::kCpu;  // no GL: these tests are about inputs
   return job;
 }
 

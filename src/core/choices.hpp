@@ -40,7 +40,7 @@ enum class Backend {
   kAuto,    // a hardware GPU through EGL when there is one, else OSMesa
   kOsMesa,  // Mesa's offscreen llvmpipe renderer
   kEgl,     // EGL: a hardware device if any, else Mesa's surfaceless llvmpipe
-  kCpu,     // the reference baker, no GL at all
+  kCpu,     // the CPU baker, no GL at all
 };
 
 template <class E>

@@ -4,7 +4,6 @@
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
 #include <gdal_vrt.h>
-#include <gdalwarper.h>
 #include <ogr_spatialref.h>
 
 #include <sys/stat.h>
@@ -21,6 +20,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "dem/cubic_interpolation.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/footprint_average.hpp"
 #include "dem/gdal_util.hpp"
@@ -175,7 +175,7 @@ std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta) {
 }
 
 // Rasters no wider or taller than this: beyond, sizes overflow the integer
-// pixel coordinates GDAL's warper and VRTs use.
+// pixel coordinates GDAL's reads and VRTs use.
 constexpr long kMaxSidePixels = 1L << 30;
 // A read plan decimates where a texel spans more pixels than this of a level
 // of more than kDecimateAbovePixels pixels, down to kDecimatedPixelsPerCell.
@@ -210,54 +210,6 @@ std::string colourName(GDALColorInterp interp) {
   return name ? name : "unknown";
 }
 
-// Runs on each chunk the warper has loaded, before it resamples: clears the
-// validity bit of every void source pixel, so no kernel mixes a void marker
-// into a height. (A pre-warp hook, because this GDAL never calls the
-// unified validity-mask callback.)
-CPLErr maskVoids(GDALWarpKernel& wk, const VoidRule& voids) {
-  if (wk.eWorkingDataType != GDT_Float32) return CE_Failure;
-  const std::size_t count = std::size_t(wk.nSrcXSize) * wk.nSrcYSize;
-  if (count == 0) return CE_None;
-  if (!wk.panUnifiedSrcValid) {
-    // Freed by GDAL with the kernel; sized as its own masks are.
-    const std::size_t bytes = (count + WARP_EXTRA_ELTS + 31) / 32 * 4;
-    wk.panUnifiedSrcValid = static_cast<GUInt32*>(CPLMalloc(bytes));
-    std::memset(wk.panUnifiedSrcValid, 0xff, bytes);
-  }
-  const float* values = reinterpret_cast<const float*>(wk.papabySrcImage[0]);
-  long long implausible = 0;
-  for (std::size_t i = 0; i < count; ++i) {
-    if (voids.isVoid(values[i])) {
-      wk.panUnifiedSrcValid[i >> 5] &= ~(GUInt32(1) << (i & 31));
-      if (voids.isImplausible(values[i])) ++implausible;
-    }
-  }
-  voids.count(implausible);
-  return CE_None;
-}
-
-// What the warp hooks of one read share: void pixels are masked, then the
-// edge of the data extended, before the kernel runs; coverage is restored after.
-struct WarpHooks {
-  const VoidRule* voids;
-  EdgeExtension edge;
-};
-
-CPLErr beforeWarp(void* kernel, void* hooks) {
-  auto& h = *static_cast<WarpHooks*>(hooks);
-  auto& wk = *static_cast<GDALWarpKernel*>(kernel);
-  const CPLErr masked = maskVoids(wk, *h.voids);
-  return masked != CE_None ? masked : h.edge.extend(wk);
-}
-
-CPLErr afterWarp(void* kernel, void* hooks) {
-  return static_cast<WarpHooks*>(hooks)->edge.restoreCoverage(*static_cast<GDALWarpKernel*>(kernel));
-}
-
-struct WarpOptionsDeleter {
-  void operator()(GDALWarpOptions* o) const { GDALDestroyWarpOptions(o); }
-};
-
 }  // namespace
 
 // What reads a DEM level onto grids of one CRS: the level's own handle (an
@@ -266,67 +218,8 @@ struct LevelReader {
   DatasetPtr file;       // an overview level's own handle; null for full resolution
   DatasetPtr decimated;  // a decimated view of the level; null when read whole
   DatasetPtr dataset;    // the level with EdgeExtension's void border
-  std::string target_wkt;
   std::unique_ptr<LatticeTransformer> transformer;
 };
-
-namespace {
-
-// GDAL's warper with cubic interpolation onto `grid` (the reader's
-// transformer prepared for it), for texels as fine as the level's pixels or
-// finer. Nullopt when GDAL fails (its last error says why).
-std::optional<Raster<float>> interpolateCubic(const LevelReader& reader, const GridSpec& grid,
-                                              const VoidRule& voids) {
-  GDALDriver* mem = GetGDALDriverManager()->GetDriverByName("MEM");
-  DatasetPtr target(mem->Create("", grid.width, grid.height, 1, GDT_Float32, nullptr));
-  double gt[6] = {grid.origin_x, grid.cell_w, 0, grid.origin_y, 0, -grid.cell_h};
-  target->SetGeoTransform(gt);
-  target->SetProjection(reader.target_wkt.c_str());
-
-  std::unique_ptr<GDALWarpOptions, WarpOptionsDeleter> options(GDALCreateWarpOptions());
-  options->hSrcDS = GDALDataset::ToHandle(reader.dataset.get());
-  options->hDstDS = GDALDataset::ToHandle(target.get());
-  options->nBandCount = 1;
-  options->panSrcBands = static_cast<int*>(CPLMalloc(sizeof(int)));
-  options->panDstBands = static_cast<int*>(CPLMalloc(sizeof(int)));
-  options->panSrcBands[0] = options->panDstBands[0] = 1;
-  options->eResampleAlg = GRA_Cubic;
-  options->eWorkingDataType = GDT_Float32;
-  options->pfnTransformer = LatticeTransformer::transform;
-  options->pTransformerArg = reader.transformer.get();
-  WarpHooks hooks{&voids, {}};
-  options->pfnPreWarpChunkProcessor = beforeWarp;
-  options->pfnPostWarpChunkProcessor = afterWarp;
-  options->pPreWarpProcessorArg = options->pPostWarpProcessorArg = &hooks;
-  options->padfDstNoDataReal = static_cast<double*>(CPLMalloc(sizeof(double)));
-  options->padfDstNoDataReal[0] = NAN;
-  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "INIT_DEST", "NO_DATA");
-  // A window this file does not reach is no error: it just fills nothing.
-  options->papszWarpOptions =
-      CSLSetNameValue(options->papszWarpOptions, "ERROR_OUT_IF_EMPTY_SOURCE_WINDOW", "FALSE");
-  // Plain cubic interpolation: left to itself, GDAL widens the kernel by the
-  // ratio of each chunk's source and target windows, which differs from one
-  // tile to the next where a cell is longer than a pixel in one direction
-  // only, so neighbours would read different heights for the same texel.
-  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "XSCALE", "1");
-  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "YSCALE", "1");
-  options->papszWarpOptions = CSLSetNameValue(options->papszWarpOptions, "SOURCE_EXTRA",
-                                              std::to_string(EdgeExtension::kSourceExtra).c_str());
-
-  GDALWarpOperation warp;
-  if (warp.Initialize(options.get()) != CE_None ||
-      warp.ChunkAndWarpImage(0, 0, grid.width, grid.height) != CE_None) {
-    return std::nullopt;
-  }
-  Raster<float> warped(grid.width, grid.height);
-  if (target->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, grid.width, grid.height, warped.data.data(),
-                                         grid.width, grid.height, GDT_Float32, 0, 0) != CE_None) {
-    return std::nullopt;
-  }
-  return warped;
-}
-
-}  // namespace
 
 FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   ensureGdalReady();
@@ -565,9 +458,8 @@ struct DemFile::Impl {
     }
     reader.dataset.reset(EdgeExtension::withVoidBorder(*level, level_band));
     if (!reader.dataset) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
-    reader.target_wkt = toWkt(spatialReference(crs));
-    reader.transformer =
-        std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()), reader.target_wkt);
+    reader.transformer = std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()),
+                                                              toWkt(spatialReference(crs)));
     return readers.emplace(key, std::move(reader)).first->second;
   }
 };
@@ -592,10 +484,10 @@ void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float
   reader.transformer->prepare(grid);
   CPLErrorReset();
   const VoidRule& voids = m_meta->voids();
-  const std::optional<Raster<float>> resampled =
-      plan.average ? averageOverFootprints(GDALRasterBand::ToHandle(reader.dataset->GetRasterBand(1)),
-                                           *reader.transformer, grid, voids)
-                   : interpolateCubic(reader, grid, voids);
+  GDALRasterBandH band = GDALRasterBand::ToHandle(reader.dataset->GetRasterBand(1));
+  const std::optional<Raster<float>> resampled = plan.average
+                                                     ? averageOverFootprints(band, *reader.transformer, grid, voids)
+                                                     : interpolateCubic(band, *reader.transformer, grid, voids);
   if (!resampled) {
     throw InputError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" + lastGdalError() +
                      ")");

@@ -11,10 +11,7 @@
 namespace terrabake::dem {
 namespace {
 
-bool maskBit(const GUInt32* mask, std::size_t i) { return (mask[i >> 5] >> (i & 31)) & 1u; }
-void setMaskBit(GUInt32* mask, std::size_t i) { mask[i >> 5] |= GUInt32(1) << (i & 31); }
-
-// A chunk's source pixels and which of them hold heights so far.
+// A window's pixels and which of them hold heights so far.
 struct PixelGrid {
   int width = 0, height = 0;
   const float* values = nullptr;
@@ -108,54 +105,6 @@ void extendIntoVoids(float* values, std::vector<std::uint8_t>& valid, int width,
     }
     pending.swap(still_pending);
   }
-}
-
-CPLErr EdgeExtension::extend(GDALWarpKernel& kernel) {
-  const std::size_t count = std::size_t(kernel.nSrcXSize) * std::size_t(kernel.nSrcYSize);
-  m_was_valid.assign(count, 1);
-  m_had_voids = false;
-  GUInt32* mask = kernel.panUnifiedSrcValid;
-  if (!mask) return CE_None;
-  for (std::size_t i = 0; i < count; ++i) {
-    m_was_valid[i] = maskBit(mask, i);
-    m_had_voids = m_had_voids || !m_was_valid[i];
-  }
-  if (!m_had_voids) return CE_None;
-  std::vector<std::uint8_t> valid = m_was_valid;
-  extendIntoVoids(reinterpret_cast<float*>(kernel.papabySrcImage[0]), valid, kernel.nSrcXSize, kernel.nSrcYSize);
-  for (std::size_t i = 0; i < count; ++i) {
-    if (valid[i] && !m_was_valid[i]) setMaskBit(mask, i);
-  }
-  return CE_None;
-}
-
-CPLErr EdgeExtension::restoreCoverage(GDALWarpKernel& kernel) const {
-  if (!m_had_voids) return CE_None;
-  const int width = kernel.nDstXSize, height = kernel.nDstYSize;
-  float* texels = reinterpret_cast<float*>(kernel.papabyDstImage[0]);
-  const std::size_t row_size = std::size_t(width);
-  std::vector<double> x(row_size), y(row_size), z(row_size);
-  std::vector<int> ok(row_size);
-  for (int r = 0; r < height; ++r) {
-    // Texel centres in the source's pixels, as the warp kernel finds them.
-    for (int c = 0; c < width; ++c) {
-      x[c] = c + 0.5 + kernel.nDstXOff;
-      y[c] = r + 0.5 + kernel.nDstYOff;
-      z[c] = 0;
-    }
-    kernel.pfnTransformer(kernel.pTransformerArg, TRUE, width, x.data(), y.data(), z.data(), ok.data());
-    for (int c = 0; c < width; ++c) {
-      const double col = std::floor(x[c] - kernel.nSrcXOff), row = std::floor(y[c] - kernel.nSrcYOff);
-      // The chunk holds every pixel its texels read, so a centre outside it
-      // lies beyond the raster, where an average over the border still finds
-      // extended pixels.
-      const bool in_chunk = ok[c] && col >= 0 && row >= 0 && col < kernel.nSrcXSize && row < kernel.nSrcYSize;
-      if (!in_chunk || !m_was_valid[std::size_t(row) * std::size_t(kernel.nSrcXSize) + std::size_t(col)]) {
-        texels[std::size_t(r) * width + c] = NAN;
-      }
-    }
-  }
-  return CE_None;
 }
 
 }  // namespace terrabake::dem

@@ -137,9 +137,10 @@ class ReachWeights {
  public:
   explicit ReachWeights(int reach) : m_reach(reach), m_side(2 * reach - 1) {
     const double reach_sq = double(reach) * reach;
-    m_weight.resize(std::size_t(m_side) * std::size_t(m_side), 0.0);
+    const std::size_t side = std::size_t(std::max(m_side, 0));  // 0 for reach 0: no fill
+    m_weight.resize(side * side, 0.0);
     m_weighted_distance.resize(m_weight.size(), 0.0);
-    m_half_width.resize(std::size_t(m_side), 0);
+    m_half_width.resize(side, 0);
     for (int dr = 1 - reach; dr < reach; ++dr) {
       for (int dc = 1 - reach; dc < reach; ++dc) {
         const double d_sq = double(dc) * dc + double(dr) * dr;

@@ -8,6 +8,7 @@
 
 #include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/source_window.hpp"
 #include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
@@ -151,16 +152,18 @@ struct RowSums {
 class RowPrefixSums {
  public:
   // Rows [first_row, first_row + row_count) of the strip, pixels
-  // [first_col, first_col + col_count) of each, the strip being `stride` wide.
-  void build(const std::vector<float>& strip, const std::vector<std::uint8_t>& valid,
-             const std::vector<std::uint8_t>& data, long stride, long first_col, long col_count, long first_row,
-             long row_count) {
+  // [first_col, first_col + col_count) of each, counted from its corner.
+  void build(const SourceWindow& strip, long first_col, long col_count, long first_row, long row_count) {
     m_width = col_count + 1;
     m_height_sums.resize(std::size_t(m_width * row_count));
     m_valid_sums.resize(m_height_sums.size());
     m_data_sums.resize(m_height_sums.size());
-    m_strip = &strip, m_valid = &valid, m_data = &data;
-    m_stride = stride, m_first_col = first_col, m_first_row = first_row;
+    m_strip = &strip;
+    m_first_col = first_col, m_first_row = first_row;
+    const long stride = strip.width;
+    const std::vector<float>& values = strip.values;
+    const std::vector<std::uint8_t>& valid = strip.valid;
+    const std::vector<std::uint8_t>& data = strip.data;
     for (long r = 0; r < row_count; ++r) {
       const std::size_t in = std::size_t((first_row + r) * stride + first_col);
       const std::size_t out = std::size_t(r * m_width);
@@ -168,7 +171,7 @@ class RowPrefixSums {
       m_height_sums[out] = m_valid_sums[out] = m_data_sums[out] = 0;
       for (long i = 0; i < col_count; ++i) {
         if (valid[in + std::size_t(i)]) {
-          height += strip[in + std::size_t(i)];
+          height += values[in + std::size_t(i)];
           valid_count += 1;
           data_count += data[in + std::size_t(i)];
         }
@@ -192,20 +195,18 @@ class RowPrefixSums {
     RowSums sums{m_height_sums[base + std::size_t(end.full)], m_valid_sums[base + std::size_t(end.full)],
                  m_data_sums[base + std::size_t(end.full)]};
     for (int p = 0; p < end.partial_count; ++p) {
-      const std::size_t i = std::size_t((m_first_row + row) * m_stride + m_first_col + end.partial[p]);
-      if (!(*m_valid)[i]) continue;
-      sums.height += end.partial_share[p] * (*m_strip)[i];
+      const std::size_t i = std::size_t((m_first_row + row) * m_strip->width + m_first_col + end.partial[p]);
+      if (!m_strip->valid[i]) continue;
+      sums.height += end.partial_share[p] * m_strip->values[i];
       sums.valid += end.partial_share[p];
-      if ((*m_data)[i]) sums.data += end.partial_share[p];
+      if (m_strip->data[i]) sums.data += end.partial_share[p];
     }
     return sums;
   }
 
-  long m_width = 0, m_stride = 0, m_first_col = 0, m_first_row = 0;
+  long m_width = 0, m_first_col = 0, m_first_row = 0;
   std::vector<double> m_height_sums, m_valid_sums, m_data_sums;
-  const std::vector<float>* m_strip = nullptr;
-  const std::vector<std::uint8_t>* m_valid = nullptr;
-  const std::vector<std::uint8_t>* m_data = nullptr;
+  const SourceWindow* m_strip = nullptr;
 };
 
 }  // namespace
@@ -238,8 +239,7 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
   const long cols = read_col1 - read_col0 + 1;
   const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
   const std::vector<RowSpan> x_spans = rowSpansOf(footprints, col0, col1);
-  std::vector<float> strip;
-  std::vector<std::uint8_t> valid, data;
+  SourceWindow strip;
   RowPrefixSums prefix;
   std::vector<double> sum(footprints.size(), 0.0), weight(footprints.size(), 0.0);
   std::vector<double> data_weight(footprints.size(), 0.0);
@@ -247,23 +247,10 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
   for (long top = row0; top <= row1; top += strip_rows) {
     const long bottom = std::min(row1, top + strip_rows - 1);
     const long read_top = std::max(0L, top - halo), read_bottom = std::min(raster_h - 1, bottom + halo);
-    const int rows = int(read_bottom - read_top + 1);
-    const std::size_t count = std::size_t(rows) * std::size_t(cols);
-    strip.resize(count);
-    if (GDALRasterIO(band, GF_Read, int(read_col0), int(read_top), int(cols), rows, strip.data(), int(cols), rows,
-                     GDT_Float32, 0, 0) != CE_None) {
+    if (!strip.read(band, read_col0, read_top, int(cols), int(read_bottom - read_top + 1), voids)) {
       return std::nullopt;
     }
-    data.resize(count);
-    long long implausible = 0;
-    for (std::size_t i = 0; i < count; ++i) {
-      data[i] = !voids.isVoid(strip[i]);
-      if (!data[i] && voids.isImplausible(strip[i])) ++implausible;
-    }
-    voids.count(implausible);
-    valid = data;
-    extendIntoVoids(strip.data(), valid, int(cols), rows);
-    prefix.build(strip, valid, data, cols, col0 - read_col0, col1 - col0 + 1, top - read_top, bottom - top + 1);
+    prefix.build(strip, col0 - read_col0, col1 - col0 + 1, top - read_top, bottom - top + 1);
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom) continue;

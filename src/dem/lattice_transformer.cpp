@@ -24,8 +24,8 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
   m_gt[3] = grid.origin_y, m_gt[4] = 0, m_gt[5] = -grid.cell_h;
   m_spacing_x = kNodeSpacingCells * grid.cell_w;
   m_spacing_y = kNodeSpacingCells * grid.cell_h;
-  // One node beyond each side: the warper also asks about points just
-  // outside the grid (pixel corners, kernel footprints).
+  // One node beyond each side: the kernels also ask about points just
+  // outside the grid (the footprints' neighbouring centres).
   const double west = grid.origin_x, east = grid.origin_x + grid.width * grid.cell_w;
   const double north = grid.origin_y, south = grid.origin_y - grid.height * grid.cell_h;
   m_first_x = long(std::floor(west / m_spacing_x)) - 1;
@@ -78,31 +78,13 @@ bool LatticeTransformer::targetToSource(double& x, double& y) const {
   return interpolate(stepAlongX(x), stepAlongY(y), x, y);
 }
 
-bool LatticeTransformer::sourceToTarget(double& x, double& y) const {
-  double z = 0;
-  int ok = 0;
-  GDALGenImgProjTransform(m_exact, FALSE, 1, &x, &y, &z, &ok);
-  if (!ok) return false;
-  x = (x - m_gt[0]) / m_gt[1];
-  y = (y - m_gt[3]) / m_gt[5];
-  return true;
-}
-
-int LatticeTransformer::transform(void* self, int dst_to_src, int count, double* x, double* y, double*,
-                                  int* ok) {
-  const auto& t = *static_cast<const LatticeTransformer*>(self);
-  if (!dst_to_src) {
-    for (int k = 0; k < count; ++k) ok[k] = t.sourceToTarget(x[k], y[k]);
-    return TRUE;
-  }
-  // The warper asks a row of points at a time: their step along y is shared.
+void LatticeTransformer::targetToSource(int count, double* x, double* y, int* ok) const {
   double row_y = NAN;
   Step row{};
   for (int k = 0; k < count; ++k) {
-    if (!(y[k] == row_y)) row_y = y[k], row = t.stepAlongY(y[k]);
-    ok[k] = t.interpolate(t.stepAlongX(x[k]), row, x[k], y[k]);
+    if (!(y[k] == row_y)) row_y = y[k], row = stepAlongY(y[k]);
+    ok[k] = interpolate(stepAlongX(x[k]), row, x[k], y[k]);
   }
-  return TRUE;
 }
 
 }  // namespace terrabake::dem

@@ -9,7 +9,7 @@
 
 namespace terrabake::dem {
 
-// A GDAL transformer from a target grid's pixels to a source raster's pixels.
+// The map from a target grid's pixels to a source raster's pixels.
 // It reprojects exactly only at the nodes of a lattice anchored at the target
 // CRS's origin, every kNodeSpacingCells cells, and interpolates bilinearly in
 // between. Every window of one cell size shares the lattice, so a texel gets
@@ -31,13 +31,13 @@ class LatticeTransformer {
   // Computes the nodes that cover `grid`; call before warping onto it.
   void prepare(const GridSpec& grid);
 
-  // GDALTransformerFunc: `self` is a LatticeTransformer.
-  static int transform(void* self, int dst_to_src, int count, double* x, double* y, double* z, int* ok);
-
   // In place: a point of the prepared grid, in its pixels ((0, 0) is its
   // north-west corner), becomes the source raster's pixel position there.
   // False where the CRS transform fails.
   bool targetToSource(double& x, double& y) const;
+  // The same for `count` points, ok[k] false where the transform fails;
+  // points of one row (the same y one after another) share their step along y.
+  void targetToSource(int count, double* x, double* y, int* ok) const;
 
  private:
   // Where a target pixel coordinate falls along one axis of the lattice: the
@@ -50,7 +50,6 @@ class LatticeTransformer {
   Step stepAlongY(double y) const;
   // The source position between the nodes of `column` and `row`, into x and y.
   bool interpolate(Step column, Step row, double& x, double& y) const;
-  bool sourceToTarget(double& x, double& y) const;
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
   double m_gt[6] = {};      // target grid: pixels -> target CRS

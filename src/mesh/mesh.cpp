@@ -268,13 +268,9 @@ TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv) {
 
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return frameAt(mesh, triangleAt(mesh, uv)); }
 
-namespace {
-
-// The triangle under each texel centre of a size x size tile, row by row:
-// of the triangles whose edges come within kTexelOnEdge of it, the one it
-// lies deepest inside (a centre just outside a thin triangle would otherwise
-// take weights extrapolated far across it). Throws std::invalid_argument
-// naming a texel no triangle covers.
+// Of the triangles whose edges come within kTexelOnEdge of a texel centre,
+// the one it lies deepest inside: a centre just outside a thin triangle
+// would otherwise take weights extrapolated far across it.
 std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
   std::vector<TrianglePoint> points(std::size_t(size) * std::size_t(size));
   std::vector<double> depth(points.size(), -std::numeric_limits<double>::infinity());
@@ -303,8 +299,6 @@ std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
   }
   return points;
 }
-
-}  // namespace
 
 std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size) {
   const std::vector<TrianglePoint> points = texelTriangles(mesh, size);

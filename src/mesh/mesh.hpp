@@ -99,10 +99,13 @@ TangentFrame frameAt(const TriangleMesh& mesh, const TrianglePoint& point);
 TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv);
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv);
 
-// The frame at each texel centre of a size x size tile, row by row, from the
-// triangle under it: the mesh is rasterised in UV space, so any low-poly
-// mesh whose UVs cover [0, 1] serves. Throws std::invalid_argument naming a
-// texel no triangle covers.
+// The triangle under each texel centre of a size x size tile, row by row,
+// with the centre's weights in it: the mesh is rasterised in UV space, so any
+// low-poly mesh whose UVs cover [0, 1] serves. Throws std::invalid_argument
+// naming a texel no triangle covers.
+std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size);
+
+// The frame at each texel centre, from texelTriangles().
 std::vector<TangentFrame> texelFrames(const TriangleMesh& mesh, int size);
 
 // The largest distance between a sample of the tile (a texel centre) and the

@@ -1,7 +1,8 @@
 // Timings of each stage of a tile (read, mesh, bake, encode, write) and of
 // whole tiles, for 256-texel tiles and a 17x17 low-poly grid. Every bake
-// backend runs in the same process, so the GL bakers are compared with the CPU
-// reference baker on the same machine under the same load.
+// backend runs in the same process, so the GL bakers and the double-precision
+// reference are compared with the CPU baker on the same machine under the
+// same load.
 // tests/benchmarks/run_benchmarks.sh runs this and prints a table.
 #include <benchmark/benchmark.h>
 #include <stdlib.h>
@@ -197,17 +198,25 @@ bake::Baker* acquireBaker(benchmark::State& state, const BackendCase& backend) {
                               [&] { return std::shared_ptr<bake::Baker>(gl::createBaker(backend.backend)); });
 }
 
-void benchBake(benchmark::State& state, BackendCase backend) {
+void timeBakes(benchmark::State& state, bake::Baker& baker) {
   const int size = int(state.range(0));
-  bake::Baker* baker = acquireBaker(state, backend);
-  if (!baker) return;
   const SyntheticTile& tile = benchData().synthetic.at(size);
   // Untimed: the first draw compiles llvmpipe's shaders and sizes the target.
-  benchmark::DoNotOptimize(baker->bake(tile.high, tile.low, size));
+  benchmark::DoNotOptimize(baker.bake(tile.high, tile.low, size));
   for (auto _ : state) {
-    benchmark::DoNotOptimize(baker->bake(tile.high, tile.low, size));
+    benchmark::DoNotOptimize(baker.bake(tile.high, tile.low, size));
   }
-  state.SetLabel(baker->description());
+  state.SetLabel(baker.description());
+}
+
+void benchBake(benchmark::State& state, BackendCase backend) {
+  if (bake::Baker* baker = acquireBaker(state, backend)) timeBakes(state, *baker);
+}
+
+// The double-precision reference the tests hold every baker to.
+void benchReferenceBake(benchmark::State& state) {
+  bake::ReferenceBaker reference;
+  timeBakes(state, reference);
 }
 
 void benchMesh(benchmark::State& state) {
@@ -313,6 +322,11 @@ void registerBenchmarks() {
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
   }
+  benchmark::RegisterBenchmark("BM_Bake/reference", benchReferenceBake)
+      ->Arg(kTileSize)
+      ->Arg(kLargeTileSize)
+      ->Unit(benchmark::kMillisecond)
+      ->UseRealTime();
   benchmark::RegisterBenchmark("BM_Mesh", benchMesh)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_ReadWindow", benchReadWindow)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();

@@ -1,7 +1,7 @@
 #!/usr/bin/env bash
 # Builds terrabake_bench with the `bench` preset (Release, benchmarks on, in
-# build-bench/) and prints milliseconds per tile, each bake backend against
-# the CPU reference baker, and whole tiles per second.
+# build-bench/) and prints milliseconds per tile, each bake backend and the
+# double-precision reference against the CPU baker, and whole tiles per second.
 #
 #   tests/benchmarks/run_benchmarks.sh [build_dir] [benchmark options...]
 #
@@ -81,7 +81,7 @@ def versus_cpu(name, time_ms):
     if reference is None or time_ms is None:
         return ""
     if reference == name:
-        return "reference"
+        return "baseline"
     cpu_ms = ms(rows.get(reference))
     if not cpu_ms:
         return "(no cpu row)"
@@ -96,7 +96,7 @@ def versus_cpu(name, time_ms):
 def fmt_ms(value):
     return f"{value:.3g}" if value < 10 else f"{value:.1f}"
 
-table = [("case", "ms/tile (real)", "vs cpu reference baker, or bytes made", "tiles/s")]
+table = [("case", "ms/tile (real)", "vs the cpu baker, or bytes made", "tiles/s")]
 renderers = {}
 for name, bench in rows.items():
     time_ms = ms(bench)
@@ -121,7 +121,7 @@ print()
 print(f"{context.get('num_cpus', '?')} CPUs at {context.get('mhz_per_cpu', '?')} MHz, "
       f"load average {', '.join(f'{x:.2f}' for x in context.get('load_avg', []))}; "
       "256-texel tiles, 17x17 low-poly grid, real (wall-clock) time.")
-print("A ratio below 1: that backend is faster than the CPU reference baker in the same case.")
+print("A ratio below 1: that backend is faster than the CPU baker in the same case.")
 for backend, label in renderers.items():
     print(f"  {backend}: {label}")
 PY
