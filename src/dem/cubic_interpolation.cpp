@@ -11,16 +11,10 @@
 namespace terrabake::dem {
 namespace {
 
-// Keys' cubic convolution kernel with a = -1/2, at distance t from a tap.
-double keys(double t) {
-  t = std::abs(t);
-  if (t <= 1) return (1.5 * t - 2.5) * t * t + 1;
-  if (t < 2) return ((-0.5 * t + 2.5) * t - 4) * t + 2;
-  return 0;
-}
-
 // Where a kernel falls along one pixel axis: pixel i's sample sits at
 // i + 0.5, so a position lies `fraction` of a pixel past sample `before`.
+// The weights are Keys' cubic convolution kernel with a = -1/2 at the four
+// taps' distances (1 + f, f, 1 - f, 2 - f), each multiplied out in f.
 struct Taps {
   long before = 0;
   double fraction = 0;
@@ -29,9 +23,11 @@ struct Taps {
   explicit Taps(double position) {
     const double x = position - 0.5;
     before = long(std::floor(x));
-    fraction = x - double(before);
-    weight[0] = keys(1 + fraction), weight[1] = keys(fraction);
-    weight[2] = keys(1 - fraction), weight[3] = keys(2 - fraction);
+    const double f = fraction = x - double(before);
+    weight[0] = ((-0.5 * f + 1) * f - 0.5) * f;
+    weight[1] = (1.5 * f - 2.5) * f * f + 1;
+    weight[2] = ((-1.5 * f + 2) * f + 0.5) * f;
+    weight[3] = (0.5 * f - 0.5) * f * f;
   }
 };
 
@@ -43,12 +39,11 @@ std::optional<double> cubicAt(const SourceWindow& window, const Taps& x, const T
   double sum = 0;
   for (int j = 0; j < 4; ++j) {
     const std::size_t row = window.indexOf(x.before - 1, y.before - 1 + j);
-    double along = 0;
-    for (int i = 0; i < 4; ++i) {
-      if (!window.valid[row + std::size_t(i)]) return std::nullopt;
-      along += x.weight[i] * window.values[row + std::size_t(i)];
-    }
-    sum += y.weight[j] * along;
+    const float* values = &window.values[row];
+    const std::uint8_t* valid = &window.valid[row];
+    if (!(valid[0] && valid[1] && valid[2] && valid[3])) return std::nullopt;
+    sum += y.weight[j] * (x.weight[0] * values[0] + x.weight[1] * values[1] + x.weight[2] * values[2] +
+                          x.weight[3] * values[3]);
   }
   return sum;
 }
