@@ -66,9 +66,9 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
   image.pixels.resize(map.texels.size() * 3);
   auto quantise = [&](double c) {
     if (std::abs(c) < kZeroSnap) c = 0.0;
-    // Round half up (std::round on a positive value); clamp guards |n| = 1 + epsilon.
-    const double v = std::round((std::clamp(c, -1.0, 1.0) * 0.5 + 0.5) * max_value);
-    return std::uint16_t(v);
+    // Round half up: the value is never negative, so truncating it plus a
+    // half rounds it; clamp guards |n| = 1 + epsilon.
+    return std::uint16_t((std::clamp(c, -1.0, 1.0) * 0.5 + 0.5) * max_value + 0.5);
   };
   for (std::size_t k = 0; k < map.texels.size(); ++k) {
     const glm::vec3& n = map.texels[k];

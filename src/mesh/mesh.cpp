@@ -127,10 +127,13 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   mesh.uv.reserve(count);
   mesh.position.reserve(count);
   mesh.normal.reserve(count);
+  // The UV of texel centre k along either axis, for k = -1 .. s.
+  std::vector<float> centre_uv;
+  for (int k = -1; k <= s; ++k) centre_uv.push_back(float((k + 0.5) / s));
   for (int j = -1; j <= s; ++j) {
     for (int i = -1; i <= s; ++i) {
       const int c = a + i, r = a + j;
-      mesh.uv.emplace_back(float((i + 0.5) / s), float((j + 0.5) / s));
+      mesh.uv.emplace_back(centre_uv[std::size_t(i + 1)], centre_uv[std::size_t(j + 1)]);
       mesh.position.emplace_back(p.at(c, r));
       mesh.normal.emplace_back(sampleNormal(samples, c, r));
     }
