@@ -132,11 +132,14 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
 }
 
 std::vector<RowSpan> rowSpansOf(const std::vector<Footprint>& footprints, long col0, long col1) {
-  std::vector<RowSpan> spans(footprints.size());
-  for (std::size_t k = 0; k < footprints.size(); ++k) {
-    if (!footprints[k].known) continue;
-    const Span& x = footprints[k].x;
-    spans[k] = {spanEndAt(x.low, col0, col1), spanEndAt(x.low + x.width, col0, col1), x.width};
+  std::vector<RowSpan> spans;
+  spans.reserve(footprints.size());  // each written once: tens of MiB at large tiles
+  for (const Footprint& f : footprints) {
+    if (!f.known) {
+      spans.emplace_back();
+      continue;
+    }
+    spans.push_back({spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1), f.x.width});
   }
   return spans;
 }
