@@ -4,6 +4,7 @@
 #include <cmath>
 #include <vector>
 
+#include "core/floor.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
 #include "dem/source_window.hpp"
@@ -22,7 +23,7 @@ struct Taps {
 
   explicit Taps(double position) {
     const double x = position - 0.5;
-    before = long(std::floor(x));
+    before = floorToLong(x);
     const double f = fraction = x - double(before);
     weight[0] = ((-0.5 * f + 1) * f - 0.5) * f;
     weight[1] = (1.5 * f - 2.5) * f * f + 1;
@@ -84,7 +85,7 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
   long col0 = raster_w, col1 = -1, row0 = raster_h, row1 = -1;
   for (std::size_t k = 0; k < count; ++k) {
     if (!known[k]) continue;
-    const long col = long(std::floor(x[k] - 0.5)), row = long(std::floor(y[k] - 0.5));
+    const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
     col0 = std::min(col0, col - 1), col1 = std::max(col1, col + 2);
     row0 = std::min(row0, row - 1), row1 = std::max(row1, row + 2);
   }
@@ -98,7 +99,7 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
   for (std::size_t k = 0; k < count; ++k) {
     if (!known[k]) continue;
     // Coverage is the DEM's own: the pixel the centre lies on holds data.
-    const long col = long(std::floor(x[k])), row = long(std::floor(y[k]));
+    const long col = floorToLong(x[k]), row = floorToLong(y[k]);
     if (!window.contains(col, row) || !window.data[window.indexOf(col, row)]) continue;
     const Taps along_x(x[k]), along_y(y[k]);
     const std::optional<double> cubic = cubicAt(window, along_x, along_y);

@@ -6,6 +6,7 @@
 
 #include <glm/vec2.hpp>
 
+#include "core/floor.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
 #include "dem/source_window.hpp"
@@ -35,8 +36,8 @@ struct Span {
   Span(double centre, double span_width)
       : low(centre - span_width / 2),
         width(span_width),
-        first(long(std::floor(low - 0.5))),
-        last(long(std::ceil(low + width + 0.5)) - 1) {}
+        first(floorToLong(low - 0.5)),
+        last(ceilToLong(low + width + 0.5) - 1) {}
 };
 
 struct Footprint {
@@ -118,7 +119,7 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
   SpanEnd e;
   // Pixel x (centre x + 0.5) lies wholly before `end` when x <= end - 1.5,
   // not at all when x >= end + 0.5.
-  const long last_full = long(std::floor(end - 1.5));
+  const long last_full = floorToLong(end - 1.5);
   e.full = std::clamp(last_full + 1 - col0, 0L, count);
   for (long x = last_full + 1; double(x) < end + 0.5; ++x) {
     if (x < col0 || x > col1) continue;

@@ -6,6 +6,7 @@
 #include <cmath>
 
 #include "core/error.hpp"
+#include "core/floor.hpp"
 
 namespace terrabake::dem {
 
@@ -51,13 +52,13 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
 
 LatticeTransformer::Step LatticeTransformer::stepAlongX(double x) const {
   const double fx = (m_gt[0] + x * m_gt[1]) / m_spacing_x - double(m_first_x);
-  const int i = std::clamp(int(std::floor(fx)), 0, m_nodes_x - 2);
+  const int i = int(std::clamp(floorToLong(fx), 0L, long(m_nodes_x) - 2));
   return {i, fx - i};
 }
 
 LatticeTransformer::Step LatticeTransformer::stepAlongY(double y) const {
   const double fy = (m_gt[3] + y * m_gt[5]) / m_spacing_y - double(m_first_y);
-  const int j = std::clamp(int(std::floor(fy)), 0, m_nodes_y - 2);
+  const int j = int(std::clamp(floorToLong(fy), 0L, long(m_nodes_y) - 2));
   return {j, fy - j};
 }
 

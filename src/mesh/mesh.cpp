@@ -8,14 +8,15 @@
 
 #include <glm/geometric.hpp>
 
+#include "core/floor.hpp"
 #include "mesh/sample_surface.hpp"
 #include "mesh/texel_raster.hpp"
 
 namespace terrabake::mesh {
 
 glm::dvec3 interpolatePosition(const Raster<glm::dvec3>& grid, double s_col, double s_row) {
-  const int c0 = std::clamp(int(std::floor(s_col)), 0, grid.width - 2);
-  const int r0 = std::clamp(int(std::floor(s_row)), 0, grid.height - 2);
+  const int c0 = int(std::clamp(floorToLong(s_col), 0L, long(grid.width) - 2));
+  const int r0 = int(std::clamp(floorToLong(s_row), 0L, long(grid.height) - 2));
   const double fc = s_col - c0;
   const double fr = s_row - r0;
   const glm::dvec3 top = grid.at(c0, r0) * (1 - fc) + grid.at(c0 + 1, r0) * fc;

@@ -8,6 +8,8 @@
 
 #include <glm/vec2.hpp>
 
+#include "core/floor.hpp"
+
 namespace terrabake::mesh {
 
 // Calls visit(j, i_first, i_last) for each row j of texel centres of a
@@ -25,16 +27,16 @@ void forEachTexelSpan(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, int size, double
   const double long_slope = slope(a, c), upper_slope = slope(a, b), lower_slope = slope(b, c);
   // Widening the span by on_edge along x widens it by at least on_edge
   // across any edge.
-  const int first_row = std::max(0, int(std::ceil(a.y - 0.5 - on_edge)));
-  const int last_row = std::min(size - 1, int(std::floor(c.y - 0.5 + on_edge)));
+  const int first_row = std::max(0, int(ceilToLong(a.y - 0.5 - on_edge)));
+  const int last_row = std::min(size - 1, int(floorToLong(c.y - 0.5 + on_edge)));
   for (int j = first_row; j <= last_row; ++j) {
     const double y = std::clamp(j + 0.5, a.y, c.y);
     const double x_long = a.x + (y - a.y) * long_slope;
     const double x_short = y < b.y ? a.x + (y - a.y) * upper_slope : b.x + (y - b.y) * lower_slope;
     const double lo = std::min(x_long, x_short), hi = std::max(x_long, x_short);
     const double widen = on_edge * (1 + std::max(std::abs(long_slope), std::abs(y < b.y ? upper_slope : lower_slope)));
-    const int first = std::max(0, int(std::ceil(lo - widen - 0.5)));
-    const int last = std::min(size - 1, int(std::floor(hi + widen - 0.5)));
+    const int first = std::max(0, int(ceilToLong(lo - widen - 0.5)));
+    const int last = std::min(size - 1, int(floorToLong(hi + widen - 0.5)));
     if (first <= last) visit(j, first, last);
   }
 }
