@@ -52,6 +52,7 @@ namespace terrabake::gl {
   X(PFNGLDELETEBUFFERSPROC, DeleteBuffers)                          \
   X(PFNGLBINDBUFFERPROC, BindBuffer)                                \
   X(PFNGLBUFFERDATAPROC, BufferData)                                \
+  X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                          \
   X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)              \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)      \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)

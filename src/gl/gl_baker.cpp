@@ -50,6 +50,24 @@ GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* f
 // tangent and bitangent, one float texture each.
 constexpr int kFrameParts = 3;
 
+// A buffer object whose storage is made again only when the data outgrows
+// it: re-specifying storage for every tile makes a software renderer map and
+// fault in fresh pages each time.
+struct StreamBuffer {
+  GLuint name = 0;
+  GLsizeiptr capacity = 0;  // bytes
+
+  void upload(const Functions& gl, GLenum target, GLsizeiptr bytes, const void* data) {
+    gl.BindBuffer(target, name);
+    if (bytes > capacity) {
+      gl.BufferData(target, bytes, data, GL_STREAM_DRAW);
+      capacity = bytes;
+    } else {
+      gl.BufferSubData(target, 0, bytes, data);
+    }
+  }
+};
+
 // Entry points can only be loaded once the context is current.
 const Context& makeCurrent(Context& context) {
   context.makeCurrent();
@@ -63,8 +81,11 @@ struct GlBaker::Impl {
   Functions gl;
   std::string description;
   GLuint bake_program = 0, frame_program = 0;
-  GLuint high_vao = 0, high_vertices = 0, high_indices = 0;
-  GLuint low_vao = 0, low_vertices = 0, low_indices = 0;
+  GLuint high_vao = 0, high_indices = 0;
+  GLuint low_vao = 0;
+  StreamBuffer high_vertices, low_vertices, low_indices;
+  // Kept from tile to tile, for the same reason as the buffers.
+  std::vector<float> interleaved, read_back;
   GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
   GLuint target_texture = 0, target_framebuffer = 0;
   int target_size = 0;                 // size of the textures, 0 = none yet
@@ -84,10 +105,10 @@ struct GlBaker::Impl {
     for (int k = 0; k < kFrameParts; ++k) gl.Uniform1i(gl.GetUniformLocation(bake_program, frame_samplers[k]), k);
     gl.GenVertexArrays(1, &high_vao);
     gl.GenVertexArrays(1, &low_vao);
-    gl.GenBuffers(1, &high_vertices);
+    gl.GenBuffers(1, &high_vertices.name);
     gl.GenBuffers(1, &high_indices);
-    gl.GenBuffers(1, &low_vertices);
-    gl.GenBuffers(1, &low_indices);
+    gl.GenBuffers(1, &low_vertices.name);
+    gl.GenBuffers(1, &low_indices.name);
     gl.GenTextures(kFrameParts, frame_textures);
     gl.GenTextures(1, &target_texture);
     gl.GenFramebuffers(1, &frame_framebuffer);
@@ -99,10 +120,10 @@ struct GlBaker::Impl {
     gl.DeleteFramebuffers(1, &frame_framebuffer);
     gl.DeleteTextures(1, &target_texture);
     gl.DeleteTextures(kFrameParts, frame_textures);
-    gl.DeleteBuffers(1, &low_indices);
-    gl.DeleteBuffers(1, &low_vertices);
+    gl.DeleteBuffers(1, &low_indices.name);
+    gl.DeleteBuffers(1, &low_vertices.name);
     gl.DeleteBuffers(1, &high_indices);
-    gl.DeleteBuffers(1, &high_vertices);
+    gl.DeleteBuffers(1, &high_vertices.name);
     gl.DeleteVertexArrays(1, &low_vao);
     gl.DeleteVertexArrays(1, &high_vao);
     gl.DeleteProgram(bake_program);
@@ -151,11 +172,10 @@ struct GlBaker::Impl {
     target_size = size;
   }
 
-  // Interleaved float attributes: `layout` lists each attribute's width.
-  void uploadVertices(GLuint vao, GLuint buffer, const std::vector<float>& vertices, std::initializer_list<int> layout) {
+  // `interleaved` as float attributes: `layout` lists each attribute's width.
+  void uploadVertices(GLuint vao, StreamBuffer& buffer, std::initializer_list<int> layout) {
     gl.BindVertexArray(vao);
-    gl.BindBuffer(GL_ARRAY_BUFFER, buffer);
-    gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(vertices.size() * sizeof(float)), vertices.data(), GL_STREAM_DRAW);
+    buffer.upload(gl, GL_ARRAY_BUFFER, GLsizeiptr(interleaved.size() * sizeof(float)), interleaved.data());
     int stride = 0;
     for (int width : layout) stride += width;
     int offset = 0;
@@ -169,13 +189,12 @@ struct GlBaker::Impl {
   }
 
   void uploadHighRes(const mesh::HighResMesh& high) {
-    std::vector<float> vertices;
-    vertices.reserve(high.uv.size() * 5);
+    interleaved.clear();
     for (std::size_t i = 0; i < high.uv.size(); ++i) {
-      vertices.insert(vertices.end(), {high.uv[i].x, high.uv[i].y, high.normal[i].x, high.normal[i].y,
-                                       high.normal[i].z});
+      interleaved.insert(interleaved.end(), {high.uv[i].x, high.uv[i].y, high.normal[i].x, high.normal[i].y,
+                                             high.normal[i].z});
     }
-    uploadVertices(high_vao, high_vertices, vertices, {2, 3});
+    uploadVertices(high_vao, high_vertices, {2, 3});
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, high_indices);
     if (high.cols != index_cols || high.rows != index_rows) {
       const auto indices = mesh::gridIndices(high.cols, high.rows);
@@ -188,17 +207,15 @@ struct GlBaker::Impl {
   }
 
   void uploadLowPoly(const mesh::TriangleMesh& low) {
-    std::vector<float> vertices;
-    vertices.reserve(low.uv.size() * 9);
+    interleaved.clear();
     for (std::size_t i = 0; i < low.uv.size(); ++i) {
       const glm::vec3& n = low.normal[i];
       const glm::vec4& t = low.tangent[i];
-      vertices.insert(vertices.end(), {low.uv[i].x, low.uv[i].y, n.x, n.y, n.z, t.x, t.y, t.z, t.w});
+      interleaved.insert(interleaved.end(), {low.uv[i].x, low.uv[i].y, n.x, n.y, n.z, t.x, t.y, t.z, t.w});
     }
-    uploadVertices(low_vao, low_vertices, vertices, {2, 3, 4});
-    gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, low_indices);
-    gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(low.indices.size() * sizeof(std::uint32_t)), low.indices.data(),
-                  GL_STREAM_DRAW);
+    uploadVertices(low_vao, low_vertices, {2, 3, 4});
+    low_indices.upload(gl, GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(low.indices.size() * sizeof(std::uint32_t)),
+                       low.indices.data());
     low_index_count = GLsizei(low.indices.size());
   }
 };
@@ -237,7 +254,8 @@ bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::Triangl
   gl.BindVertexArray(s.high_vao);
   gl.DrawElements(GL_TRIANGLES, s.high_index_count, GL_UNSIGNED_INT, nullptr);
 
-  std::vector<float> rgba(std::size_t(size) * size * 4);
+  std::vector<float>& rgba = s.read_back;
+  rgba.resize(std::size_t(size) * size * 4);
   gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
   gl.ReadPixels(0, 0, size, size, GL_RGBA, GL_FLOAT, rgba.data());
   s.checkError("bake");
