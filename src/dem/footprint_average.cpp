@@ -71,26 +71,25 @@ void spanWeights(const Span& span, std::vector<double>& weights) {
 std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const GridSpec& grid) {
   // Texel centres in source pixels, one texel beyond each side too.
   const int wide = grid.width + 2, high = grid.height + 2;
-  std::vector<glm::dvec2> centres(std::size_t(wide) * std::size_t(high));
-  std::vector<char> known(centres.size());
-  for (int r = 0; r < high; ++r) {
-    for (int c = 0; c < wide; ++c) {
-      const std::size_t k = std::size_t(r) * std::size_t(wide) + std::size_t(c);
-      centres[k] = {c - 0.5, r - 0.5};
-      known[k] = to_source.targetToSource(centres[k].x, centres[k].y);
-    }
+  const std::size_t count = std::size_t(wide) * std::size_t(high);
+  std::vector<double> x(count), y(count);
+  std::vector<int> known(count);
+  for (std::size_t k = 0; k < count; ++k) {
+    x[k] = double(k % std::size_t(wide)) - 0.5, y[k] = double(k / std::size_t(wide)) - 0.5;
   }
+  to_source.targetToSource(int(count), x.data(), y.data(), known.data());
+  const auto centre = [&](std::size_t k) { return glm::dvec2(x[k], y[k]); };
   std::vector<Footprint> footprints(std::size_t(grid.width) * std::size_t(grid.height));
   for (int r = 0; r < grid.height; ++r) {
     for (int c = 0; c < grid.width; ++c) {
       const std::size_t k = std::size_t(r + 1) * std::size_t(wide) + std::size_t(c + 1);
       const std::size_t west = k - 1, east = k + 1, north = k - std::size_t(wide), south = k + std::size_t(wide);
       if (!(known[k] && known[west] && known[east] && known[north] && known[south])) continue;
-      const glm::dvec2 eastward = (centres[east] - centres[west]) / 2.0;
-      const glm::dvec2 southward = (centres[south] - centres[north]) / 2.0;
+      const glm::dvec2 eastward = (centre(east) - centre(west)) / 2.0;
+      const glm::dvec2 southward = (centre(south) - centre(north)) / 2.0;
       Footprint& f = footprints[std::size_t(r) * std::size_t(grid.width) + std::size_t(c)];
-      f.x = Span(centres[k].x, std::max(std::sqrt(eastward.x * eastward.x + southward.x * southward.x), kMinWidthPx));
-      f.y = Span(centres[k].y, std::max(std::sqrt(eastward.y * eastward.y + southward.y * southward.y), kMinWidthPx));
+      f.x = Span(x[k], std::max(std::sqrt(eastward.x * eastward.x + southward.x * southward.x), kMinWidthPx));
+      f.y = Span(y[k], std::max(std::sqrt(eastward.y * eastward.y + southward.y * southward.y), kMinWidthPx));
       f.known = true;
     }
   }
@@ -130,19 +129,6 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
     ++e.partial_count;
   }
   return e;
-}
-
-std::vector<RowSpan> rowSpansOf(const std::vector<Footprint>& footprints, long col0, long col1) {
-  std::vector<RowSpan> spans;
-  spans.reserve(footprints.size());  // each written once: tens of MiB at large tiles
-  for (const Footprint& f : footprints) {
-    if (!f.known) {
-      spans.emplace_back();
-      continue;
-    }
-    spans.push_back({spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1), f.x.width});
-  }
-  return spans;
 }
 
 // A row's tent-weighted means over a span, of the heights on valid samples,
@@ -242,7 +228,6 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
   const long read_col0 = std::max(0L, col0 - halo), read_col1 = std::min(raster_w - 1, col1 + halo);
   const long cols = read_col1 - read_col0 + 1;
   const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
-  const std::vector<RowSpan> x_spans = rowSpansOf(footprints, col0, col1);
   SourceWindow strip;
   RowPrefixSums prefix;
   std::vector<double> sum(footprints.size(), 0.0), weight(footprints.size(), 0.0);
@@ -259,9 +244,12 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom) continue;
       spanWeights(f.y, y_weights);
+      // Made where it is used: kept for every texel, the spans would take
+      // tens of MiB at large tiles.
+      const RowSpan x_span{spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1), f.x.width};
       const long y_from = std::max(f.y.first, top), y_to = std::min(f.y.last, bottom);
       for (long y = y_from; y <= y_to; ++y) {
-        const RowSums row = prefix.meanAlong(y - top, x_spans[k]);
+        const RowSums row = prefix.meanAlong(y - top, x_span);
         const double row_share = y_weights[std::size_t(y - f.y.first)];
         sum[k] += row_share * row.height;
         weight[k] += row_share * row.valid;

@@ -75,10 +75,6 @@ bool LatticeTransformer::interpolate(Step column, Step row, double& x, double& y
   return true;
 }
 
-bool LatticeTransformer::targetToSource(double& x, double& y) const {
-  return interpolate(stepAlongX(x), stepAlongY(y), x, y);
-}
-
 void LatticeTransformer::targetToSource(int count, double* x, double* y, int* ok) const {
   double row_y = NAN;
   Step row{};

@@ -31,12 +31,10 @@ class LatticeTransformer {
   // Computes the nodes that cover `grid`; call before warping onto it.
   void prepare(const GridSpec& grid);
 
-  // In place: a point of the prepared grid, in its pixels ((0, 0) is its
-  // north-west corner), becomes the source raster's pixel position there.
-  // False where the CRS transform fails.
-  bool targetToSource(double& x, double& y) const;
-  // The same for `count` points, ok[k] false where the transform fails;
-  // points of one row (the same y one after another) share their step along y.
+  // In place: `count` points of the prepared grid, in its pixels ((0, 0) is
+  // its north-west corner), become the source raster's pixel positions
+  // there; ok[k] is 0 where the CRS transform fails. Points of one row (the
+  // same y one after another) share their step along y.
   void targetToSource(int count, double* x, double* y, int* ok) const;
 
  private:
