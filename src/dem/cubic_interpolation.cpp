@@ -1,4 +1,4 @@
-#include "dem/cubic_interpolation.hpp"
+#include "dem/resampling.hpp"
 
 #include <algorithm>
 #include <cmath>

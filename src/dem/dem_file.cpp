@@ -20,11 +20,10 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
-#include "dem/cubic_interpolation.hpp"
 #include "dem/edge_extension.hpp"
-#include "dem/footprint_average.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/resampling.hpp"
 #include "dem/void_samples.hpp"
 
 namespace terrabake::dem {

@@ -30,7 +30,7 @@ struct DemInfo {
 
 // How a zoom level reads one file: interpolate (cubic) where texels are as
 // fine as its pixels or finer; where they are coarser, average over each
-// texel's footprint (footprint_average.hpp), from an overview when the file
+// texel's footprint (resampling.hpp), from an overview when the file
 // has one no finer than needed. Decided once per zoom so every tile of a
 // level reads the same way and neighbours match at their edges.
 // Where a texel spans more than kMaxPixelsPerCell pixels of the finest level

@@ -1,4 +1,4 @@
-#include "dem/footprint_average.hpp"
+#include "dem/resampling.hpp"
 
 #include <algorithm>
 #include <cmath>
