@@ -65,45 +65,79 @@ double bilinearAt(const SourceWindow& window, const Taps& x, const Taps& y) {
   return weight > 0 ? sum / weight : NAN;
 }
 
+// Pixels a read holds at once. A tile's kernels reach about a tenth of this;
+// where a CRS tears the texel grid apart, so that one tile's texels fall far
+// apart in the DEM, bands of texel rows keep each read within it.
+constexpr long kMaxWindowPixels = 1L << 22;
+
+// A rectangle of pixels, bounds included; empty while col0 > col1.
+struct PixelBox {
+  long col0 = 0, col1 = -1, row0 = 0, row1 = -1;
+
+  bool empty() const { return col0 > col1 || row0 > row1; }
+  long pixels() const { return empty() ? 0 : (col1 - col0 + 1) * (row1 - row0 + 1); }
+  void add(const PixelBox& other) {
+    if (other.empty()) return;
+    if (empty()) {
+      *this = other;
+      return;
+    }
+    col0 = std::min(col0, other.col0), col1 = std::max(col1, other.col1);
+    row0 = std::min(row0, other.row0), row1 = std::max(row1, other.row1);
+  }
+  PixelBox grown(long by) const { return empty() ? *this : PixelBox{col0 - by, col1 + by, row0 - by, row1 + by}; }
+  PixelBox within(const PixelBox& bounds) const {
+    return {std::max(col0, bounds.col0), std::min(col1, bounds.col1), std::max(row0, bounds.row0),
+            std::min(row1, bounds.row1)};
+  }
+};
+
 }  // namespace
 
 std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const LatticeTransformer& to_source,
                                               const GridSpec& grid, const VoidRule& voids) {
   Raster<float> heights(grid.width, grid.height, NAN);
   // Every texel centre in source pixels.
-  const std::size_t count = std::size_t(grid.width) * std::size_t(grid.height);
+  const std::size_t width = std::size_t(grid.width), count = width * std::size_t(grid.height);
   std::vector<double> x(count), y(count);
   std::vector<int> known(count);
-  for (std::size_t k = 0; k < count; ++k) {
-    x[k] = double(k % std::size_t(grid.width)) + 0.5, y[k] = double(k / std::size_t(grid.width)) + 0.5;
-  }
+  for (std::size_t k = 0; k < count; ++k) x[k] = double(k % width) + 0.5, y[k] = double(k / width) + 0.5;
   to_source.targetToSource(int(count), x.data(), y.data(), known.data());
 
-  // The pixels the kernels reach, and as many again as the extension needs,
-  // within the raster.
-  const long raster_w = GDALGetRasterBandXSize(band), raster_h = GDALGetRasterBandYSize(band);
-  long col0 = raster_w, col1 = -1, row0 = raster_h, row1 = -1;
+  // Of each row of texels, the pixels its kernels reach, and as many again
+  // as the extension needs, within the raster.
+  const PixelBox raster{0, GDALGetRasterBandXSize(band) - 1L, 0, GDALGetRasterBandYSize(band) - 1L};
+  std::vector<PixelBox> reach(std::size_t(grid.height));
   for (std::size_t k = 0; k < count; ++k) {
     if (!known[k]) continue;
     const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
-    col0 = std::min(col0, col - 1), col1 = std::max(col1, col + 2);
-    row0 = std::min(row0, row - 1), row1 = std::max(row1, row + 2);
+    reach[k / width].add({col - 1, col + 2, row - 1, row + 2});
   }
-  const long halo = EdgeExtension::kSourceExtra;
-  col0 = std::max(0L, col0 - halo), col1 = std::min(raster_w - 1, col1 + halo);
-  row0 = std::max(0L, row0 - halo), row1 = std::min(raster_h - 1, row1 + halo);
-  if (col0 > col1 || row0 > row1) return heights;
-  SourceWindow window;
-  if (!window.read(band, col0, row0, int(col1 - col0 + 1), int(row1 - row0 + 1), voids)) return std::nullopt;
+  for (PixelBox& box : reach) box = box.grown(EdgeExtension::kSourceExtra).within(raster);
 
-  for (std::size_t k = 0; k < count; ++k) {
-    if (!known[k]) continue;
-    // Coverage is the DEM's own: the pixel the centre lies on holds data.
-    const long col = floorToLong(x[k]), row = floorToLong(y[k]);
-    if (!window.contains(col, row) || !window.data[window.indexOf(col, row)]) continue;
-    const Taps along_x(x[k]), along_y(y[k]);
-    const std::optional<double> cubic = cubicAt(window, along_x, along_y);
-    heights.data[k] = float(cubic ? *cubic : bilinearAt(window, along_x, along_y));
+  // Bands of rows, each read at once.
+  SourceWindow window;
+  for (int first = 0, last = 0; first < grid.height; first = last + 1) {
+    PixelBox box = reach[std::size_t(first)];
+    for (last = first; last + 1 < grid.height; ++last) {
+      PixelBox wider = box;
+      wider.add(reach[std::size_t(last) + 1]);
+      if (wider.pixels() > kMaxWindowPixels) break;
+      box = wider;
+    }
+    if (box.empty()) continue;
+    if (!window.read(band, box.col0, box.row0, int(box.col1 - box.col0 + 1), int(box.row1 - box.row0 + 1), voids)) {
+      return std::nullopt;
+    }
+    for (std::size_t k = std::size_t(first) * width; k < std::size_t(last + 1) * width; ++k) {
+      if (!known[k]) continue;
+      // Coverage is the DEM's own: the pixel the centre lies on holds data.
+      const long col = floorToLong(x[k]), row = floorToLong(y[k]);
+      if (!window.contains(col, row) || !window.data[window.indexOf(col, row)]) continue;
+      const Taps along_x(x[k]), along_y(y[k]);
+      const std::optional<double> cubic = cubicAt(window, along_x, along_y);
+      heights.data[k] = float(cubic ? *cubic : bilinearAt(window, along_x, along_y));
+    }
   }
   return heights;
 }
