@@ -10,6 +10,7 @@
 #include <memory>
 #include <vector>
 
+#include "core/floor.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
 #include "dem/reduced_levels.hpp"
@@ -20,6 +21,19 @@
 
 namespace terrabake {
 namespace {
+
+// The kernels' pixel indices: std::floor and std::ceil exactly, and no
+// undefined conversion for a position no raster reaches.
+TEST(FloorToLong, MatchesTheLibraryAndSaturatesBeyondAnyRaster) {
+  for (const double x : {0.0, -0.0, 0.5, -0.5, 1.0, -1.0, 2.999999999, -2.000000001, 1e15 + 0.5, -1e15 - 0.5,
+                         4503599627370497.0, -4503599627370497.0}) {
+    EXPECT_EQ(floorToLong(x), long(std::floor(x))) << x;
+    EXPECT_EQ(ceilToLong(x), long(std::ceil(x))) << x;
+  }
+  EXPECT_EQ(floorToLong(1e300), 1L << 62);
+  EXPECT_EQ(floorToLong(-INFINITY), -(1L << 62));
+  EXPECT_EQ(floorToLong(NAN), -(1L << 62));
+}
 
 TEST(FillHoles, LeavesNoHoleAndNoSpike) {
   // A plane with a 20 x 20 hole: the fill must stay within the values around
