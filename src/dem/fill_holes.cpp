@@ -1,5 +1,6 @@
 #include "dem/fill_holes.hpp"
 
+#include "core/lanes.hpp"
 #include "dem/mask_dilation.hpp"
 
 #include <algorithm>
@@ -171,10 +172,6 @@ class ReachWeights {
   std::vector<int> m_half_width;                      // per dr
 };
 
-// Two doubles that add and multiply lane by lane (GCC and Clang vector
-// extensions: SSE2 on x86-64, scalar code where there is no SIMD).
-using Lanes = double __attribute__((vector_size(16)));
-
 // 1 at t = 0, 0 from t = 1 on, flat at both ends (smoothstep), so the fade
 // adds no kink where it starts or ends. (Smootherstep, flat in curvature too,
 // is a quarter steeper halfway: steeper than the terrain it continues.)
@@ -240,8 +237,8 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
       // lane adds its own terms in the same order as alone, and zeros for
       // the planes only the other lane reaches, so it gets the same bits.
       const int pair = needsPlanes(c + 1, r) ? 1 : 0;
-      const Lanes at_c = {double(c), double(c + pair)};
-      Lanes weight_sum = {0, 0}, height_sum = {0, 0}, distance_sum = {0, 0};
+      const Doubles at_c = {double(c), double(c + pair)};
+      Doubles weight_sum = {0, 0}, height_sum = {0, 0}, distance_sum = {0, 0};
       for (int rr = row_from; rr <= row_to; ++rr) {
         const int half = weights.halfWidth(r - rr);
         const auto row_end = edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr) + 1]);
@@ -249,10 +246,10 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
                                   c - half, [](const EdgePlane& p, int col) { return p.c < col; });
         for (; e != row_end && e->c <= c + pair + half; ++e) {
           const std::size_t k0 = weights.index(c - e->c, r - e->r), k1 = weights.index(c + pair - e->c, r - e->r);
-          const Lanes weight = {weights.weight(k0), weights.weight(k1)};
+          const Doubles weight = {weights.weight(k0), weights.weight(k1)};
           weight_sum += weight;
           height_sum += weight * (e->height + e->slope_c * (at_c - double(e->c)) + e->slope_r * double(r - e->r));
-          distance_sum += Lanes{weights.weightedDistance(k0), weights.weightedDistance(k1)};
+          distance_sum += Doubles{weights.weightedDistance(k0), weights.weightedDistance(k1)};
         }
       }
       for (int lane = 0; lane <= pair; ++lane) {

@@ -10,6 +10,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "core/lanes.hpp"
 #include "mesh/sample_surface.hpp"
 #include "mesh/texel_raster.hpp"
 
@@ -89,11 +90,7 @@ constexpr double kFrameStepSamples = 4;
 // only has to be safe from rounding.
 constexpr double kExactOnEdge = 1e-9;
 
-// Four floats or ints that add, multiply and compare lane by lane (GCC and
-// Clang vector extensions: SSE on x86-64, scalar code where there is no SIMD).
-constexpr int kLanes = 4;
-using Floats = float __attribute__((vector_size(16)));
-using Ints = std::int32_t __attribute__((vector_size(16)));
+constexpr int kLanes = kFloatLanes;
 
 // A triangulation of the tile in half-edge form: half-edge e of triangle
 // e / 3 runs from corner[e] to corner[nextEdge(e)]; opposite[e] is its twin

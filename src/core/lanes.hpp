@@ -1,0 +1,29 @@
+#pragma once
+// Short vectors that add, multiply and compare lane by lane, for the loops
+// that take several texels or samples at once (GCC and Clang vector
+// extensions: SSE on x86-64, plain scalar code where there is no SIMD).
+// Each lane does exactly the arithmetic one value would do alone.
+#include <cmath>
+#include <cstdint>
+
+#if defined(__SSE__)
+#include <xmmintrin.h>
+#endif
+
+namespace terrabake {
+
+inline constexpr int kFloatLanes = 4;
+using Floats = float __attribute__((vector_size(16)));
+using Ints = std::int32_t __attribute__((vector_size(16)));
+using Doubles = double __attribute__((vector_size(16)));
+
+inline Floats squareRoot(Floats v) {
+#if defined(__SSE__)
+  return Floats(_mm_sqrt_ps(__m128(v)));
+#else
+  for (int k = 0; k < kFloatLanes; ++k) v[k] = std::sqrt(v[k]);
+  return v;
+#endif
+}
+
+}  // namespace terrabake
