@@ -6,8 +6,8 @@
 #include <cmath>
 #include <cstdint>
 
-#if defined(__SSE__)
-#include <xmmintrin.h>
+#if defined(__SSE2__)
+#include <emmintrin.h>
 #endif
 
 namespace terrabake {
@@ -17,11 +17,21 @@ using Floats = float __attribute__((vector_size(16)));
 using Ints = std::int32_t __attribute__((vector_size(16)));
 using Doubles = double __attribute__((vector_size(16)));
 
+// Each lane's square root, correctly rounded as std::sqrt's.
 inline Floats squareRoot(Floats v) {
-#if defined(__SSE__)
+#if defined(__SSE2__)
   return Floats(_mm_sqrt_ps(__m128(v)));
 #else
-  for (int k = 0; k < kFloatLanes; ++k) v[k] = std::sqrt(v[k]);
+  for (int k = 0; k < 4; ++k) v[k] = std::sqrt(v[k]);
+  return v;
+#endif
+}
+
+inline Doubles squareRoot(Doubles v) {
+#if defined(__SSE2__)
+  return Doubles(_mm_sqrt_pd(__m128d(v)));
+#else
+  for (int k = 0; k < 2; ++k) v[k] = std::sqrt(v[k]);
   return v;
 #endif
 }

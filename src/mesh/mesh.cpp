@@ -9,6 +9,7 @@
 #include <glm/geometric.hpp>
 
 #include "core/floor.hpp"
+#include "core/lanes.hpp"
 #include "mesh/sample_surface.hpp"
 #include "mesh/texel_raster.hpp"
 
@@ -87,9 +88,19 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
   return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
-// Its normal alone, the same as sampleFrame's.
-glm::dvec3 sampleNormal(const SampleGrid& samples, int c, int r) {
-  return normalFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
+// The normals of samples (c0, r) and (c1, r), the same bits as
+// normalFromDifferences gives each, the two taken at once.
+void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, glm::vec3& n0, glm::vec3& n1) {
+  const glm::dvec3 du[2] = {differenceAt(samples, c0, r, 1, 0), differenceAt(samples, c1, r, 1, 0)};
+  const glm::dvec3 dv[2] = {differenceAt(samples, c0, r, 0, 1), differenceAt(samples, c1, r, 0, 1)};
+  const auto lanes = [&](const glm::dvec3 (&v)[2], int axis) { return Doubles{v[0][axis], v[1][axis]}; };
+  const Doubles ux = lanes(du, 0), uy = lanes(du, 1), uz = lanes(du, 2);
+  const Doubles vx = lanes(dv, 0), vy = lanes(dv, 1), vz = lanes(dv, 2);
+  // cross(dv, du), then normalize: v / sqrt(dot(v, v)) as glm does it.
+  const Doubles x = vy * uz - uy * vz, y = vz * ux - uz * vx, z = vx * uy - ux * vy;
+  const Doubles inverse_length = 1 / squareRoot(x * x + y * y + z * z);
+  n0 = glm::vec3(glm::dvec3(x[0], y[0], z[0]) * inverse_length[0]);
+  n1 = glm::vec3(glm::dvec3(x[1], y[1], z[1]) * inverse_length[1]);
 }
 
 }  // namespace
@@ -131,12 +142,18 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   // The UV of texel centre k along either axis, for k = -1 .. s.
   std::vector<float> centre_uv;
   for (int k = -1; k <= s; ++k) centre_uv.push_back(float((k + 0.5) / s));
+  mesh.normal.resize(count);
   for (int j = -1; j <= s; ++j) {
     for (int i = -1; i <= s; ++i) {
       const int c = a + i, r = a + j;
       mesh.uv.emplace_back(centre_uv[std::size_t(i + 1)], centre_uv[std::size_t(j + 1)]);
       mesh.position.emplace_back(p.at(c, r));
-      mesh.normal.emplace_back(sampleNormal(samples, c, r));
+    }
+    // Two normals at a time; an odd row's last pair is one sample twice.
+    glm::vec3* normals = &mesh.normal[std::size_t(j + 1) * std::size_t(mesh.cols)];
+    for (int i = 0; i < mesh.cols; i += 2) {
+      const int next = std::min(i + 1, mesh.cols - 1);
+      sampleNormals(samples, a - 1 + i, a - 1 + next, a + j, normals[i], normals[next]);
     }
   }
   return mesh;
