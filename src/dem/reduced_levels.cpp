@@ -73,11 +73,13 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
     std::fill(sums.begin(), sums.end(), 0.0);
     std::fill(counts.begin(), counts.end(), 0);
     for (int r = 0; r < row_count; ++r) {
-      for (int c = 0; c < width; ++c) {
-        const float v = rows[std::size_t(r) * std::size_t(width) + std::size_t(c)];
-        if (voids.isVoid(v)) continue;
-        sums[std::size_t(c / f)] += v;
-        ++counts[std::size_t(c / f)];
+      const float* row = &rows[std::size_t(r) * std::size_t(width)];
+      for (int block = 0; block < finest.width; ++block) {
+        for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
+          if (voids.isVoid(row[c])) continue;
+          sums[std::size_t(block)] += row[c];
+          ++counts[std::size_t(block)];
+        }
       }
     }
     for (int c = 0; c < finest.width; ++c) {
