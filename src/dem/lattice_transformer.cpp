@@ -62,25 +62,30 @@ LatticeTransformer::Step LatticeTransformer::stepAlongY(double y) const {
   return {j, fy - j};
 }
 
-bool LatticeTransformer::interpolate(Step column, Step row, double& x, double& y) const {
-  const double tx = column.fraction, ty = row.fraction;
-  const std::size_t k00 = std::size_t(row.node) * m_nodes_x + column.node, k10 = k00 + 1, k01 = k00 + m_nodes_x,
-                    k11 = k01 + 1;
-  if (!(m_valid[k00] && m_valid[k10] && m_valid[k01] && m_valid[k11])) return false;
-  auto mix = [&](const std::vector<double>& v) {
-    return (v[k00] * (1 - tx) + v[k10] * tx) * (1 - ty) + (v[k01] * (1 - tx) + v[k11] * tx) * ty;
-  };
-  x = mix(m_source_x);
-  y = mix(m_source_y);
-  return true;
-}
-
 void LatticeTransformer::targetToSource(int count, double* x, double* y, int* ok) const {
+  // Along a row of points the nodes' rows mix by the same weight: mixed once
+  // per row, every node column becomes one source position, and a point is
+  // the straight line between the two either side of it.
   double row_y = NAN;
-  Step row{};
   for (int k = 0; k < count; ++k) {
-    if (!(y[k] == row_y)) row_y = y[k], row = stepAlongY(y[k]);
-    ok[k] = interpolate(stepAlongX(x[k]), row, x[k], y[k]);
+    if (!(y[k] == row_y)) {
+      row_y = y[k];
+      const Step row = stepAlongY(y[k]);
+      const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
+      m_row.resize(std::size_t(m_nodes_x));
+      for (std::size_t i = 0; i < m_row.size(); ++i) {
+        m_row[i].x = m_source_x[above + i] * (1 - row.fraction) + m_source_x[below + i] * row.fraction;
+        m_row[i].y = m_source_y[above + i] * (1 - row.fraction) + m_source_y[below + i] * row.fraction;
+        m_row[i].valid = m_valid[above + i] && m_valid[below + i];
+      }
+    }
+    const Step column = stepAlongX(x[k]);
+    const RowNode& west = m_row[std::size_t(column.node)];
+    const RowNode& east = m_row[std::size_t(column.node) + 1];
+    ok[k] = west.valid && east.valid;
+    if (!ok[k]) continue;
+    x[k] = west.x * (1 - column.fraction) + east.x * column.fraction;
+    y[k] = west.y * (1 - column.fraction) + east.y * column.fraction;
   }
 }
 

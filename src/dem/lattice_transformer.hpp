@@ -46,8 +46,11 @@ class LatticeTransformer {
   };
   Step stepAlongX(double x) const;
   Step stepAlongY(double y) const;
-  // The source position between the nodes of `column` and `row`, into x and y.
-  bool interpolate(Step column, Step row, double& x, double& y) const;
+  // A node column mixed along y for the current row of points.
+  struct RowNode {
+    double x, y;
+    bool valid;
+  };
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
   double m_gt[6] = {};      // target grid: pixels -> target CRS
@@ -56,6 +59,7 @@ class LatticeTransformer {
   int m_nodes_x = 0, m_nodes_y = 0;
   std::vector<double> m_source_x, m_source_y;
   std::vector<int> m_valid;
+  mutable std::vector<RowNode> m_row;  // targetToSource's current row: one transformer per reader and thread
 };
 
 }  // namespace terrabake::dem
