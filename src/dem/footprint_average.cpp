@@ -53,14 +53,16 @@ double tentIntegral(double t) {
   return 1;
 }
 
-// weights[k]: the share of pixel span.first + k in the mean, over the span,
-// of the samples joined by straight lines; they sum to 1, and the mean of a
-// linear ramp is its value at the span's centre, whatever the phase.
+// weights[k]: the share of pixel span.first + k in the integral, over the
+// span, of the samples joined by straight lines; they sum to the span's
+// width, and the mean of a linear ramp is its value at the span's centre,
+// whatever the phase. (A height is a ratio of two such integrals: the
+// widths divide out.)
 void spanWeights(const Span& span, std::vector<double>& weights) {
   weights.resize(std::size_t(span.last - span.first + 1));
   for (std::size_t k = 0; k < weights.size(); ++k) {
     const double from_sample = span.low - (double(span.first + long(k)) + 0.5);
-    weights[k] = (tentIntegral(from_sample + span.width) - tentIntegral(from_sample)) / span.width;
+    weights[k] = tentIntegral(from_sample + span.width) - tentIntegral(from_sample);
   }
 }
 
@@ -96,11 +98,11 @@ std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const G
   return footprints;
 }
 
-// The mean along one row over a span, as two ends: the samples joined by
-// straight lines and integrated from minus infinity to each end (tentIntegral
-// of each sample's tent) give the integral over the span as the difference
-// of the two, divided by the span's width. Pixels up to `full` lie wholly
-// before an end (prefix sums count them); at most two more lie part way.
+// The integral along one row over a span, as two ends: the samples joined
+// by straight lines and integrated from minus infinity to each end
+// (tentIntegral of each sample's tent) give the integral over the span as
+// the difference of the two. Pixels up to `full` lie wholly before an end
+// (prefix sums count them); at most two more lie part way.
 struct SpanEnd {
   long full = 0;                 // prefix sums up to this pixel index (from col0), exclusive
   int partial_count = 0;
@@ -110,7 +112,6 @@ struct SpanEnd {
 
 struct RowSpan {
   SpanEnd low, high;
-  double width = 1;
 };
 
 SpanEnd spanEndAt(double end, long col0, long col1) {
@@ -131,14 +132,14 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
   return e;
 }
 
-// A row's tent-weighted means over a span, of the heights on valid samples,
-// of validity and of the DEM's own data.
+// A row's tent-weighted integrals over a span, of the heights on valid
+// samples, of validity and of the DEM's own data.
 struct RowSums {
   double height = 0, valid = 0, data = 0;
 };
 
 // Of each row of a strip, prefix sums of the three along the row, so that
-// a mean over a span of a row costs the same whatever the span's width.
+// an integral over a span of a row costs the same whatever the span's width.
 class RowPrefixSums {
  public:
   // Rows [first_row, first_row + row_count) of the strip, pixels
@@ -172,11 +173,10 @@ class RowPrefixSums {
     }
   }
 
-  RowSums meanAlong(long row, const RowSpan& span) const {
+  RowSums integralAlong(long row, const RowSpan& span) const {
     const std::size_t base = std::size_t(row * m_width);
     RowSums high = integralTo(base, row, span.high), low = integralTo(base, row, span.low);
-    return {(high.height - low.height) / span.width, (high.valid - low.valid) / span.width,
-            (high.data - low.data) / span.width};
+    return {high.height - low.height, high.valid - low.valid, high.data - low.data};
   }
 
  private:
@@ -246,10 +246,10 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
       spanWeights(f.y, y_weights);
       // Made where it is used: kept for every texel, the spans would take
       // tens of MiB at large tiles.
-      const RowSpan x_span{spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1), f.x.width};
+      const RowSpan x_span{spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1)};
       const long y_from = std::max(f.y.first, top), y_to = std::min(f.y.last, bottom);
       for (long y = y_from; y <= y_to; ++y) {
-        const RowSums row = prefix.meanAlong(y - top, x_span);
+        const RowSums row = prefix.integralAlong(y - top, x_span);
         const double row_share = y_weights[std::size_t(y - f.y.first)];
         sum[k] += row_share * row.height;
         weight[k] += row_share * row.valid;
@@ -257,10 +257,11 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
       }
     }
   }
-  // Coverage is the data's own weight; the height, the mean of data and its
-  // extension together.
+  // Coverage is the data's own share of the footprint; the height, the mean
+  // of data and its extension together.
   for (std::size_t k = 0; k < footprints.size(); ++k) {
-    if (data_weight[k] >= kMinValidWeight) heights.data[k] = float(sum[k] / weight[k]);
+    const double area = footprints[k].x.width * footprints[k].y.width;
+    if (data_weight[k] >= kMinValidWeight * area) heights.data[k] = float(sum[k] / weight[k]);
   }
   return heights;
 }
