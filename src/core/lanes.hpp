@@ -4,6 +4,7 @@
 // extensions: SSE on x86-64, plain scalar code where there is no SIMD).
 // Each lane does exactly the arithmetic one value would do alone.
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 
 #if defined(__SSE2__)
@@ -18,20 +19,16 @@ using Ints = std::int32_t __attribute__((vector_size(16)));
 using Doubles = double __attribute__((vector_size(16)));
 
 // Each lane's square root, correctly rounded as std::sqrt's.
-inline Floats squareRoot(Floats v) {
+template <class Lanes>
+Lanes squareRoot(Lanes v) {
 #if defined(__SSE2__)
-  return Floats(_mm_sqrt_ps(__m128(v)));
+  if constexpr (sizeof(v[0]) == sizeof(float)) {
+    return Lanes(_mm_sqrt_ps(__m128(v)));
+  } else {
+    return Lanes(_mm_sqrt_pd(__m128d(v)));
+  }
 #else
-  for (int k = 0; k < 4; ++k) v[k] = std::sqrt(v[k]);
-  return v;
-#endif
-}
-
-inline Doubles squareRoot(Doubles v) {
-#if defined(__SSE2__)
-  return Doubles(_mm_sqrt_pd(__m128d(v)));
-#else
-  for (int k = 0; k < 2; ++k) v[k] = std::sqrt(v[k]);
+  for (std::size_t k = 0; k < sizeof v / sizeof v[0]; ++k) v[k] = std::sqrt(v[k]);
   return v;
 #endif
 }

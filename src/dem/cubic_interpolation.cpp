@@ -98,11 +98,11 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
                                               const GridSpec& grid, const VoidRule& voids) {
   Raster<float> heights(grid.width, grid.height, NAN);
   // Every texel centre in source pixels.
-  const std::size_t width = std::size_t(grid.width), count = width * std::size_t(grid.height);
-  std::vector<double> x(count), y(count);
-  std::vector<int> known(count);
-  for (std::size_t k = 0; k < count; ++k) x[k] = double(k % width) + 0.5, y[k] = double(k / width) + 0.5;
-  to_source.targetToSource(int(count), x.data(), y.data(), known.data());
+  const LatticeTransformer::SourcePositions centres = to_source.texelCentres(0);
+  const std::vector<double>& x = centres.x;
+  const std::vector<double>& y = centres.y;
+  const std::vector<int>& known = centres.known;
+  const std::size_t width = std::size_t(grid.width), count = known.size();
 
   // Of each row of texels, the pixels its kernels reach, and as many again
   // as the extension needs, within the raster.

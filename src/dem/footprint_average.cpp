@@ -72,14 +72,11 @@ void spanWeights(const Span& span, std::vector<double>& weights) {
 // sheared against the pixel grid keeps its size.
 std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const GridSpec& grid) {
   // Texel centres in source pixels, one texel beyond each side too.
-  const int wide = grid.width + 2, high = grid.height + 2;
-  const std::size_t count = std::size_t(wide) * std::size_t(high);
-  std::vector<double> x(count), y(count);
-  std::vector<int> known(count);
-  for (std::size_t k = 0; k < count; ++k) {
-    x[k] = double(k % std::size_t(wide)) - 0.5, y[k] = double(k / std::size_t(wide)) - 0.5;
-  }
-  to_source.targetToSource(int(count), x.data(), y.data(), known.data());
+  const LatticeTransformer::SourcePositions centres = to_source.texelCentres(1);
+  const int wide = centres.width;
+  const std::vector<double>& x = centres.x;
+  const std::vector<double>& y = centres.y;
+  const std::vector<int>& known = centres.known;
   const auto centre = [&](std::size_t k) { return glm::dvec2(x[k], y[k]); };
   std::vector<Footprint> footprints(std::size_t(grid.width) * std::size_t(grid.height));
   for (int r = 0; r < grid.height; ++r) {

@@ -23,6 +23,7 @@ LatticeTransformer::~LatticeTransformer() { GDALDestroyGenImgProjTransformer(m_e
 void LatticeTransformer::prepare(const GridSpec& grid) {
   m_gt[0] = grid.origin_x, m_gt[1] = grid.cell_w, m_gt[2] = 0;
   m_gt[3] = grid.origin_y, m_gt[4] = 0, m_gt[5] = -grid.cell_h;
+  m_width = grid.width, m_height = grid.height;
   m_spacing_x = kNodeSpacingCells * grid.cell_w;
   m_spacing_y = kNodeSpacingCells * grid.cell_h;
   // One node beyond each side: the kernels also ask about points just
@@ -62,31 +63,36 @@ LatticeTransformer::Step LatticeTransformer::stepAlongY(double y) const {
   return {j, fy - j};
 }
 
-void LatticeTransformer::targetToSource(int count, double* x, double* y, int* ok) const {
-  // Along a row of points the nodes' rows mix by the same weight: mixed once
-  // per row, every node column becomes one source position, and a point is
+LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border) const {
+  SourcePositions out;
+  out.width = m_width + 2 * border;
+  const int rows = m_height + 2 * border;
+  const std::size_t count = std::size_t(out.width) * std::size_t(rows);
+  out.x.resize(count), out.y.resize(count), out.known.resize(count);
+  // Along a row of texels the nodes' rows mix by the same weight: mixed once
+  // per row, every node column becomes one source position, and a texel is
   // the straight line between the two either side of it.
-  double row_y = NAN;
-  for (int k = 0; k < count; ++k) {
-    if (!(y[k] == row_y)) {
-      row_y = y[k];
-      const Step row = stepAlongY(y[k]);
-      const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
-      m_row.resize(std::size_t(m_nodes_x));
-      for (std::size_t i = 0; i < m_row.size(); ++i) {
-        m_row[i].x = m_source_x[above + i] * (1 - row.fraction) + m_source_x[below + i] * row.fraction;
-        m_row[i].y = m_source_y[above + i] * (1 - row.fraction) + m_source_y[below + i] * row.fraction;
-        m_row[i].valid = m_valid[above + i] && m_valid[below + i];
-      }
+  std::vector<RowNode> nodes(static_cast<std::size_t>(m_nodes_x));
+  for (int r = 0; r < rows; ++r) {
+    const Step row = stepAlongY(r - border + 0.5);
+    const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
+    for (std::size_t i = 0; i < nodes.size(); ++i) {
+      nodes[i].x = m_source_x[above + i] * (1 - row.fraction) + m_source_x[below + i] * row.fraction;
+      nodes[i].y = m_source_y[above + i] * (1 - row.fraction) + m_source_y[below + i] * row.fraction;
+      nodes[i].valid = m_valid[above + i] && m_valid[below + i];
     }
-    const Step column = stepAlongX(x[k]);
-    const RowNode& west = m_row[std::size_t(column.node)];
-    const RowNode& east = m_row[std::size_t(column.node) + 1];
-    ok[k] = west.valid && east.valid;
-    if (!ok[k]) continue;
-    x[k] = west.x * (1 - column.fraction) + east.x * column.fraction;
-    y[k] = west.y * (1 - column.fraction) + east.y * column.fraction;
+    for (int c = 0; c < out.width; ++c) {
+      const std::size_t k = std::size_t(r) * std::size_t(out.width) + std::size_t(c);
+      const Step column = stepAlongX(c - border + 0.5);
+      const RowNode& west = nodes[std::size_t(column.node)];
+      const RowNode& east = nodes[std::size_t(column.node) + 1];
+      out.known[k] = west.valid && east.valid;
+      if (!out.known[k]) continue;
+      out.x[k] = west.x * (1 - column.fraction) + east.x * column.fraction;
+      out.y[k] = west.y * (1 - column.fraction) + east.y * column.fraction;
+    }
   }
+  return out;
 }
 
 }  // namespace terrabake::dem

@@ -31,11 +31,15 @@ class LatticeTransformer {
   // Computes the nodes that cover `grid`; call before warping onto it.
   void prepare(const GridSpec& grid);
 
-  // In place: `count` points of the prepared grid, in its pixels ((0, 0) is
-  // its north-west corner), become the source raster's pixel positions
-  // there; ok[k] is 0 where the CRS transform fails. Points of one row (the
-  // same y one after another) share their step along y.
-  void targetToSource(int count, double* x, double* y, int* ok) const;
+  // The source raster's pixel positions of the prepared grid's texel
+  // centres, with `border` more texels round each side, row by row: texel
+  // (c, r) of the grid is entry (r + border) * width + c + border.
+  struct SourcePositions {
+    int width = 0;  // entries a row
+    std::vector<double> x, y;
+    std::vector<int> known;  // 0 where the CRS transform fails
+  };
+  SourcePositions texelCentres(int border) const;
 
  private:
   // Where a target pixel coordinate falls along one axis of the lattice: the
@@ -46,7 +50,7 @@ class LatticeTransformer {
   };
   Step stepAlongX(double x) const;
   Step stepAlongY(double y) const;
-  // A node column mixed along y for the current row of points.
+  // A node column mixed along y for one row of texels.
   struct RowNode {
     double x, y;
     bool valid;
@@ -57,9 +61,9 @@ class LatticeTransformer {
   double m_spacing_x = 0, m_spacing_y = 0;
   long m_first_x = 0, m_first_y = 0;  // global index of the first node
   int m_nodes_x = 0, m_nodes_y = 0;
+  int m_width = 0, m_height = 0;  // of the prepared grid
   std::vector<double> m_source_x, m_source_y;
   std::vector<int> m_valid;
-  mutable std::vector<RowNode> m_row;  // targetToSource's current row: one transformer per reader and thread
 };
 
 }  // namespace terrabake::dem

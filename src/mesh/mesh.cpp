@@ -138,11 +138,10 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   const std::size_t count = std::size_t(mesh.cols) * mesh.rows;
   mesh.uv.reserve(count);
   mesh.position.reserve(count);
-  mesh.normal.reserve(count);
+  mesh.normal.resize(count);
   // The UV of texel centre k along either axis, for k = -1 .. s.
   std::vector<float> centre_uv;
   for (int k = -1; k <= s; ++k) centre_uv.push_back(float((k + 0.5) / s));
-  mesh.normal.resize(count);
   for (int j = -1; j <= s; ++j) {
     for (int i = -1; i <= s; ++i) {
       const int c = a + i, r = a + j;
