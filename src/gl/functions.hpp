@@ -55,6 +55,7 @@ namespace terrabake::gl {
   X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                          \
   X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)              \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)      \
+  X(PFNGLDRAWARRAYSPROC, DrawArrays)                                \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)
 
 struct Functions {

@@ -2,6 +2,7 @@
 
 #include <cstdio>
 #include <initializer_list>
+#include <utility>
 #include <vector>
 
 #include "core/error.hpp"
@@ -49,6 +50,9 @@ GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* f
 // The low-poly frame, interpolated per texel by the first pass: normal,
 // tangent and bitangent, one float texture each.
 constexpr int kFrameParts = 3;
+// Texture units of the third pass: the high-res normals, then the frame.
+constexpr int kHighNormalUnit = 0;
+constexpr int kFirstFrameUnit = 1;
 
 // A buffer object whose storage is made again only when the data outgrows
 // it: re-specifying storage for every tile makes a software renderer map and
@@ -80,13 +84,15 @@ struct GlBaker::Impl {
   std::unique_ptr<Context> context;
   Functions gl;
   std::string description;
-  GLuint bake_program = 0, frame_program = 0;
+  GLuint frame_program = 0, bake_program = 0, tangent_space_program = 0;
   GLuint high_vao = 0, high_indices = 0;
   GLuint low_vao = 0;
+  GLuint no_vertices_vao = 0;  // the third pass makes its triangle from gl_VertexID
   StreamBuffer high_vertices, low_vertices, low_indices;
   // Kept from tile to tile, for the same reason as the buffers.
   std::vector<float> interleaved, read_back;
   GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
+  GLuint high_normal_texture = 0, high_normal_framebuffer = 0;
   GLuint target_texture = 0, target_framebuffer = 0;
   int target_size = 0;                 // size of the textures, 0 = none yet
   int index_cols = 0, index_rows = 0;  // grid the high-res index buffer was built for
@@ -100,32 +106,43 @@ struct GlBaker::Impl {
 
     frame_program = linkProgram(gl, shaders::kFrameVertex, shaders::kFrameFragment);
     bake_program = linkProgram(gl, shaders::kBakeVertex, shaders::kBakeFragment);
-    gl.UseProgram(bake_program);
+    tangent_space_program = linkProgram(gl, shaders::kTangentSpaceVertex, shaders::kTangentSpaceFragment);
+    gl.UseProgram(tangent_space_program);
+    gl.Uniform1i(gl.GetUniformLocation(tangent_space_program, "u_high_normal"), kHighNormalUnit);
     const char* frame_samplers[kFrameParts] = {"u_frame_normal", "u_frame_tangent", "u_frame_bitangent"};
-    for (int k = 0; k < kFrameParts; ++k) gl.Uniform1i(gl.GetUniformLocation(bake_program, frame_samplers[k]), k);
+    for (int k = 0; k < kFrameParts; ++k) {
+      gl.Uniform1i(gl.GetUniformLocation(tangent_space_program, frame_samplers[k]), kFirstFrameUnit + k);
+    }
     gl.GenVertexArrays(1, &high_vao);
     gl.GenVertexArrays(1, &low_vao);
+    gl.GenVertexArrays(1, &no_vertices_vao);
     gl.GenBuffers(1, &high_vertices.name);
     gl.GenBuffers(1, &high_indices);
     gl.GenBuffers(1, &low_vertices.name);
     gl.GenBuffers(1, &low_indices.name);
     gl.GenTextures(kFrameParts, frame_textures);
+    gl.GenTextures(1, &high_normal_texture);
     gl.GenTextures(1, &target_texture);
     gl.GenFramebuffers(1, &frame_framebuffer);
+    gl.GenFramebuffers(1, &high_normal_framebuffer);
     gl.GenFramebuffers(1, &target_framebuffer);
   }
 
   ~Impl() {
     gl.DeleteFramebuffers(1, &target_framebuffer);
+    gl.DeleteFramebuffers(1, &high_normal_framebuffer);
     gl.DeleteFramebuffers(1, &frame_framebuffer);
     gl.DeleteTextures(1, &target_texture);
+    gl.DeleteTextures(1, &high_normal_texture);
     gl.DeleteTextures(kFrameParts, frame_textures);
     gl.DeleteBuffers(1, &low_indices.name);
     gl.DeleteBuffers(1, &low_vertices.name);
     gl.DeleteBuffers(1, &high_indices);
     gl.DeleteBuffers(1, &high_vertices.name);
+    gl.DeleteVertexArrays(1, &no_vertices_vao);
     gl.DeleteVertexArrays(1, &low_vao);
     gl.DeleteVertexArrays(1, &high_vao);
+    gl.DeleteProgram(tangent_space_program);
     gl.DeleteProgram(bake_program);
     gl.DeleteProgram(frame_program);
   }
@@ -165,10 +182,13 @@ struct GlBaker::Impl {
     }
     gl.DrawBuffers(kFrameParts, attachments);
     checkFramebuffer(size);
-    gl.BindFramebuffer(GL_FRAMEBUFFER, target_framebuffer);
-    allocateFloatTexture(target_texture, size);
-    gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, target_texture, 0);
-    checkFramebuffer(size);
+    for (auto [framebuffer, texture] : {std::pair{high_normal_framebuffer, high_normal_texture},
+                                        std::pair{target_framebuffer, target_texture}}) {
+      gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
+      allocateFloatTexture(texture, size);
+      gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
+      checkFramebuffer(size);
+    }
     target_size = size;
   }
 
@@ -243,16 +263,24 @@ bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::Triangl
   gl.BindVertexArray(s.low_vao);
   gl.DrawElements(GL_TRIANGLES, s.low_index_count, GL_UNSIGNED_INT, nullptr);
 
-  // Pass 2: the high-res normals, expressed in that frame.
-  gl.BindFramebuffer(GL_FRAMEBUFFER, s.target_framebuffer);
+  // Pass 2: the high-res normal at every texel.
+  gl.BindFramebuffer(GL_FRAMEBUFFER, s.high_normal_framebuffer);
   gl.Clear(GL_COLOR_BUFFER_BIT);
   gl.UseProgram(s.bake_program);
-  for (int k = 0; k < kFrameParts; ++k) {
-    gl.ActiveTexture(GLenum(GL_TEXTURE0 + k));
-    gl.BindTexture(GL_TEXTURE_2D, s.frame_textures[k]);
-  }
   gl.BindVertexArray(s.high_vao);
   gl.DrawElements(GL_TRIANGLES, s.high_index_count, GL_UNSIGNED_INT, nullptr);
+
+  // Pass 3: that normal in the low-poly frame, once per texel.
+  gl.BindFramebuffer(GL_FRAMEBUFFER, s.target_framebuffer);
+  gl.UseProgram(s.tangent_space_program);
+  gl.ActiveTexture(GLenum(GL_TEXTURE0 + kHighNormalUnit));
+  gl.BindTexture(GL_TEXTURE_2D, s.high_normal_texture);
+  for (int k = 0; k < kFrameParts; ++k) {
+    gl.ActiveTexture(GLenum(GL_TEXTURE0 + kFirstFrameUnit + k));
+    gl.BindTexture(GL_TEXTURE_2D, s.frame_textures[k]);
+  }
+  gl.BindVertexArray(s.no_vertices_vao);
+  gl.DrawArrays(GL_TRIANGLES, 0, 3);
 
   std::vector<float>& rgba = s.read_back;
   rgba.resize(std::size_t(size) * size * 4);

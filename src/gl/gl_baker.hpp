@@ -1,7 +1,8 @@
 #pragma once
-// The GPU bake of the seed method: the high-res mesh is rasterised in UV
-// space into a float framebuffer; the fragment shader writes the normal in the
-// low-poly tangent space. A GlBaker must be used on the thread that made it.
+// The GPU bake: the high-res mesh is rasterised in UV space into a float
+// framebuffer, and a full-screen pass writes its normal in the low-poly
+// tangent space, which a first pass rasterised from the low-poly mesh.
+// A GlBaker must be used on the thread that made it.
 #include <memory>
 
 #include "bake/baker.hpp"

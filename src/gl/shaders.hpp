@@ -5,4 +5,6 @@ extern const char* const kBakeVertex;
 extern const char* const kBakeFragment;
 extern const char* const kFrameVertex;
 extern const char* const kFrameFragment;
+extern const char* const kTangentSpaceVertex;
+extern const char* const kTangentSpaceFragment;
 }  // namespace terrabake::gl::shaders
