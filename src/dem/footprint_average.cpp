@@ -15,7 +15,8 @@
 namespace terrabake::dem {
 namespace {
 
-// Samples read at once: 1 Mi, about 6 MiB a worker with their masks.
+// Samples read at once: 1 Mi, about 32 MiB a worker with their masks and
+// three prefix sums (31 bytes a sample).
 constexpr long kMaxStripPixels = 1L << 20;
 // A texel is covered when at least half its weight lies on valid samples,
 // which is about when its centre lies on the data: that is where the DEM's
@@ -24,6 +25,12 @@ constexpr double kMinValidWeight = 0.5;
 // A footprint narrower than this many pixels is taken as this wide: the mean
 // is then bilinear interpolation, without dividing by a vanishing width.
 constexpr double kMinWidthPx = 1e-3;
+// Footprints reaching fewer pixels than this along a row sum them one by
+// one; wider ones take each row's integral from prefix sums of the row,
+// which cost the same whatever the width but must first be built for the
+// whole strip. Texels of the levels a plan reads span 1 to 2 pixels, which
+// the tent widens to 3 or 4.
+constexpr long kMaxPixelsSummedAlongARow = 8;
 
 // A footprint along one pixel axis, in pixel coordinates: pixel i spans
 // [i, i + 1) and its sample sits at i + 0.5.
@@ -94,30 +101,146 @@ std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const G
   return footprints;
 }
 
+// The integral along one row over a span, as two ends: the samples joined
+// by straight lines and integrated from minus infinity to each end
+// (tentIntegral of each sample's tent) give the integral over the span as
+// the difference of the two. Pixels up to `full` lie wholly before an end
+// (prefix sums count them); at most two more lie part way.
+struct SpanEnd {
+  long full = 0;                 // prefix sums up to this pixel index (from col0), exclusive
+  int partial_count = 0;
+  long partial[2] = {0, 0};      // pixel indices from col0
+  double partial_share[2] = {0, 0};
+};
+
+struct RowSpan {
+  SpanEnd low, high;
+};
+
+SpanEnd spanEndAt(double end, long col0, long col1) {
+  const long count = col1 - col0 + 1;
+  SpanEnd e;
+  // Pixel x (centre x + 0.5) lies wholly before `end` when x <= end - 1.5,
+  // not at all when x >= end + 0.5.
+  const long last_full = floorToLong(end - 1.5);
+  e.full = std::clamp(last_full + 1 - col0, 0L, count);
+  for (long x = last_full + 1; double(x) < end + 0.5; ++x) {
+    if (x < col0 || x > col1) continue;
+    const double share = tentIntegral(end - (double(x) + 0.5));
+    if (share <= 0) continue;
+    e.partial[e.partial_count] = x - col0;
+    e.partial_share[e.partial_count] = share;
+    ++e.partial_count;
+  }
+  return e;
+}
+
+// A row's tent-weighted integrals over a span, of the heights on valid
+// samples, of validity and of the DEM's own data.
+struct RowSums {
+  double height = 0, valid = 0, data = 0;
+};
+
+// Of each row of a strip, prefix sums of the three along the row, so that
+// an integral over a span of a row costs the same whatever the span's width.
+class RowPrefixSums {
+ public:
+  // Rows [first_row, first_row + row_count) of the strip, pixels
+  // [first_col, first_col + col_count) of each, counted from its corner.
+  void build(const SourceWindow& strip, long first_col, long col_count, long first_row, long row_count) {
+    m_width = col_count + 1;
+    m_height_sums.resize(std::size_t(m_width * row_count));
+    m_valid_sums.resize(m_height_sums.size());
+    m_data_sums.resize(m_height_sums.size());
+    m_strip = &strip;
+    m_first_col = first_col, m_first_row = first_row;
+    const long stride = strip.width;
+    const std::vector<float>& values = strip.values;
+    const std::vector<std::uint8_t>& valid = strip.valid;
+    const std::vector<std::uint8_t>& data = strip.data;
+    for (long r = 0; r < row_count; ++r) {
+      const std::size_t in = std::size_t((first_row + r) * stride + first_col);
+      const std::size_t out = std::size_t(r * m_width);
+      double height = 0, valid_count = 0, data_count = 0;
+      m_height_sums[out] = m_valid_sums[out] = m_data_sums[out] = 0;
+      for (long i = 0; i < col_count; ++i) {
+        if (valid[in + std::size_t(i)]) {
+          height += values[in + std::size_t(i)];
+          valid_count += 1;
+          data_count += data[in + std::size_t(i)];
+        }
+        m_height_sums[out + std::size_t(i) + 1] = height;
+        m_valid_sums[out + std::size_t(i) + 1] = valid_count;
+        m_data_sums[out + std::size_t(i) + 1] = data_count;
+      }
+    }
+  }
+
+  RowSums integralAlong(long row, const RowSpan& span) const {
+    const std::size_t base = std::size_t(row * m_width);
+    RowSums high = integralTo(base, row, span.high), low = integralTo(base, row, span.low);
+    return {high.height - low.height, high.valid - low.valid, high.data - low.data};
+  }
+
+ private:
+  // Each quantity along the row, joined by straight lines, integrated up to an end.
+  RowSums integralTo(std::size_t base, long row, const SpanEnd& end) const {
+    RowSums sums{m_height_sums[base + std::size_t(end.full)], m_valid_sums[base + std::size_t(end.full)],
+                 m_data_sums[base + std::size_t(end.full)]};
+    for (int p = 0; p < end.partial_count; ++p) {
+      const std::size_t i = std::size_t((m_first_row + row) * m_strip->width + m_first_col + end.partial[p]);
+      if (!m_strip->valid[i]) continue;
+      sums.height += end.partial_share[p] * m_strip->values[i];
+      sums.valid += end.partial_share[p];
+      if (m_strip->data[i]) sums.data += end.partial_share[p];
+    }
+    return sums;
+  }
+
+  long m_width = 0, m_first_col = 0, m_first_row = 0;
+  std::vector<double> m_height_sums, m_valid_sums, m_data_sums;
+  const SourceWindow* m_strip = nullptr;
+};
+
 // A footprint's tent-weighted integrals of the heights on valid samples, of
-// validity and of the DEM's own data, over the rows of `strip` it reaches
-// within [top, bottom]; `x_weights` and `y_weights` from spanWeights.
+// validity and of the DEM's own data, summed row by row over the rows of a
+// strip it reaches.
 struct FootprintSums {
   double height = 0, valid = 0, data = 0;
 
-  void add(const SourceWindow& strip, const Footprint& f, const std::vector<double>& x_weights,
-           const std::vector<double>& y_weights, long top, long bottom) {
+  // Pixel by pixel, over rows [top, bottom] of `strip`; `x_weights` and
+  // `y_weights` from spanWeights.
+  void addPixels(const SourceWindow& strip, const Footprint& f, const std::vector<double>& x_weights,
+                 const std::vector<double>& y_weights, long top, long bottom) {
     const long x_from = std::max(f.x.first, strip.col0);
     const long x_to = std::min(f.x.last, strip.col0 + strip.width - 1);
     for (long y = std::max(f.y.first, top); y <= std::min(f.y.last, bottom); ++y) {
-      double row_height = 0, row_valid = 0, row_data = 0;
+      RowSums row;
       for (long x = x_from, i = long(strip.indexOf(x_from, y)); x <= x_to; ++x, ++i) {
         if (!strip.valid[std::size_t(i)]) continue;
         const double share = x_weights[std::size_t(x - f.x.first)];
-        row_height += share * strip.values[std::size_t(i)];
-        row_valid += share;
-        if (strip.data[std::size_t(i)]) row_data += share;
+        row.height += share * strip.values[std::size_t(i)];
+        row.valid += share;
+        if (strip.data[std::size_t(i)]) row.data += share;
       }
-      const double row_share = y_weights[std::size_t(y - f.y.first)];
-      height += row_share * row_height;
-      valid += row_share * row_valid;
-      data += row_share * row_data;
+      addRow(row, y_weights[std::size_t(y - f.y.first)]);
     }
+  }
+
+  // Through prefix sums of rows [top, bottom] of pixels [col0, col1].
+  void addRowIntegrals(const RowPrefixSums& prefix, const Footprint& f, const std::vector<double>& y_weights,
+                       long col0, long col1, long top, long bottom) {
+    const RowSpan x_span{spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1)};
+    for (long y = std::max(f.y.first, top); y <= std::min(f.y.last, bottom); ++y) {
+      addRow(prefix.integralAlong(y - top, x_span), y_weights[std::size_t(y - f.y.first)]);
+    }
+  }
+
+ private:
+  void addRow(const RowSums& row, double row_share) {
+    height += row_share * row.height;
+    valid += row_share * row.valid;
+    data += row_share * row.data;
   }
 };
 
@@ -151,6 +274,7 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
   const long cols = read_col1 - read_col0 + 1;
   const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
   SourceWindow strip;
+  RowPrefixSums prefix;
   std::vector<FootprintSums> sums(footprints.size());
   std::vector<double> x_weights, y_weights;
   for (long top = row0; top <= row1; top += strip_rows) {
@@ -159,12 +283,21 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
     if (!strip.read(band, read_col0, read_top, int(cols), int(read_bottom - read_top + 1), voids)) {
       return std::nullopt;
     }
+    bool prefix_built = false;  // only wide footprints need them
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom) continue;
-      spanWeights(f.x, x_weights);
       spanWeights(f.y, y_weights);
-      sums[k].add(strip, f, x_weights, y_weights, top, bottom);
+      if (f.x.last - f.x.first < kMaxPixelsSummedAlongARow) {
+        spanWeights(f.x, x_weights);
+        sums[k].addPixels(strip, f, x_weights, y_weights, top, bottom);
+        continue;
+      }
+      if (!prefix_built) {
+        prefix.build(strip, col0 - read_col0, col1 - col0 + 1, top - read_top, bottom - top + 1);
+        prefix_built = true;
+      }
+      sums[k].addRowIntegrals(prefix, f, y_weights, col0, col1, top, bottom);
     }
   }
   // Coverage is the data's own share of the footprint; the height, the mean
