@@ -298,10 +298,20 @@ std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
     const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
     const glm::dvec2 a = glm::dvec2(mesh.uv[v[0]]) * double(size), b = glm::dvec2(mesh.uv[v[1]]) * double(size),
                      c = glm::dvec2(mesh.uv[v[2]]) * double(size);
+    // barycentric() as affine functions of the texel centre, so that a
+    // texel costs multiply-adds, not divisions. A triangle of no area
+    // covers no texel (its weights would be NaN, which never wins).
+    const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
+    if (area == 0) continue;
+    const glm::dvec2 w1_per = glm::dvec2(c.y - a.y, a.x - c.x) / area, w2_per = glm::dvec2(a.y - b.y, b.x - a.x) / area;
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
+      const double from_a_y = j + 0.5 - a.y;
       for (int i = first; i <= last; ++i) {
+        const double from_a_x = i + 0.5 - a.x;
         TrianglePoint point{{v[0], v[1], v[2]}, {}};
-        barycentric(a, b, c, {i + 0.5, j + 0.5}, point.weight);
+        point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
+        point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
+        point.weight[0] = 1 - point.weight[1] - point.weight[2];
         const double inside = std::min({point.weight[0], point.weight[1], point.weight[2]});
         const std::size_t texel = std::size_t(j) * std::size_t(size) + std::size_t(i);
         if (inside > depth[texel]) {
