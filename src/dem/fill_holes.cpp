@@ -81,16 +81,6 @@ bool isData(const Raster<float>& heights, int c, int r) {
   return c >= 0 && r >= 0 && c < heights.width && r < heights.height && !std::isnan(heights.at(c, r));
 }
 
-bool touchesHole(const Raster<float>& heights, int c, int r) {
-  for (int dr = -1; dr <= 1; ++dr) {
-    for (int dc = -1; dc <= 1; ++dc) {
-      const int cc = c + dc, rr = r + dr;
-      if (cc >= 0 && rr >= 0 && cc < heights.width && rr < heights.height && std::isnan(heights.at(cc, rr))) return true;
-    }
-  }
-  return false;
-}
-
 // Slope per sample along (dc, dr) at data sample (c, r), from data samples
 // only: central where both neighbours hold data, else one-sided (second order
 // with two samples), so the slope carried into a hole is the data's own.
@@ -118,12 +108,17 @@ struct EdgePlanes {
 };
 
 EdgePlanes edgePlanes(const Raster<float>& heights) {
+  std::vector<std::uint8_t> hole(heights.data.size());
+  for (std::size_t k = 0; k < hole.size(); ++k) hole[k] = std::isnan(heights.data[k]) ? 1 : 0;
+  // Next to a hole: one in the 3 x 3 samples around.
+  const std::vector<std::uint8_t> near_hole = dilatedMask(hole, heights.width, heights.height, 1);
   EdgePlanes edge;
   edge.row_start.reserve(std::size_t(heights.height) + 1);
   for (int r = 0; r < heights.height; ++r) {
     edge.row_start.push_back(edge.planes.size());
     for (int c = 0; c < heights.width; ++c) {
-      if (!isData(heights, c, r) || !touchesHole(heights, c, r)) continue;
+      const std::size_t k = std::size_t(r) * std::size_t(heights.width) + std::size_t(c);
+      if (hole[k] || !near_hole[k]) continue;
       edge.planes.push_back({c, r, heights.at(c, r), dataSlope(heights, c, r, 1, 0), dataSlope(heights, c, r, 0, 1)});
     }
   }
@@ -219,8 +214,12 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
     return c < around.width - margin && std::isnan(around.at(c, r)) &&
            near_edge[std::size_t(r) * std::size_t(around.width) + std::size_t(c)];
   };
+  // Of each row of edge samples, the first not left of the current hole
+  // sample's reach: it only moves right along a row of hole samples.
+  std::vector<std::size_t> first_in_reach(std::size_t(around.height));
   for (int r = margin; r < around.height - margin; ++r) {
     const int row_from = std::max(0, r - reach + 1), row_to = std::min(around.height - 1, r + reach - 1);
+    for (int rr = row_from; rr <= row_to; ++rr) first_in_reach[std::size_t(rr)] = edge.row_start[std::size_t(rr)];
     for (int c = margin; c < around.width - margin; ++c) {
       float& out = filled.at(c - margin, r - margin);
       out = around.at(c, r);
@@ -242,8 +241,9 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
       for (int rr = row_from; rr <= row_to; ++rr) {
         const int half = weights.halfWidth(r - rr);
         const auto row_end = edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr) + 1]);
-        auto e = std::lower_bound(edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr)]), row_end,
-                                  c - half, [](const EdgePlane& p, int col) { return p.c < col; });
+        auto e = edge.planes.begin() + std::ptrdiff_t(first_in_reach[std::size_t(rr)]);
+        while (e != row_end && e->c < c - half) ++e;
+        first_in_reach[std::size_t(rr)] = std::size_t(e - edge.planes.begin());
         for (; e != row_end && e->c <= c + pair + half; ++e) {
           const std::size_t k0 = weights.index(c - e->c, r - e->r), k1 = weights.index(c + pair - e->c, r - e->r);
           const Doubles weight = {weights.weight(k0), weights.weight(k1)};
