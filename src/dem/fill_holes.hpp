@@ -13,7 +13,7 @@ namespace terrabake::dem {
 bool fillHoles(Raster<float>& heights);
 
 // Continues the surface of a window into its NaN holes and fades it into
-// `backdrop` (heights of the window, no holes). `around` is the window with
+// `backdrop` (heights of the window, read only at its holes). `around` is the window with
 // `margin` more samples each side, at least continuationReach(reach), so that
 // a sample's value depends only on where it is, not on the window. A hole
 // sample takes the tangent planes of the data samples along the hole's edge

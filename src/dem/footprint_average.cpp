@@ -286,7 +286,8 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
     bool prefix_built = false;  // only wide footprints need them
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
-      if (!f.known || f.y.last < top || f.y.first > bottom) continue;
+      // Off the raster's pixels a footprint adds nothing (its texel stays a hole).
+      if (!f.known || f.y.last < top || f.y.first > bottom || f.x.last < col0 || f.x.first > col1) continue;
       spanWeights(f.y, y_weights);
       if (f.x.last - f.x.first < kMaxPixelsSummedAlongARow) {
         spanWeights(f.x, x_weights);

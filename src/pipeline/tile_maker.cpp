@@ -177,11 +177,15 @@ struct TileMaker::Impl {
   // depends on around the window (`around`, on fillGrid(grid)), and fades
   // into the backdrop there.
   Raster<float> filledHeights(const GridSpec& grid, const Raster<float>& around) const {
-    Raster<float> backdrop(grid.width, grid.height);
+    const int margin = fillMargin();
+    Raster<float> backdrop(grid.width, grid.height);  // read at the holes alone
     for (int r = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c) backdrop.at(c, r) = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
+      for (int c = 0; c < grid.width; ++c) {
+        if (!std::isnan(around.at(c + margin, r + margin))) continue;
+        backdrop.at(c, r) = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
+      }
     }
-    return dem::continueIntoHoles(around, fillMargin(), backdrop, settings.max_fill_px);
+    return dem::continueIntoHoles(around, margin, backdrop, settings.max_fill_px);
   }
 
   // Longitude and latitude of every cell centre of `grid`, row by row.
