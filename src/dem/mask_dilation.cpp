@@ -5,22 +5,39 @@
 namespace terrabake::dem {
 namespace {
 
-// Non-zero where any of `mask`'s samples within `reach` along one axis is.
-std::vector<std::uint8_t> dilatedAlong(const std::vector<std::uint8_t>& mask, int width, int height, bool along_rows,
-                                       int reach) {
+// Non-zero where any of `mask`'s samples within `reach` along its row is.
+std::vector<std::uint8_t> dilatedAlongRows(const std::vector<std::uint8_t>& mask, int width, int height, int reach) {
   std::vector<std::uint8_t> out(mask.size(), 0);
-  const int lines = along_rows ? height : width, length = along_rows ? width : height;
-  const std::size_t step = along_rows ? 1 : std::size_t(width);
-  for (int line = 0; line < lines; ++line) {
-    const std::size_t first = along_rows ? std::size_t(line) * std::size_t(width) : std::size_t(line);
-    const auto at = [&](int k) { return mask[first + std::size_t(k) * step] != 0; };
+  for (int row = 0; row < height; ++row) {
+    const std::uint8_t* in = &mask[std::size_t(row) * std::size_t(width)];
+    std::uint8_t* dilated = &out[std::size_t(row) * std::size_t(width)];
     int in_window = 0;
-    for (int k = 0; k < std::min(reach, length); ++k) in_window += at(k);
-    for (int k = 0; k < length; ++k) {
-      if (k + reach < length) in_window += at(k + reach);
-      if (k - reach - 1 >= 0) in_window -= at(k - reach - 1);
-      out[first + std::size_t(k) * step] = in_window > 0;
+    for (int k = 0; k < std::min(reach, width); ++k) in_window += in[k] != 0;
+    for (int k = 0; k < width; ++k) {
+      if (k + reach < width) in_window += in[k + reach] != 0;
+      if (k - reach - 1 >= 0) in_window -= in[k - reach - 1] != 0;
+      dilated[k] = in_window > 0;
     }
+  }
+  return out;
+}
+
+// The same along columns, sweeping whole rows with a count per column, so
+// that the samples are read in the order they lie in memory.
+std::vector<std::uint8_t> dilatedAlongColumns(const std::vector<std::uint8_t>& mask, int width, int height,
+                                              int reach) {
+  std::vector<std::uint8_t> out(mask.size(), 0);
+  std::vector<int> in_window(std::size_t(width), 0);
+  const auto add = [&](int row, int sign) {
+    const std::uint8_t* in = &mask[std::size_t(row) * std::size_t(width)];
+    for (int c = 0; c < width; ++c) in_window[std::size_t(c)] += sign * (in[c] != 0);
+  };
+  for (int row = 0; row < std::min(reach, height); ++row) add(row, 1);
+  for (int row = 0; row < height; ++row) {
+    if (row + reach < height) add(row + reach, 1);
+    if (row - reach - 1 >= 0) add(row - reach - 1, -1);
+    std::uint8_t* dilated = &out[std::size_t(row) * std::size_t(width)];
+    for (int c = 0; c < width; ++c) dilated[c] = in_window[std::size_t(c)] > 0;
   }
   return out;
 }
@@ -29,7 +46,7 @@ std::vector<std::uint8_t> dilatedAlong(const std::vector<std::uint8_t>& mask, in
 
 std::vector<std::uint8_t> dilatedMask(const std::vector<std::uint8_t>& mask, int width, int height, int reach) {
   if (reach < 0) return std::vector<std::uint8_t>(mask.size(), 0);  // nothing lies within a negative reach
-  return dilatedAlong(dilatedAlong(mask, width, height, true, reach), width, height, false, reach);
+  return dilatedAlongColumns(dilatedAlongRows(mask, width, height, reach), width, height, reach);
 }
 
 }  // namespace terrabake::dem
