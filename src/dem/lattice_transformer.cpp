@@ -73,6 +73,10 @@ LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border)
   // per row, every node column becomes one source position, and a texel is
   // the straight line between the two either side of it.
   std::vector<RowNode> nodes(static_cast<std::size_t>(m_nodes_x));
+  // Every row steps through the same node columns.
+  std::vector<Step> columns;
+  columns.reserve(std::size_t(out.width));
+  for (int c = 0; c < out.width; ++c) columns.push_back(stepAlongX(c - border + 0.5));
   for (int r = 0; r < rows; ++r) {
     const Step row = stepAlongY(r - border + 0.5);
     const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
@@ -83,7 +87,7 @@ LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border)
     }
     for (int c = 0; c < out.width; ++c) {
       const std::size_t k = std::size_t(r) * std::size_t(out.width) + std::size_t(c);
-      const Step column = stepAlongX(c - border + 0.5);
+      const Step& column = columns[std::size_t(c)];
       const RowNode& west = nodes[std::size_t(column.node)];
       const RowNode& east = nodes[std::size_t(column.node) + 1];
       out.known[k] = west.valid && east.valid;
