@@ -13,17 +13,18 @@ namespace terrabake::dem {
 bool fillHoles(Raster<float>& heights);
 
 // Continues the surface of a window into its NaN holes and fades it into
-// `backdrop` (heights of the window, read only at its holes). `around` is the window with
-// `margin` more samples each side, at least continuationReach(reach), so that
-// a sample's value depends only on where it is, not on the window. A hole
-// sample takes the tangent planes of the data samples along the hole's edge
-// within `reach`, carried on to it and averaged with weights that fall as the
-// sixth power of distance: next to the edge the nearest sample's plane all
-// but decides, so height and slope run on across the edge without a step,
-// and further out the planes of many samples average out the staircase in
-// which a DEM's edge crosses the texel grid. The result fades into the
-// backdrop as the sample lies further from the edge, all of the way at
-// `reach`, again without a step; further samples take the backdrop's height.
+// `backdrop` (heights of the window, read only at its holes). `around` is the
+// window with `margin` more samples each side, at least
+// continuationReach(reach), so that a sample's value depends only on where it
+// is, not on the window. A hole sample takes the tangent planes of the data
+// samples along the hole's edge within `reach`, carried on to it and averaged
+// with weights that fall as the sixth power of distance: next to the edge the
+// nearest sample's plane all but decides, so height and slope run on across
+// the edge without a step, and further out the planes of many samples average
+// out the staircase in which a DEM's edge crosses the texel grid. The result
+// fades into the backdrop as the sample lies further from the edge, all of the
+// way at `reach`, again without a step; further samples take the backdrop's
+// height.
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach);
 
 // Edge samples within `reach`, the samples next to them that make them edge

@@ -139,6 +139,14 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
 // samples, of validity and of the DEM's own data.
 struct RowSums {
   double height = 0, valid = 0, data = 0;
+
+  // Pixel i of `strip`, weighing `share`; an invalid pixel adds nothing.
+  void addPixel(const SourceWindow& strip, std::size_t i, double share) {
+    if (!strip.valid[i]) return;
+    height += share * strip.values[i];
+    valid += share;
+    if (strip.data[i]) data += share;
+  }
 };
 
 // Of each row of a strip, prefix sums of the three along the row, so that
@@ -189,10 +197,7 @@ class RowPrefixSums {
                  m_data_sums[base + std::size_t(end.full)]};
     for (int p = 0; p < end.partial_count; ++p) {
       const std::size_t i = std::size_t((m_first_row + row) * m_strip->width + m_first_col + end.partial[p]);
-      if (!m_strip->valid[i]) continue;
-      sums.height += end.partial_share[p] * m_strip->values[i];
-      sums.valid += end.partial_share[p];
-      if (m_strip->data[i]) sums.data += end.partial_share[p];
+      sums.addPixel(*m_strip, i, end.partial_share[p]);
     }
     return sums;
   }
@@ -217,11 +222,7 @@ struct FootprintSums {
     for (long y = std::max(f.y.first, top); y <= std::min(f.y.last, bottom); ++y) {
       RowSums row;
       for (long x = x_from, i = long(strip.indexOf(x_from, y)); x <= x_to; ++x, ++i) {
-        if (!strip.valid[std::size_t(i)]) continue;
-        const double share = x_weights[std::size_t(x - f.x.first)];
-        row.height += share * strip.values[std::size_t(i)];
-        row.valid += share;
-        if (strip.data[std::size_t(i)]) row.data += share;
+        row.addPixel(strip, std::size_t(i), x_weights[std::size_t(x - f.x.first)]);
       }
       addRow(row, y_weights[std::size_t(y - f.y.first)]);
     }
