@@ -4,15 +4,21 @@
 #include <gdal_priv.h>
 #include <gdalwarper.h>
 
+#include <gdal_alg.h>
+
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <string>
+#include <tuple>
 #include <vector>
 
 #include "core/floor.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
+#include "dem/lattice_transformer.hpp"
 #include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
 #include "layer_check.hpp"
@@ -278,72 +284,79 @@ namespace ts = test_support;
 
 // A 10 m UTM DEM (2 degrees off its zone's central meridian, so its grid
 // turns against Web Mercator's) whose heights are a plane in its own
-// coordinates.
+// coordinates; or the same plane in Web Mercator, whose grid runs along the
+// tiles' (LatticeTransformer::SourcePositions::separable).
 constexpr double kPlaneLon = 17.5, kPlaneLat = 55.0, kPlanePixelM = 10.0;
 constexpr int kPlanePixels = 256;
 constexpr double kPlaneBaseM = 1000, kPlaneSlopeEast = 0.3, kPlaneSlopeNorth = -0.2;
 
-double planeHeight(const glm::dvec2& utm, const glm::dvec2& centre) {
-  return kPlaneBaseM + kPlaneSlopeEast * (utm.x - centre.x) + kPlaneSlopeNorth * (utm.y - centre.y);
-}
+struct PlaneDem {
+  int epsg;  // 32633 or 3857
+  std::string name;
 
-std::filesystem::path planeDem() {
-  return test::sharedFixture("plane_utm33_256.tif", [](const std::filesystem::path& path) {
-    const glm::dvec2 centre = ts::utm33(kPlaneLon, kPlaneLat);
-    const double west = centre.x - kPlanePixels / 2 * kPlanePixelM, north = centre.y + kPlanePixels / 2 * kPlanePixelM;
-    GDALAllRegister();
-    std::unique_ptr<GDALDataset> ds(GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
-        path.c_str(), kPlanePixels, kPlanePixels, 1, GDT_Float32, nullptr));
-    const double gt[6] = {west, kPlanePixelM, 0, north, 0, -kPlanePixelM};
-    ds->SetGeoTransform(const_cast<double*>(gt));
-    OGRSpatialReference utm;
-    utm.importFromEPSG(32633);
-    ds->SetSpatialRef(&utm);
-    std::vector<float> h(std::size_t(kPlanePixels) * kPlanePixels);
-    for (int r = 0; r < kPlanePixels; ++r) {
-      for (int c = 0; c < kPlanePixels; ++c) {
-        h[std::size_t(r) * kPlanePixels + c] =
-            float(planeHeight({west + (c + 0.5) * kPlanePixelM, north - (r + 0.5) * kPlanePixelM}, centre));
-      }
-    }
-    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPlanePixels, kPlanePixels, h.data(), kPlanePixels,
-                                             kPlanePixels, GDT_Float32, 0, 0),
-              CE_None);
-  });
-}
+  // The DEM's centre, in its CRS.
+  glm::dvec2 centre() const {
+    const glm::dvec2 utm = ts::utm33(kPlaneLon, kPlaneLat);
+    if (epsg == 32633) return utm;
+    double x = utm.x, y = utm.y;
+    EXPECT_TRUE(toOwnCrs(32633)->Transform(1, &x, &y));
+    return {x, y};
+  }
+  // From `from_epsg` to the DEM's CRS, x east and y north.
+  std::unique_ptr<OGRCoordinateTransformation> toOwnCrs(int from_epsg) const {
+    OGRSpatialReference from, to;
+    from.importFromEPSG(from_epsg);
+    to.importFromEPSG(epsg);
+    from.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    to.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+    return std::unique_ptr<OGRCoordinateTransformation>(OGRCreateCoordinateTransformation(&from, &to));
+  }
+  // The plane at `at`, given the DEM's centre.
+  static double height(const glm::dvec2& at, const glm::dvec2& centre) {
+    return kPlaneBaseM + kPlaneSlopeEast * (at.x - centre.x) + kPlaneSlopeNorth * (at.y - centre.y);
+  }
+  // Pixels of 10 m on the ground: Web Mercator stretches ground by 1 / cos(latitude).
+  double pixelSize() const { return epsg == 32633 ? kPlanePixelM : kPlanePixelM / std::cos(kPlaneLat * M_PI / 180); }
+  std::filesystem::path path() const {
+    return test::sharedFixture("plane_" + name + "_256.tif", [this](const std::filesystem::path& file) {
+      const glm::dvec2 c = centre();
+      const double size = pixelSize();
+      const std::array<double, 6> gt = {c.x - kPlanePixels / 2 * size, size, 0, c.y + kPlanePixels / 2 * size, 0, -size};
+      ts::writeFloatDem(file, epsg, gt, kPlanePixels, kPlanePixels,
+                        [c](double x, double y) { return height({x, y}, c); });
+    });
+  }
+};
+
+const PlaneDem kUtmPlane{32633, "utm33"}, kMercatorPlane{3857, "mercator"};
 
 // The lattice transformer places a texel within a thousandth of a pixel at
 // these sizes (1 cm, 3 mm of height on this plane), and float32 stores
 // heights near 1000 m to 6e-5 m. GDAL's area mean misses by up to 0.2 m.
 constexpr double kMaxPlaneErrorM = 5e-3;
 
-class PlaneRead : public ::testing::TestWithParam<double> {};
+class PlaneRead : public ::testing::TestWithParam<std::tuple<PlaneDem, double>> {};
 
 // A texel coarser than the DEM averages the DEM over its footprint, and the
 // mean of a plane over any footprint is the plane at its centre: whatever
 // the ratio, and wherever the footprint falls on the pixel grid. (An area
 // mean of the pixels as squares, GDAL's "average", is off by up to 0.06
 // pixels, 0.2 m here, in a pattern that beats with the grid.) At 8.9 pixels
-// a footprint reaches more pixels along a row than are summed one by one,
-// so its rows come from prefix sums.
+// a footprint of the UTM DEM reaches more pixels along a row than are
+// summed one by one, so its rows come from prefix sums; the Web Mercator
+// DEM's footprints are summed along its axes.
 TEST_P(PlaneRead, AveragesAPlaneToItsValueAtEveryTexelCentre) {
-  const double pixels_per_texel = GetParam();
-  const dem::DemSource dem({planeDem().string()});
-  const glm::dvec2 centre = ts::utm33(kPlaneLon, kPlaneLat);
-  // A Web Mercator grid of 24 x 24 texels around the DEM's centre; Web
-  // Mercator stretches ground by 1 / cos(latitude).
+  const auto& [plane, pixels_per_texel] = GetParam();
+  const dem::DemSource dem({plane.path().string()});
+  // A Web Mercator grid of 24 x 24 texels around the DEM's centre.
   constexpr int kTexels = 24;
   GridSpec grid;
   grid.crs = "EPSG:3857";
   grid.cell_w = grid.cell_h = pixels_per_texel * kPlanePixelM / std::cos(kPlaneLat * M_PI / 180);
   grid.width = grid.height = kTexels;
-  OGRSpatialReference mercator, utm;
-  mercator.importFromEPSG(3857);
-  utm.importFromEPSG(32633);
-  mercator.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  utm.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
-  std::unique_ptr<OGRCoordinateTransformation> to_mercator(OGRCreateCoordinateTransformation(&utm, &mercator)),
-      to_utm(OGRCreateCoordinateTransformation(&mercator, &utm));
+  const auto to_mercator = kMercatorPlane.toOwnCrs(plane.epsg);
+  const auto to_dem = plane.toOwnCrs(3857);
+  const glm::dvec2 centre = plane.centre();
   double cx = centre.x, cy = centre.y;
   ASSERT_TRUE(to_mercator->Transform(1, &cx, &cy));
   // Off any round position, so texels fall on the pixel grid at all phases.
@@ -357,17 +370,21 @@ TEST_P(PlaneRead, AveragesAPlaneToItsValueAtEveryTexelCentre) {
   for (int r = 0; r < kTexels; ++r) {
     for (int c = 0; c < kTexels; ++c) {
       double x = grid.centreX(c), y = grid.centreY(r);
-      ASSERT_TRUE(to_utm->Transform(1, &x, &y));
-      worst = std::max(worst, std::abs(double(h.at(c, r)) - planeHeight({x, y}, centre)));
+      ASSERT_TRUE(to_dem->Transform(1, &x, &y));
+      worst = std::max(worst, std::abs(double(h.at(c, r)) - PlaneDem::height({x, y}, centre)));
     }
   }
-  std::printf("%.3f DEM pixels per texel: worst height error %.2g m\n", pixels_per_texel, worst);
+  std::printf("%s, %.3f DEM pixels per texel: worst height error %.2g m\n", plane.name.c_str(), pixels_per_texel,
+              worst);
   EXPECT_LE(worst, kMaxPlaneErrorM);
 }
 
-INSTANTIATE_TEST_SUITE_P(FractionalRatios, PlaneRead, ::testing::Values(1.03, 1.37, 2.61, 5.3, 8.9),
+INSTANTIATE_TEST_SUITE_P(FractionalRatios, PlaneRead,
+                         ::testing::Combine(::testing::Values(kUtmPlane, kMercatorPlane),
+                                            ::testing::Values(1.03, 1.37, 2.61, 5.3, 8.9)),
                          [](const auto& test_info) {
-                           return "ratio_" + std::to_string(int(std::lround(test_info.param * 100)));
+                           return std::get<0>(test_info.param).name + "_ratio_" +
+                                  std::to_string(int(std::lround(std::get<1>(test_info.param) * 100)));
                          });
 
 // The lattice transformer places a texel within 2e-4 of a texel of GDAL's
@@ -376,12 +393,32 @@ INSTANTIATE_TEST_SUITE_P(FractionalRatios, PlaneRead, ::testing::Values(1.03, 1.
 // near 1500 m to 1.2e-4 m.
 constexpr double kMaxCubicVsGdalM = 5e-3;
 
+// The analytic terrain's DEMs of 128 x 128 pixels of about 30 m at 60 N: in
+// UTM, whose grid turns against Web Mercator's, and geographic, whose grid
+// runs along it (its kernels run along the axes).
+struct CubicDem {
+  std::string name;
+  std::filesystem::path (*path)();
+};
+
+const CubicDem kCubicDems[] = {
+    {"utm33", [] { return test::analyticUtmDem(128); }},
+    {"geographic", [] {
+       return test::sharedFixture("analytic_geographic_128.tif", [](const std::filesystem::path& path) {
+         ts::writeGeographicDem(path, 15.3, 60.0, 30.0 / (111320 * std::cos(60.0 * M_PI / 180)), 30.0 / 111320, 128,
+                                128);
+       });
+     }},
+};
+
+class CubicRead : public ::testing::TestWithParam<CubicDem> {};
+
 // Texels finer than the DEM's pixels take Keys' cubic convolution of the
 // pixels, the kernel GDAL's warper calls "cubic": GDAL warping the same grid
 // gives the same heights. (Only the edge and voids differ, by design:
 // dem/edge_extension.hpp.)
-TEST(CubicRead, GivesTheHeightsOfGdalsCubicWarp) {
-  const std::filesystem::path path = test::analyticUtmDem(128);
+TEST_P(CubicRead, GivesTheHeightsOfGdalsCubicWarp) {
+  const std::filesystem::path path = GetParam().path();
   const dem::DemSource dem({path.string()});
   const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 256);
   // Texels of 0.7 pixels, in Web Mercator, round the DEM's middle.
@@ -397,7 +434,6 @@ TEST(CubicRead, GivesTheHeightsOfGdalsCubicWarp) {
   const dem::ReadPlan plan = dem.planFor(grid);
   ASSERT_FALSE(plan.files.front().average);
   const Raster<float> ours = dem.read(grid, plan);
-
   GDALAllRegister();
   std::unique_ptr<GDALDataset> source(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
   ASSERT_TRUE(source);
@@ -424,8 +460,67 @@ TEST(CubicRead, GivesTheHeightsOfGdalsCubicWarp) {
     ASSERT_FALSE(std::isnan(ours.data[k]));
     worst = std::max(worst, std::abs(double(ours.data[k]) - double(gdal[k])));
   }
-  std::printf("cubic read against GDAL's cubic warp: worst %.2g m\n", worst);
+  std::printf("%s: cubic read against GDAL's cubic warp: worst %.2g m\n", GetParam().name.c_str(), worst);
   EXPECT_LE(worst, kMaxCubicVsGdalM);
+}
+
+INSTANTIATE_TEST_SUITE_P(UtmAndGeographic, CubicRead, ::testing::ValuesIn(kCubicDems),
+                         [](const auto& test_info) { return test_info.param.name; });
+
+// The lattice transformer's positions against GDAL's exact reprojection of
+// every texel centre: lattice_transformer.hpp's bound, 2e-4 of a texel.
+constexpr double kMaxLatticeErrorTexels = 2e-4;
+
+// A geographic DEM's pixel axes run along Web Mercator's: the transformer
+// finds so, gives each column one x and each row one y, and they are as
+// close to the exact positions as the lattice's. A UTM DEM's do not.
+TEST_P(CubicRead, LatticeRunsAlongTheAxesOnlyWhereTheCrsDoes) {
+  GDALAllRegister();
+  std::unique_ptr<GDALDataset> source(GDALDataset::Open(GetParam().path().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  ASSERT_TRUE(source);
+  OGRSpatialReference mercator;
+  mercator.importFromEPSG(3857);
+  char* wkt = nullptr;
+  mercator.exportToWkt(&wkt);
+  const std::string mercator_wkt = wkt;
+  CPLFree(wkt);
+  dem::LatticeTransformer lattice(GDALDataset::ToHandle(source.get()), mercator_wkt);
+  GridSpec grid;
+  grid.crs = "EPSG:3857";
+  grid.cell_w = grid.cell_h = 37.3;
+  grid.width = grid.height = 64;
+  const Extent bounds = dem::DemSource({GetParam().path().string()}).boundsIn(grid.crs);
+  grid.origin_x = (bounds.min_x + bounds.max_x) / 2 - 0.4321 * grid.width * grid.cell_w;
+  grid.origin_y = (bounds.min_y + bounds.max_y) / 2 + 0.5678 * grid.height * grid.cell_h;
+  lattice.prepare(grid);
+  const dem::LatticeTransformer::SourcePositions centres = lattice.texelCentres(1);
+  EXPECT_EQ(centres.separable(), GetParam().name == "geographic");
+
+  const std::string dst_option = "DST_SRS=" + mercator_wkt;
+  const char* options[] = {dst_option.c_str(), nullptr};
+  void* exact = GDALCreateGenImgProjTransformer2(GDALDataset::ToHandle(source.get()), nullptr,
+                                                 const_cast<char**>(options));
+  ASSERT_TRUE(exact);
+  double worst = 0;
+  for (int r = -1; r <= grid.height; ++r) {
+    for (int c = -1; c <= grid.width; ++c) {
+      double x = grid.origin_x + (c + 0.5) * grid.cell_w, y = grid.origin_y - (r + 0.5) * grid.cell_h, z = 0;
+      int ok = 0;
+      GDALGenImgProjTransform(exact, TRUE, 1, &x, &y, &z, &ok);
+      ASSERT_TRUE(ok);
+      const std::size_t k = std::size_t(r + 1) * std::size_t(centres.width) + std::size_t(c + 1);
+      ASSERT_TRUE(centres.known[k]);
+      worst = std::max({worst, std::abs(centres.x[k] - x), std::abs(centres.y[k] - y)});
+      if (centres.separable()) {
+        EXPECT_EQ(centres.x[k], centres.column_x[std::size_t(c + 1)]);
+        EXPECT_EQ(centres.y[k], centres.row_y[std::size_t(r + 1)]);
+      }
+    }
+  }
+  GDALDestroyGenImgProjTransformer(exact);
+  std::printf("%s: lattice against exact positions: worst %.2g pixels\n", GetParam().name.c_str(), worst);
+  // Texels of 37.3 m against pixels of 60 m of Web Mercator (30 m of ground at 60 N).
+  EXPECT_LE(worst, kMaxLatticeErrorTexels * 37.3 / 60);
 }
 
 // Float32 heights near 1000 m are stored to 6e-5 m: two windows whose grids

@@ -54,6 +54,7 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
   enum Component { kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kVx, kVy, kVz, kComponents };
   alignas(16) float in[kComponents][kBlock];
   alignas(16) float out[3][kBlock];
+  int column = 0, row = 0;  // of texel first + k
   for (std::size_t first = 0; first < points.size(); first += kBlock) {
     const std::size_t count = std::min(kBlock, points.size() - first);
     for (std::size_t k = 0; k < kBlock; ++k) {
@@ -66,8 +67,8 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
           const float weight = float(point.weight[c]);
           n += corner.n * weight, t += corner.t * weight, b += corner.b * weight;
         }
-        const std::size_t texel = first + k;
-        v = highResNormal(high, int(texel % std::size_t(size)), int(texel / std::size_t(size)));
+        v = highResNormal(high, column, row);
+        if (++column == size) column = 0, ++row;
       }
       for (int axis = 0; axis < 3; ++axis) {
         in[kNx + axis][k] = n[axis], in[kTx + axis][k] = t[axis], in[kBx + axis][k] = b[axis];

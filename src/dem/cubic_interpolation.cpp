@@ -32,22 +32,6 @@ struct Taps {
   }
 };
 
-// The cubic value at (x, y), or nullopt when a tap is not valid.
-std::optional<double> cubicAt(const SourceWindow& window, const Taps& x, const Taps& y) {
-  if (!window.contains(x.before - 1, y.before - 1) || !window.contains(x.before + 2, y.before + 2)) {
-    return std::nullopt;
-  }
-  double sum = 0;
-  for (int j = 0; j < 4; ++j) {
-    const std::size_t row = window.indexOf(x.before - 1, y.before - 1 + j);
-    const float* values = &window.values[row];
-    const std::uint8_t* valid = &window.valid[row];
-    if (!(valid[0] && valid[1] && valid[2] && valid[3])) return std::nullopt;
-    sum += y.weight[j] * (x.weight[0] * values[0] + x.weight[1] * values[1] + x.weight[2] * values[2] +
-                          x.weight[3] * values[3]);
-  }
-  return sum;
-}
 
 // Bilinear weights on the valid pixels of the four round (x, y), renormalised;
 // NaN when none is valid.
@@ -63,6 +47,71 @@ double bilinearAt(const SourceWindow& window, const Taps& x, const Taps& y) {
     }
   }
   return weight > 0 ? sum / weight : NAN;
+}
+
+// The kernel along one row: its four taps from `at` on, NaN when one is not
+// valid.
+double alongRow(const SourceWindow& window, const Taps& x, std::size_t at) {
+  const float* values = &window.values[at];
+  const std::uint8_t* valid = &window.valid[at];
+  if (!(valid[0] && valid[1] && valid[2] && valid[3])) return NAN;
+  return x.weight[0] * values[0] + x.weight[1] * values[1] + x.weight[2] * values[2] + x.weight[3] * values[3];
+}
+
+// The cubic value at (x, y), or nullopt when a tap is not valid.
+std::optional<double> cubicAt(const SourceWindow& window, const Taps& x, const Taps& y) {
+  if (!window.contains(x.before - 1, y.before - 1) || !window.contains(x.before + 2, y.before + 2)) {
+    return std::nullopt;
+  }
+  double sum = 0;
+  for (int j = 0; j < 4; ++j) {
+    const double row = alongRow(window, x, window.indexOf(x.before - 1, y.before - 1 + j));
+    if (std::isnan(row)) return std::nullopt;
+    sum += y.weight[j] * row;
+  }
+  return sum;
+}
+
+// cubicAt for every texel of rows [first, last] of a separable grid
+// (LatticeTransformer::SourcePositions::separable): the kernel runs along
+// each row of the window once per column of texels, and then down, adding
+// the same terms in the same order as cubicAt. `columns` and `rows` hold
+// the taps of each column's x and each row's y.
+void cubicAlongAxes(const SourceWindow& window, const LatticeTransformer::SourcePositions& centres,
+                    const std::vector<Taps>& columns, const std::vector<Taps>& rows, int first, int last,
+                    Raster<float>& heights) {
+  const std::size_t width = columns.size();
+  // Per row of the window and column of texels; NaN where a tap is outside
+  // the window or not valid.
+  std::vector<double> across(std::size_t(window.height) * width);
+  for (int r = 0; r < window.height; ++r) {
+    const long row = window.row0 + r;
+    for (std::size_t c = 0; c < width; ++c) {
+      const Taps& x = columns[c];
+      across[std::size_t(r) * width + c] =
+          window.contains(x.before - 1, row) && window.contains(x.before + 2, row)
+              ? alongRow(window, x, window.indexOf(x.before - 1, row))
+              : NAN;
+    }
+  }
+  for (int r = first; r <= last; ++r) {
+    const Taps& y = rows[std::size_t(r)];
+    const long centre_row = floorToLong(centres.row_y[std::size_t(r)]);
+    const bool rows_inside = y.before - 1 >= window.row0 && y.before + 2 < window.row0 + window.height;
+    for (std::size_t c = 0; c < width; ++c) {
+      const Taps& x = columns[c];
+      const long centre_col = floorToLong(centres.column_x[c]);
+      if (!window.contains(centre_col, centre_row) || !window.data[window.indexOf(centre_col, centre_row)]) continue;
+      double sum = 0;
+      bool cubic = rows_inside;
+      for (int j = 0; cubic && j < 4; ++j) {
+        const double row = across[std::size_t(y.before - 1 + j - window.row0) * width + c];
+        cubic = !std::isnan(row);
+        sum += y.weight[j] * row;
+      }
+      heights.at(int(c), r) = float(cubic ? sum : bilinearAt(window, x, y));
+    }
+  }
 }
 
 // Pixels a read holds at once. A tile's kernels reach about a tenth of this;
@@ -102,18 +151,24 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
   const std::vector<double>& x = centres.x;
   const std::vector<double>& y = centres.y;
   const std::vector<int>& known = centres.known;
-  const std::size_t width = std::size_t(grid.width), count = known.size();
+  const std::size_t width = std::size_t(grid.width);
 
   // Of each row of texels, the pixels its kernels reach, and as many again
   // as the extension needs, within the raster.
   const PixelBox raster{0, GDALGetRasterBandXSize(band) - 1L, 0, GDALGetRasterBandYSize(band) - 1L};
   std::vector<PixelBox> reach(std::size_t(grid.height));
-  for (std::size_t k = 0; k < count; ++k) {
-    if (!known[k]) continue;
-    const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
-    reach[k / width].add({col - 1, col + 2, row - 1, row + 2});
+  for (std::size_t r = 0, k = 0; r < reach.size(); ++r) {
+    for (std::size_t end = k + width; k < end; ++k) {
+      if (!known[k]) continue;
+      const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
+      reach[r].add({col - 1, col + 2, row - 1, row + 2});
+    }
   }
   for (PixelBox& box : reach) box = box.grown(EdgeExtension::kSourceExtra).within(raster);
+
+  std::vector<Taps> columns, rows;
+  for (double column_x : centres.column_x) columns.emplace_back(column_x);
+  for (double row_y : centres.row_y) rows.emplace_back(row_y);
 
   // Bands of rows, each read at once.
   SourceWindow window;
@@ -128,6 +183,10 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
     if (box.empty()) continue;
     if (!window.read(band, box.col0, box.row0, int(box.col1 - box.col0 + 1), int(box.row1 - box.row0 + 1), voids)) {
       return std::nullopt;
+    }
+    if (centres.separable()) {
+      cubicAlongAxes(window, centres, columns, rows, first, last, heights);
+      continue;
     }
     for (std::size_t k = std::size_t(first) * width; k < std::size_t(last + 1) * width; ++k) {
       if (!known[k]) continue;

@@ -76,9 +76,14 @@ void spanWeights(const Span& span, std::vector<double>& weights) {
 // wide along each pixel axis as the texel spreads along it (the rows of the
 // local Jacobian, from the centres of its neighbours), so a texel turned or
 // sheared against the pixel grid keeps its size.
-std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const GridSpec& grid) {
-  // Texel centres in source pixels, one texel beyond each side too.
-  const LatticeTransformer::SourcePositions centres = to_source.texelCentres(1);
+// The footprint's width along one pixel axis, from how far the texel's
+// centre moves along it per texel eastward and southward.
+double widthAlong(double eastward, double southward) {
+  return std::max(std::sqrt(eastward * eastward + southward * southward), kMinWidthPx);
+}
+
+// `centres`: with one texel beyond each side.
+std::vector<Footprint> footprintsOf(const LatticeTransformer::SourcePositions& centres, const GridSpec& grid) {
   const int wide = centres.width;
   const std::vector<double>& x = centres.x;
   const std::vector<double>& y = centres.y;
@@ -93,8 +98,8 @@ std::vector<Footprint> footprintsOf(const LatticeTransformer& to_source, const G
       const glm::dvec2 eastward = (centre(east) - centre(west)) / 2.0;
       const glm::dvec2 southward = (centre(south) - centre(north)) / 2.0;
       Footprint& f = footprints[std::size_t(r) * std::size_t(grid.width) + std::size_t(c)];
-      f.x = Span(x[k], std::max(std::sqrt(eastward.x * eastward.x + southward.x * southward.x), kMinWidthPx));
-      f.y = Span(y[k], std::max(std::sqrt(eastward.y * eastward.y + southward.y * southward.y), kMinWidthPx));
+      f.x = Span(x[k], widthAlong(eastward.x, southward.x));
+      f.y = Span(y[k], widthAlong(eastward.y, southward.y));
       f.known = true;
     }
   }
@@ -237,7 +242,6 @@ struct FootprintSums {
     }
   }
 
- private:
   void addRow(const RowSums& row, double row_share) {
     height += row_share * row.height;
     valid += row_share * row.valid;
@@ -245,50 +249,79 @@ struct FootprintSums {
   }
 };
 
-}  // namespace
+// The pixels footprints reach, within the raster: [col0, col1] x [row0, row1].
+struct PixelReach {
+  long col0 = 0, col1 = -1, row0 = 0, row1 = -1;
 
-std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const LatticeTransformer& to_source,
-                                                  const GridSpec& grid, const VoidRule& voids) {
-  Raster<float> heights(grid.width, grid.height, NAN);
-  const std::vector<Footprint> footprints = footprintsOf(to_source, grid);
-
-  // The pixels any texel reaches, within the raster.
-  const long raster_w = GDALGetRasterBandXSize(band), raster_h = GDALGetRasterBandYSize(band);
-  long col0 = raster_w, col1 = -1, row0 = raster_h, row1 = -1;
-  for (const Footprint& f : footprints) {
-    if (!f.known) continue;
-    col0 = std::min(col0, f.x.first), col1 = std::max(col1, f.x.last);
-    row0 = std::min(row0, f.y.first), row1 = std::max(row1, f.y.last);
+  explicit PixelReach(GDALRasterBandH band)
+      : col0(GDALGetRasterBandXSize(band)), row0(GDALGetRasterBandYSize(band)), m_band(band) {}
+  bool empty() const { return col0 > col1 || row0 > row1; }
+  void add(const Span& x, const Span& y) {
+    col0 = std::min(col0, x.first), col1 = std::max(col1, x.last);
+    row0 = std::min(row0, y.first), row1 = std::max(row1, y.last);
   }
-  col0 = std::max(col0, 0L), col1 = std::min(col1, raster_w - 1);
-  row0 = std::max(row0, 0L), row1 = std::min(row1, raster_h - 1);
-  if (col0 > col1 || row0 > row1) return heights;
+  void clipToRaster() {
+    col0 = std::max(col0, 0L), col1 = std::min(col1, GDALGetRasterBandXSize(m_band) - 1L);
+    row0 = std::max(row0, 0L), row1 = std::min(row1, GDALGetRasterBandYSize(m_band) - 1L);
+  }
+  // Off the raster's pixels a footprint adds nothing (its texel stays a hole).
+  bool offAlongX(const Span& x) const { return x.last < col0 || x.first > col1; }
 
-  // Strips of whole rows, top to bottom; every texel adds its rows in that
-  // order, so its sum does not depend on where strips break. Each strip is
-  // read with a halo, so that the void samples next to data are extended
-  // (extendIntoVoids) from the same samples whatever the strip or the
-  // window: a footprint that reaches past the data then averages the data
-  // carried on, not the part on data alone, whose middle lies off the texel's.
+ private:
+  GDALRasterBandH m_band;
+};
+
+// Reads rows [reach.row0, reach.row1] of the band in strips of whole rows,
+// top to bottom, and calls add(strip, top, bottom) for each strip's rows
+// [top, bottom]; false when GDAL cannot read one. Every texel adds its rows
+// in that order, so its sum does not depend on where strips break. Each
+// strip is read with a halo, so that the void samples next to data are
+// extended (extendIntoVoids) from the same samples whatever the strip or the
+// window: a footprint that reaches past the data then averages the data
+// carried on, not the part on data alone, whose middle lies off the texel's.
+template <class AddStrip>
+bool forEachStrip(GDALRasterBandH band, const PixelReach& reach, const VoidRule& voids, AddStrip add) {
+  const long raster_w = GDALGetRasterBandXSize(band), raster_h = GDALGetRasterBandYSize(band);
   const long halo = EdgeExtension::kSourceExtra;
-  const long read_col0 = std::max(0L, col0 - halo), read_col1 = std::min(raster_w - 1, col1 + halo);
+  const long read_col0 = std::max(0L, reach.col0 - halo), read_col1 = std::min(raster_w - 1, reach.col1 + halo);
   const long cols = read_col1 - read_col0 + 1;
-  const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), row1 - row0 + 1);
+  const long strip_rows = std::min(std::max(1L, kMaxStripPixels / cols), reach.row1 - reach.row0 + 1);
   SourceWindow strip;
+  for (long top = reach.row0; top <= reach.row1; top += strip_rows) {
+    const long bottom = std::min(reach.row1, top + strip_rows - 1);
+    const long read_top = std::max(0L, top - halo), read_bottom = std::min(raster_h - 1, bottom + halo);
+    if (!strip.read(band, read_col0, read_top, int(cols), int(read_bottom - read_top + 1), voids)) return false;
+    add(strip, top, bottom);
+  }
+  return true;
+}
+
+// Coverage is the data's own share of the footprint; the height, the mean
+// of data and its extension together.
+float meanOver(const FootprintSums& sums, const Span& x, const Span& y) {
+  return sums.data >= kMinValidWeight * x.width * y.width ? float(sums.height / sums.valid) : NAN;
+}
+
+// Each footprint on its own: any grid.
+std::optional<Raster<float>> averageEach(GDALRasterBandH band, const LatticeTransformer::SourcePositions& centres,
+                                         const GridSpec& grid, const VoidRule& voids) {
+  Raster<float> heights(grid.width, grid.height, NAN);
+  const std::vector<Footprint> footprints = footprintsOf(centres, grid);
+  PixelReach reach(band);
+  for (const Footprint& f : footprints) {
+    if (f.known) reach.add(f.x, f.y);
+  }
+  reach.clipToRaster();
+  if (reach.empty()) return heights;
+
   RowPrefixSums prefix;
   std::vector<FootprintSums> sums(footprints.size());
   std::vector<double> x_weights, y_weights;
-  for (long top = row0; top <= row1; top += strip_rows) {
-    const long bottom = std::min(row1, top + strip_rows - 1);
-    const long read_top = std::max(0L, top - halo), read_bottom = std::min(raster_h - 1, bottom + halo);
-    if (!strip.read(band, read_col0, read_top, int(cols), int(read_bottom - read_top + 1), voids)) {
-      return std::nullopt;
-    }
+  const auto add = [&](const SourceWindow& strip, long top, long bottom) {
     bool prefix_built = false;  // only wide footprints need them
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
-      // Off the raster's pixels a footprint adds nothing (its texel stays a hole).
-      if (!f.known || f.y.last < top || f.y.first > bottom || f.x.last < col0 || f.x.first > col1) continue;
+      if (!f.known || f.y.last < top || f.y.first > bottom || reach.offAlongX(f.x)) continue;
       spanWeights(f.y, y_weights);
       if (f.x.last - f.x.first < kMaxPixelsSummedAlongARow) {
         spanWeights(f.x, x_weights);
@@ -296,19 +329,84 @@ std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const L
         continue;
       }
       if (!prefix_built) {
-        prefix.build(strip, col0 - read_col0, col1 - col0 + 1, top - read_top, bottom - top + 1);
+        prefix.build(strip, reach.col0 - strip.col0, reach.col1 - reach.col0 + 1, top - strip.row0, bottom - top + 1);
         prefix_built = true;
       }
-      sums[k].addRowIntegrals(prefix, f, y_weights, col0, col1, top, bottom);
+      sums[k].addRowIntegrals(prefix, f, y_weights, reach.col0, reach.col1, top, bottom);
     }
-  }
-  // Coverage is the data's own share of the footprint; the height, the mean
-  // of data and its extension together.
+  };
+  if (!forEachStrip(band, reach, voids, add)) return std::nullopt;
   for (std::size_t k = 0; k < footprints.size(); ++k) {
-    const double area = footprints[k].x.width * footprints[k].y.width;
-    if (sums[k].data >= kMinValidWeight * area) heights.data[k] = float(sums[k].height / sums[k].valid);
+    if (footprints[k].known) heights.data[k] = meanOver(sums[k], footprints[k].x, footprints[k].y);
   }
   return heights;
+}
+
+// A separable grid's footprints (LatticeTransformer::SourcePositions::
+// separable): a column's span along x and a row's along y are the same for
+// all its texels, so each row of the DEM is summed once per column of
+// texels, and each sum is then added to the texels of every row whose span
+// reaches it, in the order averageEach adds them.
+std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
+                                              const LatticeTransformer::SourcePositions& centres,
+                                              const GridSpec& grid, const VoidRule& voids) {
+  Raster<float> heights(grid.width, grid.height, NAN);
+  // Entries 1 .. width of column_x, 1 .. height of row_y, are the grid's.
+  std::vector<Span> columns, rows;
+  for (int c = 1; c <= grid.width; ++c) {
+    const std::size_t k = std::size_t(c);
+    columns.emplace_back(centres.column_x[k], widthAlong((centres.column_x[k + 1] - centres.column_x[k - 1]) / 2, 0));
+  }
+  for (int r = 1; r <= grid.height; ++r) {
+    const std::size_t k = std::size_t(r);
+    rows.emplace_back(centres.row_y[k], widthAlong(0, (centres.row_y[k + 1] - centres.row_y[k - 1]) / 2));
+  }
+  PixelReach reach(band);
+  for (const Span& x : columns) reach.add(x, rows.front());
+  for (const Span& y : rows) reach.add(columns.front(), y);
+  reach.clipToRaster();
+  if (reach.empty()) return heights;
+
+  std::vector<std::vector<double>> column_weights(columns.size()), row_weights(rows.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) spanWeights(columns[c], column_weights[c]);
+  for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], row_weights[r]);
+  const std::size_t width = columns.size();
+  std::vector<FootprintSums> sums(width * rows.size());
+  std::vector<RowSums> along_row(width);
+  const auto add = [&](const SourceWindow& strip, long top, long bottom) {
+    for (long y = top; y <= bottom; ++y) {
+      for (std::size_t c = 0; c < width; ++c) {
+        const Span& x = columns[c];
+        along_row[c] = RowSums{};
+        if (reach.offAlongX(x)) continue;
+        const long x_from = std::max(x.first, strip.col0), x_to = std::min(x.last, strip.col0 + strip.width - 1);
+        for (long at = x_from, i = long(strip.indexOf(x_from, y)); at <= x_to; ++at, ++i) {
+          along_row[c].addPixel(strip, std::size_t(i), column_weights[c][std::size_t(at - x.first)]);
+        }
+      }
+      for (std::size_t r = 0; r < rows.size(); ++r) {
+        if (y < rows[r].first || y > rows[r].last) continue;
+        const double share = row_weights[r][std::size_t(y - rows[r].first)];
+        for (std::size_t c = 0; c < width; ++c) {
+          if (!reach.offAlongX(columns[c])) sums[r * width + c].addRow(along_row[c], share);
+        }
+      }
+    }
+  };
+  if (!forEachStrip(band, reach, voids, add)) return std::nullopt;
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    for (std::size_t c = 0; c < width; ++c) heights.data[r * width + c] = meanOver(sums[r * width + c], columns[c], rows[r]);
+  }
+  return heights;
+}
+
+}  // namespace
+
+std::optional<Raster<float>> averageOverFootprints(GDALRasterBandH band, const LatticeTransformer& to_source,
+                                                  const GridSpec& grid, const VoidRule& voids) {
+  // Texel centres in source pixels, one texel beyond each side too.
+  const LatticeTransformer::SourcePositions centres = to_source.texelCentres(1);
+  return centres.separable() ? averageAlongAxes(band, centres, grid, voids) : averageEach(band, centres, grid, voids);
 }
 
 }  // namespace terrabake::dem

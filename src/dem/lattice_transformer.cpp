@@ -49,6 +49,11 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
   }
   GDALGenImgProjTransform(m_exact, TRUE, int(count), m_source_x.data(), m_source_y.data(), z.data(),
                           m_valid.data());
+  m_separable = std::all_of(m_valid.begin(), m_valid.end(), [](int v) { return v != 0; });
+  for (std::size_t k = 0; m_separable && k < count; ++k) {
+    const std::size_t i = k % std::size_t(m_nodes_x);
+    m_separable = m_source_x[k] == m_source_x[i] && m_source_y[k] == m_source_y[k - i];
+  }
 }
 
 LatticeTransformer::Step LatticeTransformer::stepAlongX(double x) const {
@@ -77,6 +82,23 @@ LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border)
   std::vector<Step> columns;
   columns.reserve(std::size_t(out.width));
   for (int c = 0; c < out.width; ++c) columns.push_back(stepAlongX(c - border + 0.5));
+  if (m_separable) {
+    // The straight line between the nodes either side, along one axis.
+    for (const Step& column : columns) {
+      const std::size_t i = std::size_t(column.node);
+      out.column_x.push_back(m_source_x[i] * (1 - column.fraction) + m_source_x[i + 1] * column.fraction);
+    }
+    for (int r = 0; r < rows; ++r) {
+      const Step row = stepAlongY(r - border + 0.5);
+      const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
+      out.row_y.push_back(m_source_y[above] * (1 - row.fraction) + m_source_y[below] * row.fraction);
+    }
+    for (std::size_t r = 0, k = 0; r < out.row_y.size(); ++r) {
+      for (const double x : out.column_x) out.x[k] = x, out.y[k++] = out.row_y[r];
+    }
+    std::fill(out.known.begin(), out.known.end(), 1);
+    return out;
+  }
   for (int r = 0; r < rows; ++r) {
     const Step row = stepAlongY(r - border + 0.5);
     const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);

@@ -38,6 +38,12 @@ class LatticeTransformer {
     int width = 0;  // entries a row
     std::vector<double> x, y;
     std::vector<int> known;  // 0 where the CRS transform fails
+    // Where the source's pixel axes run along the grid's (the same CRS, or
+    // a geographic DEM under Web Mercator), x depends on the column alone
+    // and y on the row alone: then these hold x per column and y per row
+    // (border included), and every entry is known. Empty otherwise.
+    std::vector<double> column_x, row_y;
+    bool separable() const { return !column_x.empty(); }
   };
   SourcePositions texelCentres(int border) const;
 
@@ -57,6 +63,7 @@ class LatticeTransformer {
   };
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
+  bool m_separable = false;  // every node valid, x the same down each column, y along each row
   double m_gt[6] = {};      // target grid: pixels -> target CRS
   double m_spacing_x = 0, m_spacing_y = 0;
   long m_first_x = 0, m_first_y = 0;  // global index of the first node
