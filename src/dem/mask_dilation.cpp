@@ -11,6 +11,14 @@ std::vector<std::uint8_t> dilatedAlongRows(const std::vector<std::uint8_t>& mask
   for (int row = 0; row < height; ++row) {
     const std::uint8_t* in = &mask[std::size_t(row) * std::size_t(width)];
     std::uint8_t* dilated = &out[std::size_t(row) * std::size_t(width)];
+    // Most rows are all set or all clear (a mask's edge crosses few): those
+    // need no window.
+    bool any = false, all = true;
+    for (int k = 0; k < width; ++k) any |= in[k] != 0, all &= in[k] != 0;
+    if (!any || all) {
+      std::fill(dilated, dilated + width, std::uint8_t(any));
+      continue;
+    }
     int in_window = 0;
     for (int k = 0; k < std::min(reach, width); ++k) in_window += in[k] != 0;
     for (int k = 0; k < width; ++k) {
