@@ -157,18 +157,26 @@ std::optional<Raster<float>> interpolateCubic(GDALRasterBandH band, const Lattic
   // as the extension needs, within the raster.
   const PixelBox raster{0, GDALGetRasterBandXSize(band) - 1L, 0, GDALGetRasterBandYSize(band) - 1L};
   std::vector<PixelBox> reach(std::size_t(grid.height));
-  for (std::size_t r = 0, k = 0; r < reach.size(); ++r) {
-    for (std::size_t end = k + width; k < end; ++k) {
-      if (!known[k]) continue;
-      const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
-      reach[r].add({col - 1, col + 2, row - 1, row + 2});
+  std::vector<Taps> columns, rows;
+  if (centres.separable()) {
+    // Every row reaches the same columns.
+    for (double column_x : centres.column_x) columns.emplace_back(column_x);
+    for (double row_y : centres.row_y) rows.emplace_back(row_y);
+    PixelBox all_columns;
+    for (const Taps& column : columns) all_columns.add({column.before - 1, column.before + 2, 0, 0});
+    for (std::size_t r = 0; r < reach.size(); ++r) {
+      reach[r] = {all_columns.col0, all_columns.col1, rows[r].before - 1, rows[r].before + 2};
+    }
+  } else {
+    for (std::size_t r = 0, k = 0; r < reach.size(); ++r) {
+      for (std::size_t end = k + width; k < end; ++k) {
+        if (!known[k]) continue;
+        const long col = floorToLong(x[k] - 0.5), row = floorToLong(y[k] - 0.5);
+        reach[r].add({col - 1, col + 2, row - 1, row + 2});
+      }
     }
   }
   for (PixelBox& box : reach) box = box.grown(EdgeExtension::kSourceExtra).within(raster);
-
-  std::vector<Taps> columns, rows;
-  for (double column_x : centres.column_x) columns.emplace_back(column_x);
-  for (double row_y : centres.row_y) rows.emplace_back(row_y);
 
   // Bands of rows, each read at once.
   SourceWindow window;

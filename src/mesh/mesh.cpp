@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -89,10 +90,15 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
 }
 
 // The normals of samples (c0, r) and (c1, r), the same bits as
-// normalFromDifferences gives each, the two taken at once.
-void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, glm::vec3& n0, glm::vec3& n1) {
-  const glm::dvec3 du[2] = {differenceAt(samples, c0, r, 1, 0), differenceAt(samples, c1, r, 1, 0)};
-  const glm::dvec3 dv[2] = {differenceAt(samples, c0, r, 0, 1), differenceAt(samples, c1, r, 0, 1)};
+// normalFromDifferences gives each, the two taken at once. `central`: the
+// samples round both are the DEM's, so differenceAt would take central
+// differences; skip its checks.
+void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool central, glm::vec3& n0, glm::vec3& n1) {
+  const Raster<glm::dvec3>& p = samples.position;
+  const glm::dvec3 du[2] = {central ? p.at(c0 + 1, r) - p.at(c0 - 1, r) : differenceAt(samples, c0, r, 1, 0),
+                            central ? p.at(c1 + 1, r) - p.at(c1 - 1, r) : differenceAt(samples, c1, r, 1, 0)};
+  const glm::dvec3 dv[2] = {central ? p.at(c0, r + 1) - p.at(c0, r - 1) : differenceAt(samples, c0, r, 0, 1),
+                            central ? p.at(c1, r + 1) - p.at(c1, r - 1) : differenceAt(samples, c1, r, 0, 1)};
   const auto lanes = [&](const glm::dvec3 (&v)[2], int axis) { return Doubles{v[0][axis], v[1][axis]}; };
   const Doubles ux = lanes(du, 0), uy = lanes(du, 1), uz = lanes(du, 2);
   const Doubles vx = lanes(dv, 0), vy = lanes(dv, 1), vz = lanes(dv, 2);
@@ -142,6 +148,15 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   // The UV of texel centre k along either axis, for k = -1 .. s.
   std::vector<float> centre_uv;
   for (int k = -1; k <= s; ++k) centre_uv.push_back(float((k + 0.5) / s));
+  // Rows of samples that are all the DEM's (the vertices' rows and one
+  // either side lie inside the apron).
+  std::vector<std::uint8_t> all_dem(std::size_t(p.height), 1);
+  if (!samples.from_dem.data.empty()) {
+    for (int r = 0; r < p.height; ++r) {
+      const auto row = samples.from_dem.data.begin() + std::ptrdiff_t(r) * p.width;
+      all_dem[std::size_t(r)] = std::all_of(row, row + p.width, [](std::uint8_t v) { return v != 0; });
+    }
+  }
   for (int j = -1; j <= s; ++j) {
     for (int i = -1; i <= s; ++i) {
       const int c = a + i, r = a + j;
@@ -150,9 +165,11 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
     }
     // Two normals at a time; an odd row's last pair is one sample twice.
     glm::vec3* normals = &mesh.normal[std::size_t(j + 1) * std::size_t(mesh.cols)];
+    const std::size_t r = std::size_t(a + j);
+    const bool central = all_dem[r - 1] && all_dem[r] && all_dem[r + 1];
     for (int i = 0; i < mesh.cols; i += 2) {
       const int next = std::min(i + 1, mesh.cols - 1);
-      sampleNormals(samples, a - 1 + i, a - 1 + next, a + j, normals[i], normals[next]);
+      sampleNormals(samples, a - 1 + i, a - 1 + next, a + j, central, normals[i], normals[next]);
     }
   }
   return mesh;
