@@ -40,18 +40,45 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs) {
   if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
 }
 
-float Backdrop::heightAt(double x, double y) const {
-  const double col = std::clamp((x - m_grid.origin_x) / m_grid.cell_w - 0.5, 0.0, double(m_grid.width - 1));
-  const double row = std::clamp((m_grid.origin_y - y) / m_grid.cell_h - 0.5, 0.0, double(m_grid.height - 1));
-  // The margin makes the grid hundreds of cells wide, so cells c0 + 1 and r0 + 1 exist.
-  const int c0 = std::min(int(col), m_grid.width - 2), r0 = std::min(int(row), m_grid.height - 2);
-  const std::array<double, 4> wc = cubicWeights(col - c0), wr = cubicWeights(row - r0);
+Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
+  const double at = std::clamp(cell - 0.5, 0.0, double(cells - 1));
+  // The margin makes the grid hundreds of cells wide, so cell first + 2 exists.
+  const int first = std::min(int(at), cells - 2);
+  Taps taps{cubicWeights(at - first), {}};
+  for (int k = 0; k < 4; ++k) taps.cell[std::size_t(k)] = std::clamp(first - 1 + k, 0, cells - 1);
+  return taps;
+}
+
+float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
   double sum = 0;
-  for (int j = 0; j < 4; ++j) {
-    const int r = std::clamp(r0 - 1 + j, 0, m_grid.height - 1);
-    for (int i = 0; i < 4; ++i) sum += wr[j] * wc[i] * m_heights.at(std::clamp(c0 - 1 + i, 0, m_grid.width - 1), r);
+  for (std::size_t j = 0; j < 4; ++j) {
+    for (std::size_t i = 0; i < 4; ++i) {
+      sum += along_y.weight[j] * along_x.weight[i] * m_heights.at(along_x.cell[i], along_y.cell[j]);
+    }
   }
   return float(sum);
+}
+
+float Backdrop::heightAt(double x, double y) const {
+  return heightFrom(tapsAlong((x - m_grid.origin_x) / m_grid.cell_w, m_grid.width),
+                    tapsAlong((m_grid.origin_y - y) / m_grid.cell_h, m_grid.height));
+}
+
+Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const {
+  std::vector<Taps> columns, rows;
+  for (int c = 0; c < grid.width; ++c) {
+    columns.push_back(tapsAlong((grid.centreX(c) - m_grid.origin_x) / m_grid.cell_w, m_grid.width));
+  }
+  for (int r = 0; r < grid.height; ++r) {
+    rows.push_back(tapsAlong((m_grid.origin_y - grid.centreY(r)) / m_grid.cell_h, m_grid.height));
+  }
+  Raster<float> heights(grid.width, grid.height, 0.0f);
+  for (std::size_t r = 0, k = 0; r < rows.size(); ++r) {
+    for (std::size_t c = 0; c < columns.size(); ++c, ++k) {
+      if (wanted[k]) heights.data[k] = heightFrom(columns[c], rows[r]);
+    }
+  }
+  return heights;
 }
 
 }  // namespace terrabake::dem

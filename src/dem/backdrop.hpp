@@ -5,6 +5,10 @@
 // voids) take their height from it, and the surface a tile carries on from
 // its data fades into it: it is made once per job and is the same for every
 // tile, so neighbouring tiles still meet there.
+#include <array>
+#include <cstdint>
+#include <vector>
+
 #include "core/types.hpp"
 #include "dem/dem_source.hpp"
 
@@ -19,7 +23,22 @@ class Backdrop {
   // height at its nearest edge.
   float heightAt(double x, double y) const;
 
+  // heightAt at the centres of the cells of `grid` (in the tiling CRS) that
+  // `wanted` marks, row by row; 0 elsewhere. The taps of each column and
+  // row are found once.
+  Raster<float> heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const;
+
  private:
+  // Catmull-Rom weights of the four cells round a position along one axis,
+  // and those cells, clamped to the grid.
+  struct Taps {
+    std::array<double, 4> weight;
+    std::array<int, 4> cell;
+  };
+  // `cell`: the position in cells from the grid's first edge along the axis.
+  static Taps tapsAlong(double cell, int cells);
+  float heightFrom(const Taps& along_x, const Taps& along_y) const;
+
   GridSpec m_grid;
   Raster<float> m_heights;
 };

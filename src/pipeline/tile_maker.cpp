@@ -178,14 +178,12 @@ struct TileMaker::Impl {
   // into the backdrop there.
   Raster<float> filledHeights(const GridSpec& grid, const Raster<float>& around) const {
     const int margin = fillMargin();
-    Raster<float> backdrop(grid.width, grid.height);  // read at the holes alone
-    for (int r = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c) {
-        if (!std::isnan(around.at(c + margin, r + margin))) continue;
-        backdrop.at(c, r) = plan->backdrop->heightAt(grid.centreX(c), grid.centreY(r));
-      }
+    std::vector<std::uint8_t> holes(std::size_t(grid.width) * std::size_t(grid.height));
+    for (int r = 0, k = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c, ++k) holes[std::size_t(k)] = std::isnan(around.at(c + margin, r + margin));
     }
-    return dem::continueIntoHoles(around, margin, backdrop, settings.max_fill_px);
+    // Read at the holes alone.
+    return dem::continueIntoHoles(around, margin, plan->backdrop->heightsAt(grid, holes), settings.max_fill_px);
   }
 
   // Longitude and latitude of every cell centre of `grid`, row by row.
