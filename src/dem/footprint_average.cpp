@@ -72,17 +72,17 @@ void spanWeights(const Span& span, std::vector<double>& weights) {
   }
 }
 
-// Every texel's footprint: centred where the texel's centre falls, and as
-// wide along each pixel axis as the texel spreads along it (the rows of the
-// local Jacobian, from the centres of its neighbours), so a texel turned or
-// sheared against the pixel grid keeps its size.
 // The footprint's width along one pixel axis, from how far the texel's
 // centre moves along it per texel eastward and southward.
 double widthAlong(double eastward, double southward) {
   return std::max(std::sqrt(eastward * eastward + southward * southward), kMinWidthPx);
 }
 
-// `centres`: with one texel beyond each side.
+// Every texel's footprint: centred where the texel's centre falls, and as
+// wide along each pixel axis as the texel spreads along it (the rows of the
+// local Jacobian, from the centres of its neighbours), so a texel turned or
+// sheared against the pixel grid keeps its size. `centres`: with one texel
+// beyond each side.
 std::vector<Footprint> footprintsOf(const LatticeTransformer::SourcePositions& centres, const GridSpec& grid) {
   const int wide = centres.width;
   const std::vector<double>& x = centres.x;
@@ -346,7 +346,9 @@ std::optional<Raster<float>> averageEach(GDALRasterBandH band, const LatticeTran
 // separable): a column's span along x and a row's along y are the same for
 // all its texels, so each row of the DEM is summed once per column of
 // texels, and each sum is then added to the texels of every row whose span
-// reaches it, in the order averageEach adds them.
+// reaches it, in the order averageEach adds them. Wide footprints are summed
+// pixel by pixel too: a DEM row costs the pixels it holds, about twice over,
+// however wide the texels.
 std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
                                               const LatticeTransformer::SourcePositions& centres,
                                               const GridSpec& grid, const VoidRule& voids) {
