@@ -470,6 +470,9 @@ INSTANTIATE_TEST_SUITE_P(UtmAndGeographic, CubicRead, ::testing::ValuesIn(kCubic
 // The lattice transformer's positions against GDAL's exact reprojection of
 // every texel centre: lattice_transformer.hpp's bound, 2e-4 of a texel.
 constexpr double kMaxLatticeErrorTexels = 2e-4;
+// Texels of the grid it is checked on, in Web Mercator metres, off any round
+// multiple of the DEMs' pixels (60 m of Web Mercator: 30 m of ground at 60 N).
+constexpr double kLatticeTexelM = 37.3, kCubicDemPixelMercatorM = 60;
 
 // A geographic DEM's pixel axes run along Web Mercator's: the transformer
 // finds so, gives each column one x and each row one y, and they are as
@@ -487,7 +490,7 @@ TEST_P(CubicRead, LatticeRunsAlongTheAxesOnlyWhereTheCrsDoes) {
   dem::LatticeTransformer lattice(GDALDataset::ToHandle(source.get()), mercator_wkt);
   GridSpec grid;
   grid.crs = "EPSG:3857";
-  grid.cell_w = grid.cell_h = 37.3;
+  grid.cell_w = grid.cell_h = kLatticeTexelM;
   grid.width = grid.height = 64;
   const Extent bounds = dem::DemSource({GetParam().path().string()}).boundsIn(grid.crs);
   grid.origin_x = (bounds.min_x + bounds.max_x) / 2 - 0.4321 * grid.width * grid.cell_w;
@@ -519,8 +522,7 @@ TEST_P(CubicRead, LatticeRunsAlongTheAxesOnlyWhereTheCrsDoes) {
   }
   GDALDestroyGenImgProjTransformer(exact);
   std::printf("%s: lattice against exact positions: worst %.2g pixels\n", GetParam().name.c_str(), worst);
-  // Texels of 37.3 m against pixels of 60 m of Web Mercator (30 m of ground at 60 N).
-  EXPECT_LE(worst, kMaxLatticeErrorTexels * 37.3 / 60);
+  EXPECT_LE(worst, kMaxLatticeErrorTexels * kLatticeTexelM / kCubicDemPixelMercatorM);
 }
 
 // Float32 heights near 1000 m are stored to 6e-5 m: two windows whose grids

@@ -59,19 +59,20 @@ float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
   return float(sum);
 }
 
-float Backdrop::heightAt(double x, double y) const {
-  return heightFrom(tapsAlong((x - m_grid.origin_x) / m_grid.cell_w, m_grid.width),
-                    tapsAlong((m_grid.origin_y - y) / m_grid.cell_h, m_grid.height));
+Backdrop::Taps Backdrop::tapsAtX(double x) const {
+  return tapsAlong((x - m_grid.origin_x) / m_grid.cell_w, m_grid.width);
 }
+
+Backdrop::Taps Backdrop::tapsAtY(double y) const {
+  return tapsAlong((m_grid.origin_y - y) / m_grid.cell_h, m_grid.height);
+}
+
+float Backdrop::heightAt(double x, double y) const { return heightFrom(tapsAtX(x), tapsAtY(y)); }
 
 Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const {
   std::vector<Taps> columns, rows;
-  for (int c = 0; c < grid.width; ++c) {
-    columns.push_back(tapsAlong((grid.centreX(c) - m_grid.origin_x) / m_grid.cell_w, m_grid.width));
-  }
-  for (int r = 0; r < grid.height; ++r) {
-    rows.push_back(tapsAlong((m_grid.origin_y - grid.centreY(r)) / m_grid.cell_h, m_grid.height));
-  }
+  for (int c = 0; c < grid.width; ++c) columns.push_back(tapsAtX(grid.centreX(c)));
+  for (int r = 0; r < grid.height; ++r) rows.push_back(tapsAtY(grid.centreY(r)));
   Raster<float> heights(grid.width, grid.height, 0.0f);
   for (std::size_t r = 0, k = 0; r < rows.size(); ++r) {
     for (std::size_t c = 0; c < columns.size(); ++c, ++k) {

@@ -37,6 +37,9 @@ class Backdrop {
   };
   // `cell`: the position in cells from the grid's first edge along the axis.
   static Taps tapsAlong(double cell, int cells);
+  // The taps of a tiling-CRS x (along the backdrop's columns) or y (its rows).
+  Taps tapsAtX(double x) const;
+  Taps tapsAtY(double y) const;
   float heightFrom(const Taps& along_x, const Taps& along_y) const;
 
   GridSpec m_grid;

@@ -81,6 +81,9 @@ void cubicAlongAxes(const SourceWindow& window, const LatticeTransformer::Source
                     const std::vector<Taps>& columns, const std::vector<Taps>& rows, int first, int last,
                     Raster<float>& heights) {
   const std::size_t width = columns.size();
+  // The pixel each column's centres lie on.
+  std::vector<long> centre_cols;
+  for (const double x : centres.column_x) centre_cols.push_back(floorToLong(x));
   // Per row of the window and column of texels; NaN where a tap is outside
   // the window or not valid.
   std::vector<double> across(std::size_t(window.height) * width);
@@ -100,7 +103,7 @@ void cubicAlongAxes(const SourceWindow& window, const LatticeTransformer::Source
     const bool rows_inside = y.before - 1 >= window.row0 && y.before + 2 < window.row0 + window.height;
     for (std::size_t c = 0; c < width; ++c) {
       const Taps& x = columns[c];
-      const long centre_col = floorToLong(centres.column_x[c]);
+      const long centre_col = centre_cols[c];
       if (!window.contains(centre_col, centre_row) || !window.data[window.indexOf(centre_col, centre_row)]) continue;
       double sum = 0;
       bool cubic = rows_inside;

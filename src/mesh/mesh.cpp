@@ -95,10 +95,11 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
 // differences; skip its checks.
 void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool central, glm::vec3& n0, glm::vec3& n1) {
   const Raster<glm::dvec3>& p = samples.position;
-  const glm::dvec3 du[2] = {central ? p.at(c0 + 1, r) - p.at(c0 - 1, r) : differenceAt(samples, c0, r, 1, 0),
-                            central ? p.at(c1 + 1, r) - p.at(c1 - 1, r) : differenceAt(samples, c1, r, 1, 0)};
-  const glm::dvec3 dv[2] = {central ? p.at(c0, r + 1) - p.at(c0, r - 1) : differenceAt(samples, c0, r, 0, 1),
-                            central ? p.at(c1, r + 1) - p.at(c1, r - 1) : differenceAt(samples, c1, r, 0, 1)};
+  const auto difference = [&](int c, int dc, int dr) {
+    return central ? p.at(c + dc, r + dr) - p.at(c - dc, r - dr) : differenceAt(samples, c, r, dc, dr);
+  };
+  const glm::dvec3 du[2] = {difference(c0, 1, 0), difference(c1, 1, 0)};
+  const glm::dvec3 dv[2] = {difference(c0, 0, 1), difference(c1, 0, 1)};
   const auto lanes = [&](const glm::dvec3 (&v)[2], int axis) { return Doubles{v[0][axis], v[1][axis]}; };
   const Doubles ux = lanes(du, 0), uy = lanes(du, 1), uz = lanes(du, 2);
   const Doubles vx = lanes(dv, 0), vy = lanes(dv, 1), vz = lanes(dv, 2);
