@@ -24,6 +24,16 @@ void checkImage(const Image<std::uint16_t>& image, int bits) {
   }
 }
 
+// The names OIIO's PNG writer takes for zlib's strategies.
+const char* zlibStrategyName(ZlibStrategy strategy) {
+  switch (strategy) {
+    case ZlibStrategy::kRunLength: return "rle";
+    case ZlibStrategy::kHuffmanOnly: return "huffman";
+    case ZlibStrategy::kLz77: break;
+  }
+  return "default";
+}
+
 }  // namespace
 
 std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits, PngCompression compression) {
@@ -45,6 +55,7 @@ std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits,
   // "Linear", and a tEXt chunk for any other name.
   spec.attribute("png:compressionLevel", compression.level);
   if (compression.filters != 0) spec.attribute("png:filter", compression.filters);
+  spec.attribute("compression", zlibStrategyName(compression.strategy));
   // Alpha marks coverage: store the samples as given. Without this OIIO
   // takes them as premultiplied and divides colour by alpha on writing.
   spec.attribute("oiio:UnassociatedAlpha", 1);

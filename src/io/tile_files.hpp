@@ -39,15 +39,18 @@ TempFile createTempFile(const std::string& path);
 // process of this host that no longer runs, or any writer over a minute ago.
 bool isAbandonedTempFile(const std::string& path);
 
-// How PNG rows are compressed: the zlib level and libpng's row filters (a
-// PNG_FILTER_* mask; 0: libpng's default, which tries all five per row).
-// The default is what tiles use, chosen by measurement (README, "PNG
-// encoding"): libpng's default keeps Paeth on normal maps anyway, so naming
-// it gives the same bytes sooner, and level 2 takes about 0.6x level 4's
-// time for 6 % more bytes.
+// How PNG rows are compressed: libpng's row filters (a PNG_FILTER_* mask; 0:
+// libpng's default, which tries all five per row), then zlib with a strategy
+// and a level. Levels choose how hard LZ77 searches, so they matter only
+// with kLz77. The default is what tiles use, chosen by measurement (README,
+// "PNG encoding"): after Paeth a normal map's rows are mostly runs of small
+// residuals, which run-length matches code in less time and fewer bytes than
+// zlib's level 2 LZ77 search.
+enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly };
 struct PngCompression {
   int level = 2;
   int filters = 0x80;  // PNG_FILTER_PAETH
+  ZlibStrategy strategy = ZlibStrategy::kRunLength;
 };
 
 // PNG bytes of an RGB or RGBA image whose samples are 8-bit (0..255) or

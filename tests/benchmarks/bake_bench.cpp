@@ -332,13 +332,24 @@ void registerBenchmarks() {
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodeGlb", benchEncodeGlb)->Unit(benchmark::kMillisecond)->UseRealTime();
   constexpr std::pair<const char*, int> kPngFilters[] = {{"default", 0}, {"sub", 0x10}, {"up", 0x20}, {"paeth", 0x80}};
+  struct Deflate {
+    const char* name;
+    int level;
+    io::ZlibStrategy strategy;
+  };
+  constexpr Deflate kDeflates[] = {{"level1", 1, io::ZlibStrategy::kLz77},
+                                   {"level2", 2, io::ZlibStrategy::kLz77},
+                                   {"level4", 4, io::ZlibStrategy::kLz77},
+                                   {"level6", 6, io::ZlibStrategy::kLz77},
+                                   {"rle", 2, io::ZlibStrategy::kRunLength},
+                                   {"huffman", 2, io::ZlibStrategy::kHuffmanOnly}};
   for (const bool real_terrain : {true, false}) {
-    for (const int level : {1, 2, 4, 6}) {
+    for (const Deflate& deflate : kDeflates) {
       for (const auto& [filter_name, filters] : kPngFilters) {
-        const std::string name = std::string("BM_PngCompression/") + (real_terrain ? "sample" : "synthetic") +
-                                 "/level" + std::to_string(level) + "/" + filter_name;
-        benchmark::RegisterBenchmark(name.c_str(), benchPngCompression, io::PngCompression{level, filters},
-                                     real_terrain)
+        const std::string name = std::string("BM_PngCompression/") + (real_terrain ? "sample" : "synthetic") + "/" +
+                                 deflate.name + "/" + filter_name;
+        benchmark::RegisterBenchmark(name.c_str(), benchPngCompression,
+                                     io::PngCompression{deflate.level, filters, deflate.strategy}, real_terrain)
             ->Unit(benchmark::kMillisecond)
             ->UseRealTime();
       }
