@@ -1,6 +1,5 @@
 #include "dem/fill_holes.hpp"
 
-#include "core/lanes.hpp"
 #include "dem/mask_dilation.hpp"
 
 #include <algorithm>
@@ -100,30 +99,21 @@ struct EdgePlane {
   double height = 0, slope_c = 0, slope_r = 0;
 };
 
-// The edge samples in row-major order, with where each row's run starts, so
-// a hole sample visits those within reach in the same order from any window.
-struct EdgePlanes {
-  std::vector<EdgePlane> planes;
-  std::vector<std::size_t> row_start;  // height + 1 entries
-};
-
-EdgePlanes edgePlanes(const Raster<float>& heights) {
+// The data samples next to a hole, in row-major order.
+std::vector<EdgePlane> edgePlanes(const Raster<float>& heights) {
   std::vector<std::uint8_t> hole(heights.data.size());
   for (std::size_t k = 0; k < hole.size(); ++k) hole[k] = std::isnan(heights.data[k]) ? 1 : 0;
   // Next to a hole: one in the 3 x 3 samples around.
   const std::vector<std::uint8_t> near_hole = dilatedMask(hole, heights.width, heights.height, 1);
-  EdgePlanes edge;
-  edge.row_start.reserve(std::size_t(heights.height) + 1);
+  std::vector<EdgePlane> planes;
   for (int r = 0; r < heights.height; ++r) {
-    edge.row_start.push_back(edge.planes.size());
     for (int c = 0; c < heights.width; ++c) {
       const std::size_t k = std::size_t(r) * std::size_t(heights.width) + std::size_t(c);
       if (hole[k] || !near_hole[k]) continue;
-      edge.planes.push_back({c, r, heights.at(c, r), dataSlope(heights, c, r, 1, 0), dataSlope(heights, c, r, 0, 1)});
+      planes.push_back({c, r, heights.at(c, r), dataSlope(heights, c, r, 1, 0), dataSlope(heights, c, r, 0, 1)});
     }
   }
-  edge.row_start.push_back(edge.planes.size());
-  return edge;
+  return planes;
 }
 
 // The weight of an edge sample (dc, dr) samples away from a hole sample, and
@@ -202,63 +192,66 @@ bool fillHoles(Raster<float>& heights) {
 }
 
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
-  const EdgePlanes edge = edgePlanes(around);
+  const std::vector<EdgePlane> edge = edgePlanes(around);
   const ReachWeights weights(reach);
   // Samples less than reach from an edge sample along both axes: the others
   // are the backdrop's alone, with no plane to visit.
   std::vector<std::uint8_t> is_edge(around.data.size(), 0);
-  for (const EdgePlane& e : edge.planes) is_edge[std::size_t(e.r) * std::size_t(around.width) + std::size_t(e.c)] = 1;
+  for (const EdgePlane& e : edge) is_edge[std::size_t(e.r) * std::size_t(around.width) + std::size_t(e.c)] = 1;
   const std::vector<std::uint8_t> near_edge = dilatedMask(is_edge, around.width, around.height, reach - 1);
   Raster<float> filled(around.width - 2 * margin, around.height - 2 * margin);
   const auto needsPlanes = [&](int c, int r) {
-    return c < around.width - margin && std::isnan(around.at(c, r)) &&
-           near_edge[std::size_t(r) * std::size_t(around.width) + std::size_t(c)];
+    return std::isnan(around.at(c, r)) && near_edge[std::size_t(r) * std::size_t(around.width) + std::size_t(c)];
   };
-  // Of each row of edge samples, the first not left of the current hole
-  // sample's reach: it only moves right along a row of hole samples.
-  std::vector<std::size_t> first_in_reach(std::size_t(around.height));
-  for (int r = margin; r < around.height - margin; ++r) {
-    const int row_from = std::max(0, r - reach + 1), row_to = std::min(around.height - 1, r + reach - 1);
-    for (int rr = row_from; rr <= row_to; ++rr) first_in_reach[std::size_t(rr)] = edge.row_start[std::size_t(rr)];
-    for (int c = margin; c < around.width - margin; ++c) {
-      float& out = filled.at(c - margin, r - margin);
-      out = around.at(c, r);
+  // Of each row of `filled`, the first and last sample that needs planes.
+  std::vector<int> first_hole(std::size_t(filled.height), filled.width), last_hole(std::size_t(filled.height), -1);
+  for (int r = 0; r < filled.height; ++r) {
+    for (int c = 0; c < filled.width; ++c) {
+      if (!needsPlanes(c + margin, r + margin)) continue;
+      first_hole[std::size_t(r)] = std::min(first_hole[std::size_t(r)], c);
+      last_hole[std::size_t(r)] = c;
+    }
+  }
+  // Inverse-distance weighted sums of the edge samples' planes within reach
+  // of each such sample, each weight tapered to zero at reach, and the same
+  // sums of their distances: a smooth distance to the edge. Each edge sample
+  // adds to the hole samples inside its reach's circle, row by row; taking
+  // the edge samples in row-major order gives every hole sample its terms in
+  // the same order from any window, so its value depends only on where it is.
+  const std::size_t count = filled.data.size();
+  std::vector<double> weight_sum(count, 0.0), height_sum(count, 0.0), distance_sum(count, 0.0);
+  for (const EdgePlane& e : edge) {
+    for (int dr = 1 - reach; dr < reach; ++dr) {
+      const int r = e.r + dr - margin;
+      if (r < 0 || r >= filled.height) continue;
+      const int half = weights.halfWidth(dr);
+      const int from = std::max(e.c - half - margin, first_hole[std::size_t(r)]);
+      const int to = std::min(e.c + half - margin, last_hole[std::size_t(r)]);
+      if (from > to) continue;
+      const double across_rows = e.slope_r * double(dr);
+      const std::size_t row = std::size_t(r) * std::size_t(filled.width);
+      const std::size_t at_from = weights.index(from + margin - e.c, dr);
+      for (int c = from; c <= to; ++c) {
+        const std::size_t k = at_from + std::size_t(c - from);
+        const double weight = weights.weight(k);
+        weight_sum[row + std::size_t(c)] += weight;
+        height_sum[row + std::size_t(c)] +=
+            weight * (e.height + e.slope_c * (double(c + margin) - double(e.c)) + across_rows);
+        distance_sum[row + std::size_t(c)] += weights.weightedDistance(k);
+      }
+    }
+  }
+  for (int r = 0; r < filled.height; ++r) {
+    for (int c = 0; c < filled.width; ++c) {
+      float& out = filled.at(c, r);
+      out = around.at(c + margin, r + margin);
       if (!std::isnan(out)) continue;
-      if (!needsPlanes(c, r)) {
-        out = backdrop.at(c - margin, r - margin);
-        continue;
-      }
-      // Inverse-distance weighted mean of the edge samples' planes within
-      // reach, each weight tapered to zero at reach, and the same mean of
-      // their distances: a smooth distance to the edge. Row by row, only the
-      // samples of a row inside the reach's circle (the row is sorted). Two
-      // samples side by side at once, when the next needs planes too: each
-      // lane adds its own terms in the same order as alone, and zeros for
-      // the planes only the other lane reaches, so it gets the same bits.
-      const int pair = needsPlanes(c + 1, r) ? 1 : 0;
-      const Doubles at_c = {double(c), double(c + pair)};
-      Doubles weight_sum = {0, 0}, height_sum = {0, 0}, distance_sum = {0, 0};
-      for (int rr = row_from; rr <= row_to; ++rr) {
-        const int half = weights.halfWidth(r - rr);
-        const auto row_end = edge.planes.begin() + std::ptrdiff_t(edge.row_start[std::size_t(rr) + 1]);
-        auto e = edge.planes.begin() + std::ptrdiff_t(first_in_reach[std::size_t(rr)]);
-        while (e != row_end && e->c < c - half) ++e;
-        first_in_reach[std::size_t(rr)] = std::size_t(e - edge.planes.begin());
-        for (; e != row_end && e->c <= c + pair + half; ++e) {
-          const std::size_t k0 = weights.index(c - e->c, r - e->r), k1 = weights.index(c + pair - e->c, r - e->r);
-          const Doubles weight = {weights.weight(k0), weights.weight(k1)};
-          weight_sum += weight;
-          height_sum += weight * (e->height + e->slope_c * (at_c - double(e->c)) + e->slope_r * double(r - e->r));
-          distance_sum += Doubles{weights.weightedDistance(k0), weights.weightedDistance(k1)};
-        }
-      }
-      for (int lane = 0; lane <= pair; ++lane) {
-        const double far = backdrop.at(c + lane - margin, r - margin);
-        const double blend = weight_sum[lane] > 0 ? fadeOut(distance_sum[lane] / weight_sum[lane] / reach) : 0.0;
-        filled.at(c + lane - margin, r - margin) =
-            float(blend > 0 ? blend * height_sum[lane] / weight_sum[lane] + (1 - blend) * far : far);
-      }
-      c += pair;
+      const double far = backdrop.at(c, r);
+      const std::size_t k = std::size_t(r) * std::size_t(filled.width) + std::size_t(c);
+      const double blend = needsPlanes(c + margin, r + margin) && weight_sum[k] > 0
+                               ? fadeOut(distance_sum[k] / weight_sum[k] / reach)
+                               : 0.0;
+      out = float(blend > 0 ? blend * height_sum[k] / weight_sum[k] + (1 - blend) * far : far);
     }
   }
   return filled;
