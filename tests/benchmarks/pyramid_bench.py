@@ -2,7 +2,7 @@
 """Whole-pyramid throughput: terrabake per backend against the GDAL chain, in one run.
 
     tests/benchmarks/pyramid_bench.py [--build DIR] [--size PIXELS] [--zoom 8-14] [--workers 2]
-                                      [--backends cpu,osmesa] [--per-zoom REPEATS] [--keep DIR]
+                                      [--backends cpu,osmesa] [--rounds N] [--per-zoom REPEATS] [--keep DIR]
 
 1. Pyramid: the bundled sample DEM warped to EPSG:3857 (--size x --size
    pixels, Float32, cubic), tiled over --zoom by
@@ -11,7 +11,9 @@
    - `terrabake tile --backend B --workers N` for each backend.
    It prints tiles/s, the ratio to the GDAL chain, peak memory (RSS of the
    process tree's largest process) and terrabake's per-stage milliseconds per
-   tile (the workers' time, from its `time per tile` log line).
+   tile (the workers' time, from its `time per tile` log line). With
+   --rounds N the runs take turns N times, each ratio against the GDAL run of
+   its own round, and a last table gives the medians.
 2. With --per-zoom R: a DEM of (1024 R)^2 pixels without overviews (a VRT
    repeating the sample, so nothing on disk), tiled zoom by zoom from the one
    where it fits a tile to the deepest `auto` picks, one worker; each zoom is
@@ -25,10 +27,10 @@ import math
 import os
 import re
 import shutil
+import statistics
 import subprocess
 import sys
 import tempfile
-import time
 
 repo = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 sys.path.insert(0, os.path.join(repo, "tests", "scale"))
@@ -39,6 +41,7 @@ parser.add_argument("--size", type=int, default=4096)
 parser.add_argument("--zoom", default="8-14")
 parser.add_argument("--workers", type=int, default=2)
 parser.add_argument("--backends", default="cpu,osmesa")
+parser.add_argument("--rounds", type=int, default=1, help="runs taking turns this many times")
 parser.add_argument("--per-zoom", type=int, default=0, metavar="REPEATS")
 parser.add_argument("--max-tiles", type=int, default=48)
 parser.add_argument("--keep", default=None, help="work in this folder and keep it")
@@ -80,14 +83,8 @@ def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
     return int(summary.group(1)), seconds, peak, stages.group(1).strip() if stages else ""
 
 
-def pyramid(work):
-    dem = os.path.join(work, "dem3857.tif")
-    # The sample's lon/lat box less a margin, so that every pixel holds data.
-    subprocess.run(["gdalwarp", "-q", "-overwrite", "-t_srs", "EPSG:3857", "-te_srs", "EPSG:4326",
-                    "-te", *SAMPLE_INNER_LON_LAT, "-ts", str(args.size), str(args.size), "-r", "cubic",
-                    "-ot", "Float32", "-co", "TILED=YES", SAMPLE, dem], check=True)
-    print(f"Pyramid: {args.size} x {args.size} EPSG:3857 DEM (the sample, warped), zooms {args.zoom}, "
-          f"{args.workers} workers or processes each")
+def pyramid_round(dem, work):
+    """One run of the GDAL chain and of each backend: (name, tiles, seconds, tiles/s, peak MiB, stages) each."""
     rows = []
     shade = os.path.join(work, "hillshade.tif")
     gdal_out = os.path.join(work, "gdal2tiles")
@@ -96,18 +93,43 @@ def pyramid(work):
     t_tiles, peak_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
                                        "-w", "none", "-r", "average", "--xyz", shade, gdal_out])
     gdal_tiles = count_files(gdal_out, ".png")
-    gdal_rate = gdal_tiles / (t_shade + t_tiles)
-    rows.append(("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_rate,
+    rows.append(("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_tiles / (t_shade + t_tiles),
                  max(peak_shade, peak_tiles), ""))
     for backend in args.backends.split(","):
         tiles, seconds, peak, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
         rows.append((f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, peak, stages))
-    print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
-    for name, tiles, seconds, rate, peak, _ in rows:
-        print(f"{name:<34}{tiles:>7}{seconds:>9.2f}{rate:>9.1f}{rate / gdal_rate:>8.2f}x{peak:>10.0f}")
-    print("\nterrabake, milliseconds per tile by stage (summed over the workers):")
-    for name, _, _, _, _, stages in rows[1:]:
-        print(f"  {name:<32}{stages}")
+    return rows
+
+
+def pyramid(work):
+    dem = os.path.join(work, "dem3857.tif")
+    # The sample's lon/lat box less a margin, so that every pixel holds data.
+    subprocess.run(["gdalwarp", "-q", "-overwrite", "-t_srs", "EPSG:3857", "-te_srs", "EPSG:4326",
+                    "-te", *SAMPLE_INNER_LON_LAT, "-ts", str(args.size), str(args.size), "-r", "cubic",
+                    "-ot", "Float32", "-co", "TILED=YES", SAMPLE, dem], check=True)
+    print(f"Pyramid: {args.size} x {args.size} EPSG:3857 DEM (the sample, warped), zooms {args.zoom}, "
+          f"{args.workers} workers or processes each")
+    rounds = []
+    for number in range(1, args.rounds + 1):
+        rows = pyramid_round(dem, work)
+        rounds.append(rows)
+        gdal_rate = rows[0][3]
+        if args.rounds > 1:
+            print(f"\nround {number} of {args.rounds}")
+        print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
+        for name, tiles, seconds, rate, peak, _ in rows:
+            print(f"{name:<34}{tiles:>7}{seconds:>9.2f}{rate:>9.1f}{rate / gdal_rate:>8.2f}x{peak:>10.0f}")
+        print("\nterrabake, milliseconds per tile by stage (summed over the workers):")
+        for name, _, _, _, _, stages in rows[1:]:
+            print(f"  {name:<32}{stages}", flush=True)
+    if args.rounds > 1:
+        print(f"\nmedians of {args.rounds} rounds (each ratio against its own round's GDAL run)")
+        print(f"{'run':<34}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
+        for k, (name, *_rest) in enumerate(rounds[0]):
+            rate = statistics.median(rows[k][3] for rows in rounds)
+            ratio = statistics.median(rows[k][3] / rows[0][3] for rows in rounds)
+            peak = max(rows[k][4] for rows in rounds)
+            print(f"{name:<34}{rate:>9.1f}{ratio:>8.2f}x{peak:>10.0f}")
 
 
 def lon_lat_of_centre(repeats):
