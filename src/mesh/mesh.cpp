@@ -144,7 +144,6 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   mesh.rows = s + 2;
   const std::size_t count = std::size_t(mesh.cols) * mesh.rows;
   mesh.uv.reserve(count);
-  mesh.position.reserve(count);
   mesh.normal.resize(count);
   // The UV of texel centre k along either axis, for k = -1 .. s.
   std::vector<float> centre_uv;
@@ -159,11 +158,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
     }
   }
   for (int j = -1; j <= s; ++j) {
-    for (int i = -1; i <= s; ++i) {
-      const int c = a + i, r = a + j;
-      mesh.uv.emplace_back(centre_uv[std::size_t(i + 1)], centre_uv[std::size_t(j + 1)]);
-      mesh.position.emplace_back(p.at(c, r));
-    }
+    for (int i = -1; i <= s; ++i) mesh.uv.emplace_back(centre_uv[std::size_t(i + 1)], centre_uv[std::size_t(j + 1)]);
     // Two normals at a time; an odd row's last pair is one sample twice.
     glm::vec3* normals = &mesh.normal[std::size_t(j + 1) * std::size_t(mesh.cols)];
     const std::size_t r = std::size_t(a + j);

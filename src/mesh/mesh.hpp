@@ -30,12 +30,13 @@ struct SampleGrid {
 // cell is split along its north-west to south-east diagonal into the
 // triangles (NW, SW, SE) and (NW, SE, NE), counter-clockwise seen from above.
 // The grid runs one sample beyond each tile edge so that it covers the whole
-// tile in UV space; apron vertices have UVs outside [0, 1].
+// tile in UV space; apron vertices have UVs outside [0, 1]. A bake needs
+// only where each vertex lies in UV space and its normal: the positions stay
+// in the SampleGrid the mesh is built from.
 struct HighResMesh {
   int cols = 0;
   int rows = 0;
   std::vector<glm::vec2> uv;
-  std::vector<glm::vec3> position;
   std::vector<glm::vec3> normal;  // unit, smooth: central differences, one-sided at the DEM's edge
 };
 
