@@ -5,7 +5,8 @@
 // as a Range header against a body of their own length.
 //
 // Beyond not crashing, a route must never let through what the router
-// promises to refuse: a served file with an empty, "." or ".." segment, a
+// promises to refuse: a served file (of the viewer, a vendor package or a
+// layer's tileset or archive) with an empty, "." or ".." segment, a
 // backslash or a control character; a layer name the layer rule refuses or
 // the server reserves; a tile with a negative number or a zoom above kMaxZoom.
 #include <cstddef>
@@ -39,20 +40,30 @@ bool safeRelativeFile(const std::string& file) {
   }
 }
 
+void checkLayer(const Route& route) {
+  fuzz::require(isLayerName(route.layer), "a routed layer has a layer name");
+  fuzz::require(!server::isReservedName(route.layer), "a routed layer is not a reserved name");
+}
+
 void checkRoute(const Route& route) {
   switch (route.kind) {
     case Route::Kind::kViewerFile:
     case Route::Kind::kVendorFile:
       fuzz::require(safeRelativeFile(route.file), "a served file stays inside its folder");
       break;
+    case Route::Kind::kTileset:
+    case Route::Kind::kArchive:
+      fuzz::require(safeRelativeFile(route.file), "a layer's file stays inside its folder");
+      checkLayer(route);
+      break;
     case Route::Kind::kTile:
       fuzz::require(route.tile.z >= 0 && route.tile.z <= kMaxZoom, "a tile's zoom is 0..kMaxZoom");
       fuzz::require(route.tile.x >= 0 && route.tile.y >= 0, "a tile's x and y are not negative");
-      [[fallthrough]];
+      checkLayer(route);
+      break;
     case Route::Kind::kTileJson:
     case Route::Kind::kElevationTileJson:
-      fuzz::require(isLayerName(route.layer), "a routed layer has a layer name");
-      fuzz::require(!server::isReservedName(route.layer), "a routed layer is not a reserved name");
+      checkLayer(route);
       break;
     case Route::Kind::kBadRequest:
     case Route::Kind::kNotFound:
