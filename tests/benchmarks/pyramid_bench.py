@@ -23,6 +23,7 @@
 Timings on a shared machine are noisy: compare rows of one run.
 """
 import argparse
+import collections
 import math
 import os
 import re
@@ -83,8 +84,12 @@ def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
     return int(summary.group(1)), seconds, peak, stages.group(1).strip() if stages else ""
 
 
+# One run of the GDAL chain or of a backend: tiles/s in `rate`, peak RSS in MiB, terrabake's stages line.
+Run = collections.namedtuple("Run", "name tiles seconds rate peak stages")
+
+
 def pyramid_round(dem, work):
-    """One run of the GDAL chain and of each backend: (name, tiles, seconds, tiles/s, peak MiB, stages) each."""
+    """One run of the GDAL chain and then of each backend, as Runs."""
     rows = []
     shade = os.path.join(work, "hillshade.tif")
     gdal_out = os.path.join(work, "gdal2tiles")
@@ -93,11 +98,11 @@ def pyramid_round(dem, work):
     t_tiles, peak_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
                                        "-w", "none", "-r", "average", "--xyz", shade, gdal_out])
     gdal_tiles = count_files(gdal_out, ".png")
-    rows.append(("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_tiles / (t_shade + t_tiles),
-                 max(peak_shade, peak_tiles), ""))
+    rows.append(Run("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_tiles / (t_shade + t_tiles),
+                    max(peak_shade, peak_tiles), ""))
     for backend in args.backends.split(","):
         tiles, seconds, peak, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
-        rows.append((f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, peak, stages))
+        rows.append(Run(f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, peak, stages))
     return rows
 
 
@@ -113,23 +118,24 @@ def pyramid(work):
     for number in range(1, args.rounds + 1):
         rows = pyramid_round(dem, work)
         rounds.append(rows)
-        gdal_rate = rows[0][3]
+        gdal_rate = rows[0].rate
         if args.rounds > 1:
             print(f"\nround {number} of {args.rounds}")
         print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
-        for name, tiles, seconds, rate, peak, _ in rows:
-            print(f"{name:<34}{tiles:>7}{seconds:>9.2f}{rate:>9.1f}{rate / gdal_rate:>8.2f}x{peak:>10.0f}")
+        for run in rows:
+            print(f"{run.name:<34}{run.tiles:>7}{run.seconds:>9.2f}{run.rate:>9.1f}{run.rate / gdal_rate:>8.2f}x"
+                  f"{run.peak:>10.0f}")
         print("\nterrabake, milliseconds per tile by stage (summed over the workers):")
-        for name, _, _, _, _, stages in rows[1:]:
-            print(f"  {name:<32}{stages}", flush=True)
+        for run in rows[1:]:
+            print(f"  {run.name:<32}{run.stages}", flush=True)
     if args.rounds > 1:
         print(f"\nmedians of {args.rounds} rounds (each ratio against its own round's GDAL run)")
         print(f"{'run':<34}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
-        for k, (name, *_rest) in enumerate(rounds[0]):
-            rate = statistics.median(rows[k][3] for rows in rounds)
-            ratio = statistics.median(rows[k][3] / rows[0][3] for rows in rounds)
-            peak = max(rows[k][4] for rows in rounds)
-            print(f"{name:<34}{rate:>9.1f}{ratio:>8.2f}x{peak:>10.0f}")
+        for k, first in enumerate(rounds[0]):
+            rate = statistics.median(each[k].rate for each in rounds)
+            ratio = statistics.median(each[k].rate / each[0].rate for each in rounds)
+            peak = max(each[k].peak for each in rounds)
+            print(f"{first.name:<34}{rate:>9.1f}{ratio:>8.2f}x{peak:>10.0f}")
 
 
 def lon_lat_of_centre(repeats):
