@@ -9,7 +9,8 @@
 // 1. Tiles the sample DEM at zooms 9-12 with output.tileset and high-res meshes.
 // 2. For each viewer: loads the tileset with no console error, page error or
 //    failed request; from far away it draws coarser levels than from close
-//    by, and close by it has fetched tiles of more than one level.
+//    by, close by it has fetched tiles of more than one level, and the three
+//    views of step 3 draw the same levels.
 // 3. For each viewer, one camera and sun: the normal-mapped tiles, the same
 //    without their normal maps, and the .hires.glb meshes. Over the pixels
 //    that are terrain in all three, the normal-mapped view must be closer to
@@ -97,6 +98,13 @@ async function checkViewer(serverUrl, out, renderer) {
   const nearLevels = shots.normalmap.stats.visibleLevels;
   if (!(Math.max(...far.stats.visibleLevels) < Math.max(...nearLevels))) {
     fail(`${renderer}: the close view draws levels ${nearLevels}, the far one ${far.stats.visibleLevels}: no finer level closer by`);
+  }
+  // One camera, one tileset: each mode must show the same levels, or the
+  // page declared itself ready before the view had refined.
+  for (const mode of ['lowpoly', 'highres']) {
+    if (shots[mode].stats.visibleLevels.join() !== nearLevels.join()) {
+      fail(`${renderer}: ${mode} draws levels ${shots[mode].stats.visibleLevels}, normalmap ${nearLevels}: not the same view`);
+    }
   }
   if (shots.normalmap.stats.requestedLevels.length < 2) {
     fail(`${renderer}: fetched tiles of levels ${shots.normalmap.stats.requestedLevels} only`);

@@ -83,13 +83,18 @@ async function layerTarget() {
   return { tilesetUrl, lon: radians(center[0]), lat: radians(center[1]), height: (region[4] + region[5]) / 2 };
 }
 
-// Resolves once the view has been drawn with every tile it needs loaded.
-function whenStable(isLoaded, draw) {
+// Resolves once the view has been drawn kStableFrames times in a row with
+// every tile it needs loaded and the same tiles shown. drawnState() is called
+// after each draw: null while tiles load, else a key naming what is shown.
+function whenStable(draw, drawnState) {
   return new Promise((resolve) => {
     let stable = 0;
+    let previous = null;
     const frame = () => {
       draw();
-      stable = isLoaded() ? stable + 1 : 0;
+      const state = drawnState();
+      stable = state !== null && state === previous ? stable + 1 : 0;
+      previous = state;
       if (stable >= kStableFrames) resolve();
       else requestAnimationFrame(frame);
     };
@@ -137,14 +142,22 @@ async function showWithThree(target) {
   tiles.setResolutionFromRenderer(camera, renderer);
   scene.add(tiles.group);
 
+  // Not tiles.loadProgress: it reads 1 while a tile's body is still downloading
+  // or parsing once the renderer's queues have run dry (3d-tiles-renderer 0.5).
+  const isLoading = () => {
+    const { stats } = tiles;
+    return stats.queued + stats.downloading + stats.parsing > 0 ||
+      tiles.downloadQueue.running || tiles.parseQueue.running || tiles.processNodeQueue.running;
+  };
+  const shownUris = () => [...tiles.visibleTiles].map((tile) => tile.content?.uri ?? '').sort();
   await whenStable(
-    () => tiles.root !== null && tiles.loadProgress === 1 && tiles.visibleTiles.size > 0,
     () => {
       camera.updateMatrixWorld();
       tiles.update();
       renderer.render(scene, camera);
-    });
-  const visible = new Set([...tiles.visibleTiles].map((tile) => levelOf(tile.content?.uri ?? '')).filter((z) => z !== null));
+    },
+    () => (tiles.root === null || tiles.visibleTiles.size === 0 || isLoading() ? null : shownUris().join(' ')));
+  const visible = new Set(shownUris().map(levelOf).filter((z) => z !== null));
   return { visibleLevels: [...visible].sort((a, b) => a - b) };
 }
 
@@ -202,20 +215,20 @@ async function showWithCesium(target) {
       }`,
     });
   }
-  const visible = new Set();
-  tileset.tileVisible.addEventListener((tile) => {
-    const level = levelOf(tile.content?.url ?? '');
-    if (level !== null) visible.add(level);
-  });
+  const shownUrls = new Set();
+  tileset.tileVisible.addEventListener((tile) => shownUrls.add(tile.content?.url ?? ''));
   tileset.tileFailed.addEventListener((error) => console.error(`terrabake 3D Tiles view: ${error.url}: ${error.message}`));
   scene.primitives.add(tileset);
   viewer.camera.frustum.fov = radians(view.fov);
   viewer.camera.lookAt(origin, new Cesium.HeadingPitchRange(radians(view.camAz + 180), -radians(view.camEl), view.camDist));
 
-  await whenStable(() => tileset.tilesLoaded, () => {
-    visible.clear();
-    scene.render();
-  });
+  await whenStable(
+    () => {
+      shownUrls.clear();
+      scene.render();
+    },
+    () => (tileset.tilesLoaded ? [...shownUrls].sort().join(' ') : null));
+  const visible = new Set([...shownUrls].map(levelOf).filter((z) => z !== null));
   return { visibleLevels: [...visible].sort((a, b) => a - b) };
 }
 
