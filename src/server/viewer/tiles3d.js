@@ -19,7 +19,8 @@
 //
 // The background is magenta, which no lit grey terrain is, so a screenshot
 // tells gaps between tiles from terrain. Once every tile the view needs has
-// loaded and a frame has been drawn the page sets window.terrabakeReady =
+// loaded and the same tiles have been drawn for kStableFrames frames in a
+// row, the page sets window.terrabakeReady =
 // true and window.terrabakeStats = {visibleLevels, requestedLevels}: the
 // zooms of the tiles drawn and of every .glb the page fetched. Anything that
 // fails is reported with console.error.
