@@ -56,12 +56,9 @@ function levelOf(url) {
   return match ? Number(match[1]) : null;
 }
 
-function requestedLevels() {
-  const levels = new Set();
-  for (const entry of performance.getEntriesByType('resource')) {
-    const level = levelOf(entry.name);
-    if (level !== null) levels.add(level);
-  }
+// The zooms of the tile URLs among `urls`, ascending, each once.
+function levelsOf(urls) {
+  const levels = new Set(urls.map(levelOf).filter((z) => z !== null));
   return [...levels].sort((a, b) => a - b);
 }
 
@@ -158,8 +155,7 @@ async function showWithThree(target) {
       renderer.render(scene, camera);
     },
     () => (tiles.root === null || tiles.visibleTiles.size === 0 || isLoading() ? null : shownUris().join(' ')));
-  const visible = new Set(shownUris().map(levelOf).filter((z) => z !== null));
-  return { visibleLevels: [...visible].sort((a, b) => a - b) };
+  return { visibleLevels: levelsOf(shownUris()) };
 }
 
 async function loadCesium() {
@@ -229,15 +225,15 @@ async function showWithCesium(target) {
       scene.render();
     },
     () => (tileset.tilesLoaded ? [...shownUrls].sort().join(' ') : null));
-  const visible = new Set([...shownUrls].map(levelOf).filter((z) => z !== null));
-  return { visibleLevels: [...visible].sort((a, b) => a - b) };
+  return { visibleLevels: levelsOf([...shownUrls]) };
 }
 
 async function main() {
   status('loading…');
   const target = await layerTarget();
   const shown = view.renderer === 'cesium' ? await showWithCesium(target) : await showWithThree(target);
-  window.terrabakeStats = { ...shown, requestedLevels: requestedLevels() };
+  const fetched = performance.getEntriesByType('resource').map((entry) => entry.name);
+  window.terrabakeStats = { ...shown, requestedLevels: levelsOf(fetched) };
   status('');
   window.terrabakeReady = true;
 }
