@@ -1,6 +1,7 @@
 #include "gl/baker_factory.hpp"
 
 #include <cstdlib>
+#include <memory>
 #include <mutex>
 #include <stdexcept>
 #include <thread>
@@ -8,8 +9,30 @@
 #include "bake/cpu_baker.hpp"
 #include "core/log.hpp"
 #include "gl/gl_baker.hpp"
+#include "gl/gpu_bake_service.hpp"
 
 namespace terrabake::gl {
+namespace {
+
+// Tiles the shared GPU context keeps in flight: enough that the GPU never
+// waits for the next upload while one tile is read back (each slot holds five
+// float targets, 6 MiB at 256 texels).
+constexpr int kGpuTilesInFlight = 8;
+
+// The process's one service on the hardware GPU: made for the first worker
+// that needs it, released with the last worker's baker.
+std::shared_ptr<GpuBakeService> sharedGpuService() {
+  static std::mutex mutex;
+  static std::weak_ptr<GpuBakeService> current;
+  std::lock_guard lock(mutex);
+  if (std::shared_ptr<GpuBakeService> service = current.lock()) return service;
+  auto service = std::make_shared<GpuBakeService>([] { return createEglContext(EglPlatform::kDevice); },
+                                                  kGpuTilesInFlight);
+  current = service;
+  return service;
+}
+
+}  // namespace
 
 std::unique_ptr<bake::Baker> createBaker(Backend backend) {
   switch (backend) {
@@ -18,8 +41,8 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
     case Backend::kOsMesa:
       return std::make_unique<GlBaker>(createOsMesaContext());
     case Backend::kEgl:
-      return std::make_unique<GlBaker>(
-          createEglContext(hasHardwareEglDevice() ? EglPlatform::kDevice : EglPlatform::kSurfaceless));
+      if (hasHardwareEglDevice()) return makeServiceBaker(sharedGpuService());
+      return std::make_unique<GlBaker>(createEglContext(EglPlatform::kSurfaceless));
     case Backend::kAuto: {
       const bool gpu = hasHardwareEglDevice();
       static std::once_flag said_why;
@@ -28,7 +51,7 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
                       : "backend auto: EGL reaches no hardware GPU, so OSMesa (llvmpipe) bakes; without a GPU "
                         "--backend cpu is faster (README, \"Whole pyramids against the GDAL chain\")");
       });
-      if (gpu) return std::make_unique<GlBaker>(createEglContext(EglPlatform::kDevice));
+      if (gpu) return makeServiceBaker(sharedGpuService());
       return std::make_unique<GlBaker>(createOsMesaContext());
     }
   }

@@ -7,8 +7,10 @@
 
 namespace terrabake::gl {
 
-// Makes a baker for the calling thread (GL contexts are per thread).
-// Throws InputError when the backend's context cannot be made.
+// Makes a baker for the calling thread (GL contexts are per thread). On a
+// hardware GPU every thread's baker hands its tiles to one shared context
+// (gpu_bake_service.hpp). Throws InputError when the backend's context
+// cannot be made.
 std::unique_ptr<bake::Baker> createBaker(Backend backend);
 
 // llvmpipe, Mesa's software rasteriser (OSMesa, and EGL without a GPU),

@@ -16,6 +16,12 @@ namespace terrabake::gl {
   X(PFNGLCLEARPROC, Clear)                                          \
   X(PFNGLDISABLEPROC, Disable)                                      \
   X(PFNGLFINISHPROC, Finish)                                        \
+  X(PFNGLFLUSHPROC, Flush)                                          \
+  X(PFNGLFENCESYNCPROC, FenceSync)                                  \
+  X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                        \
+  X(PFNGLDELETESYNCPROC, DeleteSync)                                \
+  X(PFNGLMAPBUFFERRANGEPROC, MapBufferRange)                        \
+  X(PFNGLUNMAPBUFFERPROC, UnmapBuffer)                              \
   X(PFNGLPIXELSTOREIPROC, PixelStorei)                              \
   X(PFNGLREADPIXELSPROC, ReadPixels)                                \
   X(PFNGLGENFRAMEBUFFERSPROC, GenFramebuffers)                      \

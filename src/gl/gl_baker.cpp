@@ -1,7 +1,10 @@
 #include "gl/gl_baker.hpp"
 
+#include <algorithm>
+#include <chrono>
 #include <cstdio>
 #include <initializer_list>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -72,6 +75,13 @@ struct StreamBuffer {
   }
 };
 
+// How long collect() waits for the GPU before it gives up on a tile: a bake
+// takes milliseconds, so this is a driver or device that stopped answering.
+constexpr std::chrono::seconds kGpuStallLimit{60};
+
+// Vertex data goes to GL straight from the meshes' arrays.
+static_assert(sizeof(glm::vec3) == 3 * sizeof(float) && sizeof(glm::vec2) == 2 * sizeof(float));
+
 // Entry points can only be loaded once the context is current.
 const Context& makeCurrent(Context& context) {
   context.makeCurrent();
@@ -80,25 +90,39 @@ const Context& makeCurrent(Context& context) {
 
 }  // namespace
 
+// What one tile in flight needs of its own: its vertices, the three passes'
+// targets, and the buffer its result is read back into.
+struct Slot {
+  GLuint high_vao = 0, low_vao = 0;
+  StreamBuffer high_normals, low_vertices, low_indices;
+  GLsizei low_index_count = 0;
+  GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
+  GLuint high_normal_texture = 0, high_normal_framebuffer = 0;
+  GLuint target_texture = 0, target_framebuffer = 0;
+  GLuint read_back_buffer = 0;  // pixel pack buffer: reading back need not wait for the GPU
+  int size = 0;                 // size of the textures, 0 = none yet
+  GLsync done = nullptr;        // signalled when the read back has landed; null = slot free
+};
+
 struct GlBaker::Impl {
   std::unique_ptr<Context> context;
   Functions gl;
   std::string description;
   GLuint frame_program = 0, bake_program = 0, tangent_space_program = 0;
-  GLuint high_vao = 0, high_indices = 0;
-  GLuint low_vao = 0;
+  // The high-res grid's UVs and triangles are the same for every tile of a
+  // size, so they are uploaded once and shared by the slots; a tile uploads
+  // its normals only.
+  GLuint high_uv = 0, high_indices = 0;
+  std::vector<glm::vec2> uploaded_uv;
   GLuint no_vertices_vao = 0;  // the third pass makes its triangle from gl_VertexID
-  StreamBuffer high_vertices, low_vertices, low_indices;
+  std::vector<Slot> slots;
   // Kept from tile to tile, for the same reason as the buffers.
-  std::vector<float> interleaved, read_back;
-  GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
-  GLuint high_normal_texture = 0, high_normal_framebuffer = 0;
-  GLuint target_texture = 0, target_framebuffer = 0;
-  int target_size = 0;                 // size of the textures, 0 = none yet
+  std::vector<float> interleaved;
   int index_cols = 0, index_rows = 0;  // grid the high-res index buffer was built for
-  GLsizei high_index_count = 0, low_index_count = 0;
+  GLsizei high_index_count = 0;
 
-  explicit Impl(std::unique_ptr<Context> ctx) : context(std::move(ctx)), gl(makeCurrent(*context)) {
+  Impl(std::unique_ptr<Context> ctx, int in_flight)
+      : context(std::move(ctx)), gl(makeCurrent(*context)), slots(std::size_t(std::max(in_flight, 1))) {
     const auto* version = reinterpret_cast<const char*>(gl.GetString(GL_VERSION));
     const auto* renderer = reinterpret_cast<const char*>(gl.GetString(GL_RENDERER));
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");
@@ -113,35 +137,44 @@ struct GlBaker::Impl {
     for (int k = 0; k < kFrameParts; ++k) {
       gl.Uniform1i(gl.GetUniformLocation(tangent_space_program, frame_samplers[k]), kFirstFrameUnit + k);
     }
-    gl.GenVertexArrays(1, &high_vao);
-    gl.GenVertexArrays(1, &low_vao);
     gl.GenVertexArrays(1, &no_vertices_vao);
-    gl.GenBuffers(1, &high_vertices.name);
+    gl.GenBuffers(1, &high_uv);
     gl.GenBuffers(1, &high_indices);
-    gl.GenBuffers(1, &low_vertices.name);
-    gl.GenBuffers(1, &low_indices.name);
-    gl.GenTextures(kFrameParts, frame_textures);
-    gl.GenTextures(1, &high_normal_texture);
-    gl.GenTextures(1, &target_texture);
-    gl.GenFramebuffers(1, &frame_framebuffer);
-    gl.GenFramebuffers(1, &high_normal_framebuffer);
-    gl.GenFramebuffers(1, &target_framebuffer);
+    for (Slot& slot : slots) {
+      gl.GenVertexArrays(1, &slot.high_vao);
+      gl.GenVertexArrays(1, &slot.low_vao);
+      gl.GenBuffers(1, &slot.high_normals.name);
+      gl.GenBuffers(1, &slot.low_vertices.name);
+      gl.GenBuffers(1, &slot.low_indices.name);
+      gl.GenBuffers(1, &slot.read_back_buffer);
+      gl.GenTextures(kFrameParts, slot.frame_textures);
+      gl.GenTextures(1, &slot.high_normal_texture);
+      gl.GenTextures(1, &slot.target_texture);
+      gl.GenFramebuffers(1, &slot.frame_framebuffer);
+      gl.GenFramebuffers(1, &slot.high_normal_framebuffer);
+      gl.GenFramebuffers(1, &slot.target_framebuffer);
+    }
   }
 
   ~Impl() {
-    gl.DeleteFramebuffers(1, &target_framebuffer);
-    gl.DeleteFramebuffers(1, &high_normal_framebuffer);
-    gl.DeleteFramebuffers(1, &frame_framebuffer);
-    gl.DeleteTextures(1, &target_texture);
-    gl.DeleteTextures(1, &high_normal_texture);
-    gl.DeleteTextures(kFrameParts, frame_textures);
-    gl.DeleteBuffers(1, &low_indices.name);
-    gl.DeleteBuffers(1, &low_vertices.name);
+    for (Slot& slot : slots) {
+      if (slot.done) gl.DeleteSync(slot.done);
+      gl.DeleteFramebuffers(1, &slot.target_framebuffer);
+      gl.DeleteFramebuffers(1, &slot.high_normal_framebuffer);
+      gl.DeleteFramebuffers(1, &slot.frame_framebuffer);
+      gl.DeleteTextures(1, &slot.target_texture);
+      gl.DeleteTextures(1, &slot.high_normal_texture);
+      gl.DeleteTextures(kFrameParts, slot.frame_textures);
+      gl.DeleteBuffers(1, &slot.read_back_buffer);
+      gl.DeleteBuffers(1, &slot.low_indices.name);
+      gl.DeleteBuffers(1, &slot.low_vertices.name);
+      gl.DeleteBuffers(1, &slot.high_normals.name);
+      gl.DeleteVertexArrays(1, &slot.low_vao);
+      gl.DeleteVertexArrays(1, &slot.high_vao);
+    }
     gl.DeleteBuffers(1, &high_indices);
-    gl.DeleteBuffers(1, &high_vertices.name);
+    gl.DeleteBuffers(1, &high_uv);
     gl.DeleteVertexArrays(1, &no_vertices_vao);
-    gl.DeleteVertexArrays(1, &low_vao);
-    gl.DeleteVertexArrays(1, &high_vao);
     gl.DeleteProgram(tangent_space_program);
     gl.DeleteProgram(bake_program);
     gl.DeleteProgram(frame_program);
@@ -171,25 +204,30 @@ struct GlBaker::Impl {
     }
   }
 
-  void prepareTargets(int size) {
-    if (size == target_size) return;
-    gl.BindFramebuffer(GL_FRAMEBUFFER, frame_framebuffer);
+  static GLsizeiptr readBackBytes(int size) { return GLsizeiptr(size) * size * GLsizeiptr(sizeof(glm::vec3)); }
+
+  void prepareTargets(Slot& slot, int size) {
+    if (size == slot.size) return;
+    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.frame_framebuffer);
     GLenum attachments[kFrameParts];
     for (int k = 0; k < kFrameParts; ++k) {
-      allocateFloatTexture(frame_textures[k], size);
+      allocateFloatTexture(slot.frame_textures[k], size);
       attachments[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
-      gl.FramebufferTexture2D(GL_FRAMEBUFFER, attachments[k], GL_TEXTURE_2D, frame_textures[k], 0);
+      gl.FramebufferTexture2D(GL_FRAMEBUFFER, attachments[k], GL_TEXTURE_2D, slot.frame_textures[k], 0);
     }
     gl.DrawBuffers(kFrameParts, attachments);
     checkFramebuffer(size);
-    for (auto [framebuffer, texture] : {std::pair{high_normal_framebuffer, high_normal_texture},
-                                        std::pair{target_framebuffer, target_texture}}) {
+    for (auto [framebuffer, texture] : {std::pair{slot.high_normal_framebuffer, slot.high_normal_texture},
+                                        std::pair{slot.target_framebuffer, slot.target_texture}}) {
       gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
       allocateFloatTexture(texture, size);
       gl.FramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, texture, 0);
       checkFramebuffer(size);
     }
-    target_size = size;
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);
+    gl.BufferData(GL_PIXEL_PACK_BUFFER, readBackBytes(size), nullptr, GL_STREAM_READ);
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    slot.size = size;
   }
 
   // `interleaved` as float attributes: `layout` lists each attribute's width.
@@ -208,13 +246,20 @@ struct GlBaker::Impl {
     }
   }
 
-  void uploadHighRes(const mesh::HighResMesh& high) {
-    interleaved.clear();
-    for (std::size_t i = 0; i < high.uv.size(); ++i) {
-      interleaved.insert(interleaved.end(), {high.uv[i].x, high.uv[i].y, high.normal[i].x, high.normal[i].y,
-                                             high.normal[i].z});
+  void uploadHighRes(Slot& slot, const mesh::HighResMesh& high) {
+    if (high.uv != uploaded_uv) {
+      gl.BindBuffer(GL_ARRAY_BUFFER, high_uv);
+      gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(high.uv.size() * sizeof(glm::vec2)), high.uv.data(), GL_STATIC_DRAW);
+      uploaded_uv = high.uv;
     }
-    uploadVertices(high_vao, high_vertices, {2, 3});
+    gl.BindVertexArray(slot.high_vao);
+    gl.BindBuffer(GL_ARRAY_BUFFER, high_uv);
+    gl.VertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
+    gl.EnableVertexAttribArray(0);
+    slot.high_normals.upload(gl, GL_ARRAY_BUFFER, GLsizeiptr(high.normal.size() * sizeof(glm::vec3)),
+                             high.normal.data());
+    gl.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
+    gl.EnableVertexAttribArray(1);
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, high_indices);
     if (high.cols != index_cols || high.rows != index_rows) {
       const auto indices = mesh::gridIndices(high.cols, high.rows);
@@ -226,75 +271,132 @@ struct GlBaker::Impl {
     }
   }
 
-  void uploadLowPoly(const mesh::TriangleMesh& low) {
+  void uploadLowPoly(Slot& slot, const mesh::TriangleMesh& low) {
     interleaved.clear();
     for (std::size_t i = 0; i < low.uv.size(); ++i) {
       const glm::vec3& n = low.normal[i];
       const glm::vec4& t = low.tangent[i];
       interleaved.insert(interleaved.end(), {low.uv[i].x, low.uv[i].y, n.x, n.y, n.z, t.x, t.y, t.z, t.w});
     }
-    uploadVertices(low_vao, low_vertices, {2, 3, 4});
-    low_indices.upload(gl, GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(low.indices.size() * sizeof(std::uint32_t)),
-                       low.indices.data());
-    low_index_count = GLsizei(low.indices.size());
+    uploadVertices(slot.low_vao, slot.low_vertices, {2, 3, 4});
+    slot.low_indices.upload(gl, GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(low.indices.size() * sizeof(std::uint32_t)),
+                            low.indices.data());
+    slot.low_index_count = GLsizei(low.indices.size());
+  }
+
+  // Queues the three passes and the read back of one tile; returns without
+  // waiting for the GPU.
+  void submit(Slot& slot, const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
+    // An earlier tile that failed half way may have left its error behind.
+    while (gl.GetError() != GL_NO_ERROR) {
+    }
+    prepareTargets(slot, size);
+    uploadLowPoly(slot, low);
+    uploadHighRes(slot, high);
+    gl.Viewport(0, 0, size, size);
+    gl.Disable(GL_DEPTH_TEST);
+    gl.Disable(GL_CULL_FACE);  // UV-space triangles may face either way
+    gl.ClearColor(0, 0, 0, 0);
+
+    // Pass 1: the low-poly frame at every texel.
+    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.frame_framebuffer);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
+    gl.UseProgram(frame_program);
+    gl.BindVertexArray(slot.low_vao);
+    gl.DrawElements(GL_TRIANGLES, slot.low_index_count, GL_UNSIGNED_INT, nullptr);
+
+    // Pass 2: the high-res normal at every texel.
+    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.high_normal_framebuffer);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
+    gl.UseProgram(bake_program);
+    gl.BindVertexArray(slot.high_vao);
+    gl.DrawElements(GL_TRIANGLES, high_index_count, GL_UNSIGNED_INT, nullptr);
+
+    // Pass 3: that normal in the low-poly frame, once per texel.
+    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.target_framebuffer);
+    gl.UseProgram(tangent_space_program);
+    gl.ActiveTexture(GLenum(GL_TEXTURE0 + kHighNormalUnit));
+    gl.BindTexture(GL_TEXTURE_2D, slot.high_normal_texture);
+    for (int k = 0; k < kFrameParts; ++k) {
+      gl.ActiveTexture(GLenum(GL_TEXTURE0 + kFirstFrameUnit + k));
+      gl.BindTexture(GL_TEXTURE_2D, slot.frame_textures[k]);
+    }
+    gl.BindVertexArray(no_vertices_vao);
+    gl.DrawArrays(GL_TRIANGLES, 0, 3);
+
+    // Into the slot's pack buffer: glReadPixels returns at once.
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);
+    gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
+    gl.ReadPixels(0, 0, size, size, GL_RGB, GL_FLOAT, nullptr);
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    slot.done = gl.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    gl.Flush();  // start the GPU on it now, not when the next tile is collected
+    checkError("bake");
+  }
+
+  // Waits for the slot's tile and frees the slot.
+  bake::NormalMap collect(Slot& slot) {
+    const auto deadline = std::chrono::steady_clock::now() + kGpuStallLimit;
+    constexpr GLuint64 kPollNs = 100'000'000;  // wake now and then to check the deadline
+    for (;;) {
+      const GLenum state = gl.ClientWaitSync(slot.done, GL_SYNC_FLUSH_COMMANDS_BIT, kPollNs);
+      if (state == GL_ALREADY_SIGNALED || state == GL_CONDITION_SATISFIED) break;
+      if (state == GL_WAIT_FAILED) {
+        checkError("waiting for a bake");
+        throw InputError("gl: waiting for a bake failed");
+      }
+      if (std::chrono::steady_clock::now() > deadline) {
+        throw InputError("gl: the GPU did not finish a bake within " + std::to_string(kGpuStallLimit.count()) + " s");
+      }
+    }
+    gl.DeleteSync(slot.done);
+    slot.done = nullptr;
+
+    const int size = slot.size;
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);
+    const auto* rgb = static_cast<const glm::vec3*>(
+        gl.MapBufferRange(GL_PIXEL_PACK_BUFFER, 0, readBackBytes(size), GL_MAP_READ_BIT));
+    if (!rgb) {
+      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+      checkError("mapping the read back");
+      throw InputError("gl: mapping the read back failed");
+    }
+    bake::NormalMap map;
+    map.size = size;
+    map.texels.assign(rgb, rgb + std::size_t(size) * size);
+    gl.UnmapBuffer(GL_PIXEL_PACK_BUFFER);
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    checkError("read back");
+    return map;
   }
 };
 
-GlBaker::GlBaker(std::unique_ptr<Context> context) : m_impl(std::make_unique<Impl>(std::move(context))) {}
+GlBaker::GlBaker(std::unique_ptr<Context> context, int in_flight)
+    : m_impl(std::make_unique<Impl>(std::move(context), in_flight)) {}
 GlBaker::~GlBaker() = default;
 
 std::string GlBaker::description() const { return m_impl->description; }
 
-bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
+int GlBaker::inFlightLimit() const { return int(m_impl->slots.size()); }
+
+GlBaker::Ticket GlBaker::submit(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   Impl& s = *m_impl;
-  const Functions& gl = s.gl;
-  s.prepareTargets(size);
-  s.uploadLowPoly(low);
-  s.uploadHighRes(high);
-  gl.Viewport(0, 0, size, size);
-  gl.Disable(GL_DEPTH_TEST);
-  gl.Disable(GL_CULL_FACE);  // UV-space triangles may face either way
-  gl.ClearColor(0, 0, 0, 0);
-
-  // Pass 1: the low-poly frame at every texel.
-  gl.BindFramebuffer(GL_FRAMEBUFFER, s.frame_framebuffer);
-  gl.Clear(GL_COLOR_BUFFER_BIT);
-  gl.UseProgram(s.frame_program);
-  gl.BindVertexArray(s.low_vao);
-  gl.DrawElements(GL_TRIANGLES, s.low_index_count, GL_UNSIGNED_INT, nullptr);
-
-  // Pass 2: the high-res normal at every texel.
-  gl.BindFramebuffer(GL_FRAMEBUFFER, s.high_normal_framebuffer);
-  gl.Clear(GL_COLOR_BUFFER_BIT);
-  gl.UseProgram(s.bake_program);
-  gl.BindVertexArray(s.high_vao);
-  gl.DrawElements(GL_TRIANGLES, s.high_index_count, GL_UNSIGNED_INT, nullptr);
-
-  // Pass 3: that normal in the low-poly frame, once per texel.
-  gl.BindFramebuffer(GL_FRAMEBUFFER, s.target_framebuffer);
-  gl.UseProgram(s.tangent_space_program);
-  gl.ActiveTexture(GLenum(GL_TEXTURE0 + kHighNormalUnit));
-  gl.BindTexture(GL_TEXTURE_2D, s.high_normal_texture);
-  for (int k = 0; k < kFrameParts; ++k) {
-    gl.ActiveTexture(GLenum(GL_TEXTURE0 + kFirstFrameUnit + k));
-    gl.BindTexture(GL_TEXTURE_2D, s.frame_textures[k]);
+  for (std::size_t k = 0; k < s.slots.size(); ++k) {
+    if (s.slots[k].done) continue;
+    s.submit(s.slots[k], high, low, size);
+    return Ticket(k);
   }
-  gl.BindVertexArray(s.no_vertices_vao);
-  gl.DrawArrays(GL_TRIANGLES, 0, 3);
+  throw std::logic_error("GlBaker::submit: every slot holds a tile that was not collected");
+}
 
-  std::vector<float>& rgba = s.read_back;
-  rgba.resize(std::size_t(size) * size * 4);
-  gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
-  gl.ReadPixels(0, 0, size, size, GL_RGBA, GL_FLOAT, rgba.data());
-  s.checkError("bake");
+bake::NormalMap GlBaker::collect(Ticket ticket) {
+  Slot& slot = m_impl->slots.at(std::size_t(ticket));
+  if (!slot.done) throw std::logic_error("GlBaker::collect: no tile in that slot");
+  return m_impl->collect(slot);
+}
 
-  bake::NormalMap map;
-  map.size = size;
-  map.texels.resize(std::size_t(size) * size);
-  for (std::size_t k = 0; k < map.texels.size(); ++k) {
-    map.texels[k] = glm::vec3(rgba[4 * k], rgba[4 * k + 1], rgba[4 * k + 2]);
-  }
-  return map;
+bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
+  return collect(submit(high, low, size));
 }
 
 }  // namespace terrabake::gl

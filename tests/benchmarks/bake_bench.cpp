@@ -19,6 +19,7 @@
 #include <optional>
 #include <stdexcept>
 #include <string>
+#include <thread>
 #include <utility>
 #include <vector>
 
@@ -312,6 +313,29 @@ void benchWholeTile(benchmark::State& state, BackendCase backend) {
   state.counters["tiles_cycled"] = double(data.tiles.size());
 }
 
+// Bake alone, as a job's workers bake: each benchmark thread has the baker
+// createBaker gives a worker (on a hardware GPU, a handle on the one shared
+// context), and items/s counts tiles of all threads together.
+void benchBakeThroughput(benchmark::State& state, BackendCase backend) {
+  // The benchmark's first thread is the main one: the GL user made there for
+  // earlier cases goes before this case's bakers make their contexts current.
+  if (state.thread_index() == 0) releaseGlUser();
+  std::unique_ptr<bake::Baker> baker;
+  try {
+    baker = gl::createBaker(backend.backend);
+  } catch (const std::exception& e) {
+    state.SkipWithError(e.what());
+    return;
+  }
+  const SyntheticTile& tile = benchData().synthetic.at(kTileSize);
+  benchmark::DoNotOptimize(baker->bake(tile.high, tile.low, kTileSize));  // untimed: first draw
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(baker->bake(tile.high, tile.low, kTileSize));
+  }
+  state.SetItemsProcessed(state.iterations());
+  state.SetLabel(baker->description());
+}
+
 void registerBenchmarks() {
   // Real time throughout: llvmpipe renders on its own threads, and the table
   // compares every row on the same clock.
@@ -358,6 +382,16 @@ void registerBenchmarks() {
   for (const BackendCase& backend : kBackends) {
     benchmark::RegisterBenchmark((std::string("BM_WholeTile/") + backend.name).c_str(), benchWholeTile, backend)
         ->MinTime(kWholeTileMinTimeS)
+        ->Unit(benchmark::kMillisecond)
+        ->UseRealTime();
+  }
+  // Last: its first thread releases the GL user the cases above share.
+  const int cores = int(std::max(2u, std::thread::hardware_concurrency()));
+  for (const BackendCase& backend : kBackends) {
+    benchmark::RegisterBenchmark((std::string("BM_BakeThroughput/") + backend.name).c_str(), benchBakeThroughput,
+                                 backend)
+        ->Threads(1)
+        ->Threads(cores)
         ->Unit(benchmark::kMillisecond)
         ->UseRealTime();
   }
