@@ -69,11 +69,15 @@ TEST(HighResMesh, OneVertexPerSampleCoveringTheTile) {
   const auto mesh = mesh::buildHighResMesh(samples);
   EXPECT_EQ(mesh.cols, 66);
   EXPECT_EQ(mesh.rows, 66);
+  EXPECT_EQ(mesh.normal.size(), std::size_t(66 * 66));
+  const std::vector<glm::vec2> uv = mesh::highResUvs(mesh.cols, mesh.rows);
+  ASSERT_EQ(uv.size(), mesh.normal.size());
   // First and last vertices lie half a texel beyond the tile edges.
-  EXPECT_FLOAT_EQ(mesh.uv.front().x, -0.5f / 64);
-  EXPECT_FLOAT_EQ(mesh.uv.back().y, 1 + 0.5f / 64);
-  // Vertex (1, 1) is texel (0, 0)'s centre.
-  EXPECT_EQ(mesh.uv[66 + 1], glm::vec2(0.5f / 64, 0.5f / 64));
+  EXPECT_FLOAT_EQ(uv.front().x, -0.5f / 64);
+  EXPECT_FLOAT_EQ(uv.back().y, 1 + 0.5f / 64);
+  // Vertex (1, 1) is texel (0, 0)'s centre; vertex (2, 1) the next one east.
+  EXPECT_EQ(uv[66 + 1], glm::vec2(0.5f / 64, 0.5f / 64));
+  EXPECT_EQ(uv[66 + 2], glm::vec2(1.5f / 64, 0.5f / 64));
 }
 
 TEST(HighResMesh, NormalsMatchTheAnalyticSlope) {

@@ -113,12 +113,11 @@ struct GlBaker::Impl {
   // size, so they are uploaded once and shared by the slots; a tile uploads
   // its normals only.
   GLuint high_uv = 0, high_indices = 0;
-  std::vector<glm::vec2> uploaded_uv;
   GLuint no_vertices_vao = 0;  // the third pass makes its triangle from gl_VertexID
   std::vector<Slot> slots;
   // Kept from tile to tile, for the same reason as the buffers.
   std::vector<float> interleaved;
-  int index_cols = 0, index_rows = 0;  // grid the high-res index buffer was built for
+  int grid_cols = 0, grid_rows = 0;  // grid the high-res UVs and indices were uploaded for
   GLsizei high_index_count = 0;
 
   Impl(std::unique_ptr<Context> ctx, int in_flight)
@@ -247,12 +246,20 @@ struct GlBaker::Impl {
   }
 
   void uploadHighRes(Slot& slot, const mesh::HighResMesh& high) {
-    if (high.uv != uploaded_uv) {
-      gl.BindBuffer(GL_ARRAY_BUFFER, high_uv);
-      gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(high.uv.size() * sizeof(glm::vec2)), high.uv.data(), GL_STATIC_DRAW);
-      uploaded_uv = high.uv;
-    }
+    // First: the element array binding below belongs to the bound vertex array.
     gl.BindVertexArray(slot.high_vao);
+    if (high.cols != grid_cols || high.rows != grid_rows) {
+      const std::vector<glm::vec2> uv = mesh::highResUvs(high.cols, high.rows);
+      gl.BindBuffer(GL_ARRAY_BUFFER, high_uv);
+      gl.BufferData(GL_ARRAY_BUFFER, GLsizeiptr(uv.size() * sizeof(glm::vec2)), uv.data(), GL_STATIC_DRAW);
+      const auto indices = mesh::gridIndices(high.cols, high.rows);
+      gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, high_indices);
+      gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(std::uint32_t)), indices.data(),
+                    GL_STATIC_DRAW);
+      grid_cols = high.cols;
+      grid_rows = high.rows;
+      high_index_count = GLsizei(indices.size());
+    }
     gl.BindBuffer(GL_ARRAY_BUFFER, high_uv);
     gl.VertexAttribPointer(0, 2, GL_FLOAT, GL_FALSE, 0, nullptr);
     gl.EnableVertexAttribArray(0);
@@ -261,14 +268,6 @@ struct GlBaker::Impl {
     gl.VertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 0, nullptr);
     gl.EnableVertexAttribArray(1);
     gl.BindBuffer(GL_ELEMENT_ARRAY_BUFFER, high_indices);
-    if (high.cols != index_cols || high.rows != index_rows) {
-      const auto indices = mesh::gridIndices(high.cols, high.rows);
-      gl.BufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(indices.size() * sizeof(std::uint32_t)), indices.data(),
-                    GL_STATIC_DRAW);
-      index_cols = high.cols;
-      index_rows = high.rows;
-      high_index_count = GLsizei(indices.size());
-    }
   }
 
   void uploadLowPoly(Slot& slot, const mesh::TriangleMesh& low) {

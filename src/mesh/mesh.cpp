@@ -142,12 +142,7 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   // Vertices for texel indices -1 .. s: one beyond each edge covers the tile.
   mesh.cols = s + 2;
   mesh.rows = s + 2;
-  const std::size_t count = std::size_t(mesh.cols) * mesh.rows;
-  mesh.uv.reserve(count);
-  mesh.normal.resize(count);
-  // The UV of texel centre k along either axis, for k = -1 .. s.
-  std::vector<float> centre_uv;
-  for (int k = -1; k <= s; ++k) centre_uv.push_back(float((k + 0.5) / s));
+  mesh.normal.resize(std::size_t(mesh.cols) * mesh.rows);
   // Rows of samples that are all the DEM's (the vertices' rows and one
   // either side lie inside the apron).
   std::vector<std::uint8_t> all_dem(std::size_t(p.height), 1);
@@ -158,7 +153,6 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
     }
   }
   for (int j = -1; j <= s; ++j) {
-    for (int i = -1; i <= s; ++i) mesh.uv.emplace_back(centre_uv[std::size_t(i + 1)], centre_uv[std::size_t(j + 1)]);
     // Two normals at a time; an odd row's last pair is one sample twice.
     glm::vec3* normals = &mesh.normal[std::size_t(j + 1) * std::size_t(mesh.cols)];
     const std::size_t r = std::size_t(a + j);
@@ -169,6 +163,18 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
     }
   }
   return mesh;
+}
+
+std::vector<glm::vec2> highResUvs(int cols, int rows) {
+  const int s = cols - 2;
+  // The UV of texel centre k along an axis, for k = -1 .. s.
+  auto centre = [s](int vertex) { return float((vertex - 1 + 0.5) / s); };
+  std::vector<glm::vec2> uv;
+  uv.reserve(std::size_t(cols) * std::size_t(rows));
+  for (int j = 0; j < rows; ++j) {
+    for (int i = 0; i < cols; ++i) uv.emplace_back(centre(i), centre(j));
+  }
+  return uv;
 }
 
 TriangleMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {

@@ -31,12 +31,12 @@ struct SampleGrid {
 // triangles (NW, SW, SE) and (NW, SE, NE), counter-clockwise seen from above.
 // The grid runs one sample beyond each tile edge so that it covers the whole
 // tile in UV space; apron vertices have UVs outside [0, 1]. A bake needs
-// only where each vertex lies in UV space and its normal: the positions stay
-// in the SampleGrid the mesh is built from.
+// only where each vertex lies in UV space, which the grid alone fixes
+// (highResUvs), and its normal: the positions stay in the SampleGrid the
+// mesh is built from.
 struct HighResMesh {
   int cols = 0;
   int rows = 0;
-  std::vector<glm::vec2> uv;
   std::vector<glm::vec3> normal;  // unit, smooth: central differences, one-sided at the DEM's edge
 };
 
@@ -69,6 +69,11 @@ struct TrianglePoint {
 
 // Indices of a row-major grid of cols x rows vertices, split as above.
 std::vector<std::uint32_t> gridIndices(int cols, int rows);
+
+// The UV of each vertex of a HighResMesh of cols x rows vertices: vertex
+// (i, j) lies at the centre of texel (i - 1, j - 1) of a tile of cols - 2
+// texels, row-major like the mesh. The same for every tile of a size.
+std::vector<glm::vec2> highResUvs(int cols, int rows);
 
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
 // three for the high-res normals up to the first sample beyond the edge (a
