@@ -1,5 +1,6 @@
-// Tiles in flight give what one tile at a time gives: GlBaker's submit and
-// collect, and the service that many workers share on a hardware GPU. These
+// Tiles in flight give what one tile at a time gives: GlBaker's submit,
+// mapResult and releaseResult, and the service that many workers share on a
+// hardware GPU. These
 // run on whatever context the machine has (OSMesa here), since the service
 // does not depend on the renderer.
 #include <gtest/gtest.h>
@@ -79,6 +80,20 @@ TEST(GlBakerInFlight, TilesCollectedInAnyOrderMatchOneAtATime) {
     EXPECT_TRUE(identical(baker.collect(tickets[std::size_t(k)]), one_at_a_time[std::size_t(k)])) << "tile " << k;
   }
   EXPECT_THROW(baker.collect(tickets[0]), std::logic_error);
+}
+
+TEST(GlBakerInFlight, AMappedTileKeepsItsSlotUntilReleased) {
+  TERRABAKE_CONTEXT_OR_SKIP(context);
+  gl::GlBaker baker(std::move(context), 1);
+  const TileMeshes t = tile(1);
+  const bake::NormalMap expected = baker.bake(t.high, t.low, t.size);
+  const gl::GlBaker::Ticket ticket = baker.submit(t.high, t.low, t.size);
+  const gl::GlBaker::Result result = baker.mapResult(ticket);
+  EXPECT_THROW(baker.submit(t.high, t.low, t.size), std::logic_error);
+  EXPECT_TRUE(identical(result.copy(), expected));
+  baker.releaseResult(ticket);
+  EXPECT_THROW(baker.releaseResult(ticket), std::logic_error);
+  EXPECT_TRUE(identical(baker.collect(baker.submit(t.high, t.low, t.size)), expected));
 }
 
 TEST(GpuBakeService, WorkersSharingOneContextGetTheirOwnTiles) {

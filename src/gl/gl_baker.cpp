@@ -75,7 +75,7 @@ struct StreamBuffer {
   }
 };
 
-// How long collect() waits for the GPU before it gives up on a tile: a bake
+// How long mapResult() waits for the GPU before it gives up on a tile: a bake
 // takes milliseconds, so this is a driver or device that stopped answering.
 constexpr std::chrono::seconds kGpuStallLimit{60};
 
@@ -101,7 +101,9 @@ struct Slot {
   GLuint target_texture = 0, target_framebuffer = 0;
   GLuint read_back_buffer = 0;  // pixel pack buffer: reading back need not wait for the GPU
   int size = 0;                 // size of the textures, 0 = none yet
-  GLsync done = nullptr;        // signalled when the read back has landed; null = slot free
+  GLsync done = nullptr;        // signalled when the read back has landed
+  bool mapped = false;          // the read back is mapped for a caller to copy
+  bool taken() const { return done || mapped; }
 };
 
 struct GlBaker::Impl {
@@ -333,40 +335,42 @@ struct GlBaker::Impl {
     checkError("bake");
   }
 
-  // Waits for the slot's tile and frees the slot.
-  bake::NormalMap collect(Slot& slot) {
+  // Waits for the slot's tile and maps its read back; on failure frees the
+  // slot and throws.
+  const glm::vec3* mapResult(Slot& slot) {
     const auto deadline = std::chrono::steady_clock::now() + kGpuStallLimit;
     constexpr GLuint64 kPollNs = 100'000'000;  // wake now and then to check the deadline
-    for (;;) {
-      const GLenum state = gl.ClientWaitSync(slot.done, GL_SYNC_FLUSH_COMMANDS_BIT, kPollNs);
-      if (state == GL_ALREADY_SIGNALED || state == GL_CONDITION_SATISFIED) break;
-      if (state == GL_WAIT_FAILED) {
-        checkError("waiting for a bake");
-        throw InputError("gl: waiting for a bake failed");
-      }
-      if (std::chrono::steady_clock::now() > deadline) {
-        throw InputError("gl: the GPU did not finish a bake within " + std::to_string(kGpuStallLimit.count()) + " s");
-      }
+    GLenum state = GL_TIMEOUT_EXPIRED;
+    while (state == GL_TIMEOUT_EXPIRED && std::chrono::steady_clock::now() < deadline) {
+      state = gl.ClientWaitSync(slot.done, GL_SYNC_FLUSH_COMMANDS_BIT, kPollNs);
     }
     gl.DeleteSync(slot.done);
     slot.done = nullptr;
-
-    const int size = slot.size;
+    if (state == GL_TIMEOUT_EXPIRED) {
+      throw InputError("gl: the GPU did not finish a bake within " + std::to_string(kGpuStallLimit.count()) + " s");
+    }
+    if (state == GL_WAIT_FAILED) {
+      checkError("waiting for a bake");
+      throw InputError("gl: waiting for a bake failed");
+    }
     gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);
-    const auto* rgb = static_cast<const glm::vec3*>(
-        gl.MapBufferRange(GL_PIXEL_PACK_BUFFER, 0, readBackBytes(size), GL_MAP_READ_BIT));
-    if (!rgb) {
-      gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    const auto* texels = static_cast<const glm::vec3*>(
+        gl.MapBufferRange(GL_PIXEL_PACK_BUFFER, 0, readBackBytes(slot.size), GL_MAP_READ_BIT));
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    if (!texels) {
       checkError("mapping the read back");
       throw InputError("gl: mapping the read back failed");
     }
-    bake::NormalMap map;
-    map.size = size;
-    map.texels.assign(rgb, rgb + std::size_t(size) * size);
+    slot.mapped = true;
+    return texels;
+  }
+
+  void releaseResult(Slot& slot) {
+    gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);
     gl.UnmapBuffer(GL_PIXEL_PACK_BUFFER);
     gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
+    slot.mapped = false;
     checkError("read back");
-    return map;
   }
 };
 
@@ -381,21 +385,41 @@ int GlBaker::inFlightLimit() const { return int(m_impl->slots.size()); }
 GlBaker::Ticket GlBaker::submit(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   Impl& s = *m_impl;
   for (std::size_t k = 0; k < s.slots.size(); ++k) {
-    if (s.slots[k].done) continue;
+    if (s.slots[k].taken()) continue;
     s.submit(s.slots[k], high, low, size);
     return Ticket(k);
   }
-  throw std::logic_error("GlBaker::submit: every slot holds a tile that was not collected");
+  throw std::logic_error("GlBaker::submit: every slot holds a tile that was not released");
+}
+
+GlBaker::Result GlBaker::mapResult(Ticket ticket) {
+  Slot& slot = m_impl->slots.at(std::size_t(ticket));
+  if (!slot.done) throw std::logic_error("GlBaker::mapResult: no tile drawing in that slot");
+  return {m_impl->mapResult(slot), slot.size};
+}
+
+void GlBaker::releaseResult(Ticket ticket) {
+  Slot& slot = m_impl->slots.at(std::size_t(ticket));
+  if (!slot.mapped) throw std::logic_error("GlBaker::releaseResult: no mapped tile in that slot");
+  m_impl->releaseResult(slot);
 }
 
 bake::NormalMap GlBaker::collect(Ticket ticket) {
-  Slot& slot = m_impl->slots.at(std::size_t(ticket));
-  if (!slot.done) throw std::logic_error("GlBaker::collect: no tile in that slot");
-  return m_impl->collect(slot);
+  const Result result = mapResult(ticket);
+  bake::NormalMap map = result.copy();
+  releaseResult(ticket);
+  return map;
 }
 
 bake::NormalMap GlBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   return collect(submit(high, low, size));
+}
+
+bake::NormalMap GlBaker::Result::copy() const {
+  bake::NormalMap map;
+  map.size = size;
+  map.texels.assign(texels, texels + std::size_t(size) * std::size_t(size));
+  return map;
 }
 
 }  // namespace terrabake::gl

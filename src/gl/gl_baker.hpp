@@ -23,9 +23,22 @@ class GlBaker : public bake::Baker {
   using Ticket = int;
   int inFlightLimit() const;
   // Queues a tile's bake and returns at once; at most inFlightLimit() tiles
-  // may be submitted and not yet collected. The meshes are copied.
+  // may be submitted and not yet released. The meshes are copied.
   Ticket submit(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size);
-  // Waits for that tile's map. Tickets may be collected in any order.
+
+  // A finished tile's normals, mapped from GL memory: any thread may read
+  // them until releaseResult().
+  struct Result {
+    const glm::vec3* texels;  // size x size, row 0 at v = 0
+    int size;
+    bake::NormalMap copy() const;
+  };
+  // Waits for that tile. Tickets may be mapped in any order. When the bake
+  // failed, frees its slot and throws.
+  Result mapResult(Ticket ticket);
+  // Frees the tile's slot; its Result is no longer readable.
+  void releaseResult(Ticket ticket);
+  // mapResult, copy, releaseResult.
   bake::NormalMap collect(Ticket ticket);
 
  private:

@@ -14,11 +14,18 @@
 namespace terrabake::gl {
 namespace {
 
+// A finished tile, mapped for its caller to copy; the slot stays taken
+// until the caller hands the ticket back.
+struct Mapped {
+  GlBaker::Result result;
+  GlBaker::Ticket ticket;
+};
+
 struct Job {
   const mesh::HighResMesh* high;
   const mesh::TriangleMesh* low;
   int size;
-  std::promise<bake::NormalMap> result;
+  std::promise<Mapped> result;
 };
 
 class ServiceBaker : public bake::Baker {
@@ -41,37 +48,61 @@ struct GpuBakeService::State {
   // Shared with the caller, who waits on the job's result: whichever side
   // lets go last frees it.
   std::deque<std::shared_ptr<Job>> queue;
+  std::vector<GlBaker::Ticket> to_release;  // copied by their callers
   bool stopping = false;
   std::string description;
   std::thread thread;
 
-  // The service thread: keeps up to the baker's limit of tiles on the GPU,
-  // and collects the oldest when no slot is free or no tile is queued.
+  // The service thread keeps up to the baker's limit of tiles on the GPU and
+  // maps the oldest when it has nothing to submit. Callers copy their tiles
+  // out of GL memory on their own threads, so this thread only issues GL
+  // calls.
   void run(GlBaker& baker) {
-    std::deque<std::pair<std::shared_ptr<Job>, GlBaker::Ticket>> in_flight;
+    std::deque<std::pair<std::shared_ptr<Job>, GlBaker::Ticket>> drawing;
+    std::size_t mapped = 0;  // slots whose callers are copying
+    const auto limit = std::size_t(baker.inFlightLimit());
     for (;;) {
       std::vector<std::shared_ptr<Job>> taken;
+      std::vector<GlBaker::Ticket> released;
       {
         std::unique_lock lock(mutex);
-        if (in_flight.empty()) wake.wait(lock, [&] { return stopping || !queue.empty(); });
-        if (in_flight.empty() && queue.empty()) return;  // stopping, nothing left
-        while (!queue.empty() && int(in_flight.size() + taken.size()) < baker.inFlightLimit()) {
-          taken.push_back(queue.front());
+        if (drawing.empty()) {
+          wake.wait(lock, [&] {
+            return !to_release.empty() || (!queue.empty() && mapped < limit) ||
+                   (stopping && queue.empty() && mapped == 0);
+          });
+        }
+        released.swap(to_release);
+        std::size_t free = limit - drawing.size() - (mapped - released.size());
+        for (; free > 0 && !queue.empty(); --free) {
+          taken.push_back(std::move(queue.front()));
           queue.pop_front();
         }
+        if (stopping && taken.empty() && drawing.empty() && mapped == released.size() && queue.empty()) return;
       }
+      for (GlBaker::Ticket ticket : released) {
+        try {
+          baker.releaseResult(ticket);
+        } catch (const std::exception&) {
+          // The tile was copied already; the next submit starts from a clean
+          // GL error state.
+        }
+      }
+      mapped -= released.size();
       for (std::shared_ptr<Job>& job : taken) {
         try {
-          in_flight.emplace_back(job, baker.submit(*job->high, *job->low, job->size));
+          drawing.emplace_back(job, baker.submit(*job->high, *job->low, job->size));
         } catch (...) {
           job->result.set_exception(std::current_exception());
         }
       }
-      if (in_flight.empty()) continue;
-      auto [job, ticket] = in_flight.front();
-      in_flight.pop_front();
+      if (drawing.empty()) continue;
+      auto [job, ticket] = drawing.front();
+      drawing.pop_front();
       try {
-        job->result.set_value(baker.collect(ticket));
+        const GlBaker::Result result = baker.mapResult(ticket);
+        ++mapped;
+        job->result.set_value({result, ticket});
       } catch (...) {
         job->result.set_exception(std::current_exception());
       }
@@ -115,13 +146,26 @@ GpuBakeService::~GpuBakeService() {
 
 bake::NormalMap GpuBakeService::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   auto job = std::make_shared<Job>(Job{&high, &low, size, {}});
-  std::future<bake::NormalMap> result = job->result.get_future();
+  std::future<Mapped> result = job->result.get_future();
   {
     std::lock_guard lock(m_state->mutex);
     m_state->queue.push_back(std::move(job));
   }
   m_state->wake.notify_one();
-  return result.get();
+  const Mapped mapped = result.get();
+  // Hands the slot back however the copy ends.
+  struct Release {
+    State& state;
+    GlBaker::Ticket ticket;
+    ~Release() {
+      {
+        std::lock_guard lock(state.mutex);
+        state.to_release.push_back(ticket);
+      }
+      state.wake.notify_one();
+    }
+  } release{*m_state, mapped.ticket};
+  return mapped.result.copy();
 }
 
 std::string GpuBakeService::description() const {
