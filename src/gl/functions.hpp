@@ -15,7 +15,6 @@ namespace terrabake::gl {
   X(PFNGLCLEARCOLORPROC, ClearColor)                                \
   X(PFNGLCLEARPROC, Clear)                                          \
   X(PFNGLDISABLEPROC, Disable)                                      \
-  X(PFNGLFINISHPROC, Finish)                                        \
   X(PFNGLFLUSHPROC, Flush)                                          \
   X(PFNGLFENCESYNCPROC, FenceSync)                                  \
   X(PFNGLCLIENTWAITSYNCPROC, ClientWaitSync)                        \
@@ -50,7 +49,6 @@ namespace terrabake::gl {
   X(PFNGLUSEPROGRAMPROC, UseProgram)                                \
   X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                \
   X(PFNGLUNIFORM1IPROC, Uniform1i)                                  \
-  X(PFNGLDRAWBUFFERSPROC, DrawBuffers)                              \
   X(PFNGLGENVERTEXARRAYSPROC, GenVertexArrays)                      \
   X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)                \
   X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                      \
@@ -61,7 +59,6 @@ namespace terrabake::gl {
   X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                          \
   X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)              \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)      \
-  X(PFNGLDRAWARRAYSPROC, DrawArrays)                                \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)
 
 struct Functions {

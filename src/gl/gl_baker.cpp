@@ -50,12 +50,8 @@ GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* f
   return program;
 }
 
-// The low-poly frame, interpolated per texel by the first pass: normal,
-// tangent and bitangent, one float texture each.
-constexpr int kFrameParts = 3;
-// Texture units of the third pass: the high-res normals, then the frame.
+// Texture unit of the second pass's high-res normals.
 constexpr int kHighNormalUnit = 0;
-constexpr int kFirstFrameUnit = 1;
 
 // A buffer object whose storage is made again only when the data outgrows
 // it: re-specifying storage for every tile makes a software renderer map and
@@ -90,13 +86,12 @@ const Context& makeCurrent(Context& context) {
 
 }  // namespace
 
-// What one tile in flight needs of its own: its vertices, the three passes'
+// What one tile in flight needs of its own: its vertices, the two passes'
 // targets, and the buffer its result is read back into.
 struct Slot {
   GLuint high_vao = 0, low_vao = 0;
   StreamBuffer high_normals, low_vertices, low_indices;
   GLsizei low_index_count = 0;
-  GLuint frame_textures[kFrameParts] = {}, frame_framebuffer = 0;
   GLuint high_normal_texture = 0, high_normal_framebuffer = 0;
   GLuint target_texture = 0, target_framebuffer = 0;
   GLuint read_back_buffer = 0;  // pixel pack buffer: reading back need not wait for the GPU
@@ -110,12 +105,11 @@ struct GlBaker::Impl {
   std::unique_ptr<Context> context;
   Functions gl;
   std::string description;
-  GLuint frame_program = 0, bake_program = 0, tangent_space_program = 0;
+  GLuint bake_program = 0, tangent_space_program = 0;
   // The high-res grid's UVs and triangles are the same for every tile of a
   // size, so they are uploaded once and shared by the slots; a tile uploads
   // its normals only.
   GLuint high_uv = 0, high_indices = 0;
-  GLuint no_vertices_vao = 0;  // the third pass makes its triangle from gl_VertexID
   std::vector<Slot> slots;
   // Kept from tile to tile, for the same reason as the buffers.
   std::vector<float> interleaved;
@@ -129,16 +123,10 @@ struct GlBaker::Impl {
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");
     description = std::string("OpenGL ") + version + " (" + renderer + ") via " + context->apiName();
 
-    frame_program = linkProgram(gl, shaders::kFrameVertex, shaders::kFrameFragment);
     bake_program = linkProgram(gl, shaders::kBakeVertex, shaders::kBakeFragment);
     tangent_space_program = linkProgram(gl, shaders::kTangentSpaceVertex, shaders::kTangentSpaceFragment);
     gl.UseProgram(tangent_space_program);
     gl.Uniform1i(gl.GetUniformLocation(tangent_space_program, "u_high_normal"), kHighNormalUnit);
-    const char* frame_samplers[kFrameParts] = {"u_frame_normal", "u_frame_tangent", "u_frame_bitangent"};
-    for (int k = 0; k < kFrameParts; ++k) {
-      gl.Uniform1i(gl.GetUniformLocation(tangent_space_program, frame_samplers[k]), kFirstFrameUnit + k);
-    }
-    gl.GenVertexArrays(1, &no_vertices_vao);
     gl.GenBuffers(1, &high_uv);
     gl.GenBuffers(1, &high_indices);
     for (Slot& slot : slots) {
@@ -148,10 +136,8 @@ struct GlBaker::Impl {
       gl.GenBuffers(1, &slot.low_vertices.name);
       gl.GenBuffers(1, &slot.low_indices.name);
       gl.GenBuffers(1, &slot.read_back_buffer);
-      gl.GenTextures(kFrameParts, slot.frame_textures);
       gl.GenTextures(1, &slot.high_normal_texture);
       gl.GenTextures(1, &slot.target_texture);
-      gl.GenFramebuffers(1, &slot.frame_framebuffer);
       gl.GenFramebuffers(1, &slot.high_normal_framebuffer);
       gl.GenFramebuffers(1, &slot.target_framebuffer);
     }
@@ -162,10 +148,8 @@ struct GlBaker::Impl {
       if (slot.done) gl.DeleteSync(slot.done);
       gl.DeleteFramebuffers(1, &slot.target_framebuffer);
       gl.DeleteFramebuffers(1, &slot.high_normal_framebuffer);
-      gl.DeleteFramebuffers(1, &slot.frame_framebuffer);
       gl.DeleteTextures(1, &slot.target_texture);
       gl.DeleteTextures(1, &slot.high_normal_texture);
-      gl.DeleteTextures(kFrameParts, slot.frame_textures);
       gl.DeleteBuffers(1, &slot.read_back_buffer);
       gl.DeleteBuffers(1, &slot.low_indices.name);
       gl.DeleteBuffers(1, &slot.low_vertices.name);
@@ -175,10 +159,8 @@ struct GlBaker::Impl {
     }
     gl.DeleteBuffers(1, &high_indices);
     gl.DeleteBuffers(1, &high_uv);
-    gl.DeleteVertexArrays(1, &no_vertices_vao);
     gl.DeleteProgram(tangent_space_program);
     gl.DeleteProgram(bake_program);
-    gl.DeleteProgram(frame_program);
   }
 
   void checkError(const char* where) {
@@ -209,15 +191,6 @@ struct GlBaker::Impl {
 
   void prepareTargets(Slot& slot, int size) {
     if (size == slot.size) return;
-    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.frame_framebuffer);
-    GLenum attachments[kFrameParts];
-    for (int k = 0; k < kFrameParts; ++k) {
-      allocateFloatTexture(slot.frame_textures[k], size);
-      attachments[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
-      gl.FramebufferTexture2D(GL_FRAMEBUFFER, attachments[k], GL_TEXTURE_2D, slot.frame_textures[k], 0);
-    }
-    gl.DrawBuffers(kFrameParts, attachments);
-    checkFramebuffer(size);
     for (auto [framebuffer, texture] : {std::pair{slot.high_normal_framebuffer, slot.high_normal_texture},
                                         std::pair{slot.target_framebuffer, slot.target_texture}}) {
       gl.BindFramebuffer(GL_FRAMEBUFFER, framebuffer);
@@ -285,7 +258,7 @@ struct GlBaker::Impl {
     slot.low_index_count = GLsizei(low.indices.size());
   }
 
-  // Queues the three passes and the read back of one tile; returns without
+  // Queues the two passes and the read back of one tile; returns without
   // waiting for the GPU.
   void submit(Slot& slot, const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
     // An earlier tile that failed half way may have left its error behind.
@@ -299,31 +272,22 @@ struct GlBaker::Impl {
     gl.Disable(GL_CULL_FACE);  // UV-space triangles may face either way
     gl.ClearColor(0, 0, 0, 0);
 
-    // Pass 1: the low-poly frame at every texel.
-    gl.BindFramebuffer(GL_FRAMEBUFFER, slot.frame_framebuffer);
-    gl.Clear(GL_COLOR_BUFFER_BIT);
-    gl.UseProgram(frame_program);
-    gl.BindVertexArray(slot.low_vao);
-    gl.DrawElements(GL_TRIANGLES, slot.low_index_count, GL_UNSIGNED_INT, nullptr);
-
-    // Pass 2: the high-res normal at every texel.
+    // Pass 1: the high-res normal at every texel.
     gl.BindFramebuffer(GL_FRAMEBUFFER, slot.high_normal_framebuffer);
     gl.Clear(GL_COLOR_BUFFER_BIT);
     gl.UseProgram(bake_program);
     gl.BindVertexArray(slot.high_vao);
     gl.DrawElements(GL_TRIANGLES, high_index_count, GL_UNSIGNED_INT, nullptr);
 
-    // Pass 3: that normal in the low-poly frame, once per texel.
+    // Pass 2: the low-poly mesh, writing that normal in its frame at every
+    // texel it covers (all of them; cleared so none keeps an earlier tile).
     gl.BindFramebuffer(GL_FRAMEBUFFER, slot.target_framebuffer);
+    gl.Clear(GL_COLOR_BUFFER_BIT);
     gl.UseProgram(tangent_space_program);
     gl.ActiveTexture(GLenum(GL_TEXTURE0 + kHighNormalUnit));
     gl.BindTexture(GL_TEXTURE_2D, slot.high_normal_texture);
-    for (int k = 0; k < kFrameParts; ++k) {
-      gl.ActiveTexture(GLenum(GL_TEXTURE0 + kFirstFrameUnit + k));
-      gl.BindTexture(GL_TEXTURE_2D, slot.frame_textures[k]);
-    }
-    gl.BindVertexArray(no_vertices_vao);
-    gl.DrawArrays(GL_TRIANGLES, 0, 3);
+    gl.BindVertexArray(slot.low_vao);
+    gl.DrawElements(GL_TRIANGLES, slot.low_index_count, GL_UNSIGNED_INT, nullptr);
 
     // Into the slot's pack buffer: glReadPixels returns at once.
     gl.BindBuffer(GL_PIXEL_PACK_BUFFER, slot.read_back_buffer);

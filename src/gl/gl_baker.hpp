@@ -1,7 +1,7 @@
 #pragma once
 // The GPU bake: the high-res mesh is rasterised in UV space into a float
-// framebuffer, and a full-screen pass writes its normal in the low-poly
-// tangent space, which a first pass rasterised from the low-poly mesh.
+// framebuffer, then the low-poly mesh, whose fragments write that normal in
+// the low-poly tangent space interpolated over their triangle.
 // A GlBaker must be used on the thread that made it. bake() waits for its
 // tile; submit() and collect() keep up to `in_flight` tiles on the GPU at
 // once, so the caller can prepare the next while the GPU draws this one.

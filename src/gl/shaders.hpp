@@ -3,8 +3,6 @@
 namespace terrabake::gl::shaders {
 extern const char* const kBakeVertex;
 extern const char* const kBakeFragment;
-extern const char* const kFrameVertex;
-extern const char* const kFrameFragment;
 extern const char* const kTangentSpaceVertex;
 extern const char* const kTangentSpaceFragment;
 }  // namespace terrabake::gl::shaders
