@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # Builds terrabake_bench with the `bench` preset (Release, benchmarks on, in
 # build-bench/) and prints milliseconds per tile, each bake backend and the
-# double-precision reference against the CPU baker, and whole tiles per second.
+# double-precision reference against the CPU baker, whole tiles per second,
+# and bake throughput with one baking thread and with one per core.
 #
 #   tests/benchmarks/run_benchmarks.sh [build_dir] [benchmark options...]
 #
@@ -47,9 +48,11 @@ with open(sys.argv[1]) as f:
 to_ms = {"ns": 1e-6, "us": 1e-3, "ms": 1.0, "s": 1e3}
 
 def case_name(bench):
-    # Drop the settings Google Benchmark appends: /min_time:2.000, /real_time...
+    # Drop the settings Google Benchmark appends (/min_time:2.000, /real_time)
+    # but the thread count, which tells cases apart: /threads:16 -> /16 threads.
     parts = bench.get("run_name", bench["name"]).split("/")
-    return "/".join(p for p in parts if ":" not in p and p not in ("real_time", "manual_time"))
+    threads = [p.split(":")[1] + (" thread" if p == "threads:1" else " threads") for p in parts if p.startswith("threads:")]
+    return "/".join([p for p in parts if ":" not in p and p not in ("real_time", "manual_time")] + threads)
 
 # With repetitions the median stands for the case; otherwise its single run.
 medians = {case_name(b) for b in report["benchmarks"]
@@ -67,12 +70,14 @@ for b in report["benchmarks"]:
 def ms(bench):
     if bench is None or bench.get("error_occurred"):
         return None
+    if "items_per_second" in bench:  # threads baking together: wall time per tile of them all
+        return 1000 / bench["items_per_second"]
     return bench["real_time"] * to_ms[bench.get("time_unit", "ns")]
 
 def reference_of(name):
     # BM_Bake/osmesa/256 -> BM_Bake/cpu/256, BM_WholeTile/egl -> BM_WholeTile/cpu
     parts = name.split("/")
-    if parts[0] not in ("BM_Bake", "BM_WholeTile") or len(parts) < 2:
+    if parts[0] not in ("BM_Bake", "BM_WholeTile", "BM_BakeThroughput") or len(parts) < 2:
         return None
     return "/".join([parts[0], "cpu"] + parts[2:])
 
@@ -103,7 +108,7 @@ for name, bench in rows.items():
     if time_ms is None:
         table.append((name, "skipped", bench.get("error_message", "failed"), ""))
         continue
-    tiles_per_s = f"{1000 / time_ms:.1f}" if name.startswith("BM_WholeTile/") else ""
+    tiles_per_s = f"{1000 / time_ms:.1f}" if name.startswith(("BM_WholeTile/", "BM_BakeThroughput/")) else ""
     note = f"{bench['KiB']:.1f} KiB" if "KiB" in bench else versus_cpu(name, time_ms)
     table.append((name, fmt_ms(time_ms), note, tiles_per_s))
     if bench.get("label") and len(name.split("/")) > 1:
