@@ -1,6 +1,7 @@
 #include "gl/gl_baker.hpp"
 
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cstdio>
 #include <initializer_list>
@@ -99,6 +100,14 @@ struct Slot {
   GLsync done = nullptr;        // signalled when the read back has landed
   bool mapped = false;          // the read back is mapped for a caller to copy
   bool taken() const { return done || mapped; }
+
+  // The slot's GL names by kind, made and deleted together.
+  std::array<GLuint*, 2> vertexArrays() { return {&high_vao, &low_vao}; }
+  std::array<GLuint*, 4> buffers() {
+    return {&high_normals.name, &low_vertices.name, &low_indices.name, &read_back_buffer};
+  }
+  std::array<GLuint*, 2> textures() { return {&high_normal_texture, &target_texture}; }
+  std::array<GLuint*, 2> framebuffers() { return {&high_normal_framebuffer, &target_framebuffer}; }
 };
 
 struct GlBaker::Impl {
@@ -130,32 +139,20 @@ struct GlBaker::Impl {
     gl.GenBuffers(1, &high_uv);
     gl.GenBuffers(1, &high_indices);
     for (Slot& slot : slots) {
-      gl.GenVertexArrays(1, &slot.high_vao);
-      gl.GenVertexArrays(1, &slot.low_vao);
-      gl.GenBuffers(1, &slot.high_normals.name);
-      gl.GenBuffers(1, &slot.low_vertices.name);
-      gl.GenBuffers(1, &slot.low_indices.name);
-      gl.GenBuffers(1, &slot.read_back_buffer);
-      gl.GenTextures(1, &slot.high_normal_texture);
-      gl.GenTextures(1, &slot.target_texture);
-      gl.GenFramebuffers(1, &slot.high_normal_framebuffer);
-      gl.GenFramebuffers(1, &slot.target_framebuffer);
+      for (GLuint* name : slot.vertexArrays()) gl.GenVertexArrays(1, name);
+      for (GLuint* name : slot.buffers()) gl.GenBuffers(1, name);
+      for (GLuint* name : slot.textures()) gl.GenTextures(1, name);
+      for (GLuint* name : slot.framebuffers()) gl.GenFramebuffers(1, name);
     }
   }
 
   ~Impl() {
     for (Slot& slot : slots) {
-      if (slot.done) gl.DeleteSync(slot.done);
-      gl.DeleteFramebuffers(1, &slot.target_framebuffer);
-      gl.DeleteFramebuffers(1, &slot.high_normal_framebuffer);
-      gl.DeleteTextures(1, &slot.target_texture);
-      gl.DeleteTextures(1, &slot.high_normal_texture);
-      gl.DeleteBuffers(1, &slot.read_back_buffer);
-      gl.DeleteBuffers(1, &slot.low_indices.name);
-      gl.DeleteBuffers(1, &slot.low_vertices.name);
-      gl.DeleteBuffers(1, &slot.high_normals.name);
-      gl.DeleteVertexArrays(1, &slot.low_vao);
-      gl.DeleteVertexArrays(1, &slot.high_vao);
+      if (slot.done) gl.DeleteSync(slot.done);  // a mapped buffer is unmapped as it is deleted
+      for (GLuint* name : slot.framebuffers()) gl.DeleteFramebuffers(1, name);
+      for (GLuint* name : slot.textures()) gl.DeleteTextures(1, name);
+      for (GLuint* name : slot.buffers()) gl.DeleteBuffers(1, name);
+      for (GLuint* name : slot.vertexArrays()) gl.DeleteVertexArrays(1, name);
     }
     gl.DeleteBuffers(1, &high_indices);
     gl.DeleteBuffers(1, &high_uv);
