@@ -47,7 +47,8 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
       const bool gpu = hasHardwareEglDevice();
       static std::once_flag said_why;
       std::call_once(said_why, [gpu] {
-        log::info(gpu ? "backend auto: EGL reaches a hardware GPU, which bakes fastest"
+        log::info(gpu ? "backend auto: EGL reaches a hardware GPU, which bakes while the workers' cores read, mesh "
+                        "and encode (README, \"On a hardware GPU\")"
                       : "backend auto: EGL reaches no hardware GPU, so OSMesa (llvmpipe) bakes; without a GPU "
                         "--backend cpu is faster (README, \"Whole pyramids against the GDAL chain\")");
       });
