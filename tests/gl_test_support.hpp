@@ -17,17 +17,22 @@ inline bool glRequired() {
   return value && std::string(value) == "1";
 }
 
-// Returns the baker, or nullptr after recording a skip (or a failure when GL
-// is required).
-inline std::unique_ptr<bake::Baker> makeBakerOrSkip(Backend backend) {
+// What `make` returns (a baker, a context), or nullptr after recording a
+// skip (or a failure when GL is required).
+template <class Make>
+auto madeOrNull(const Make& make) -> decltype(make()) {
   try {
-    return gl::createBaker(backend);
+    return make();
   } catch (const Error& e) {
     if (glRequired()) {
       ADD_FAILURE() << "GL backend required but unavailable: " << e.what();
     }
     return nullptr;
   }
+}
+
+inline std::unique_ptr<bake::Baker> makeBakerOrSkip(Backend backend) {
+  return madeOrNull([backend] { return gl::createBaker(backend); });
 }
 
 #define TERRABAKE_BAKER_OR_SKIP(var, backend)                                 \

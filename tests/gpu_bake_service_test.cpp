@@ -49,17 +49,8 @@ bool identical(const bake::NormalMap& a, const bake::NormalMap& b) {
   return true;
 }
 
-std::unique_ptr<gl::Context> osMesaOrNull() {
-  try {
-    return gl::createOsMesaContext();
-  } catch (const Error& e) {
-    if (test::glRequired()) ADD_FAILURE() << "OSMesa required but unavailable: " << e.what();
-    return nullptr;
-  }
-}
-
-#define TERRABAKE_CONTEXT_OR_SKIP(var)    \
-  auto var = osMesaOrNull();              \
+#define TERRABAKE_CONTEXT_OR_SKIP(var)                                   \
+  auto var = test::madeOrNull([] { return gl::createOsMesaContext(); }); \
   if (!var) GTEST_SKIP() << "no OSMesa context on this machine"
 
 TEST(GlBakerInFlight, TilesCollectedInAnyOrderMatchOneAtATime) {
