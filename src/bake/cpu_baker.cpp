@@ -49,11 +49,12 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
   map.texels.resize(points.size());
   // Blocks of texels: each texel's interpolated frame and high-res normal go
   // into one small array per component, which the arithmetic then takes
-  // four texels at a time.
+  // a lane per texel.
   constexpr std::size_t kBlock = 64;
+  static_assert(kBlock % kFloatLanes == 0);
   enum Component { kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kVx, kVy, kVz, kComponents };
-  alignas(16) float in[kComponents][kBlock];
-  alignas(16) float out[3][kBlock];
+  alignas(sizeof(Floats)) float in[kComponents][kBlock];
+  alignas(sizeof(Floats)) float out[3][kBlock];
   int column = 0, row = 0;  // of texel first + k
   for (std::size_t first = 0; first < points.size(); first += kBlock) {
     const std::size_t count = std::min(kBlock, points.size() - first);

@@ -314,9 +314,9 @@ class GreedyMesher {
   }
 
   // Finds the sample of triangle t farthest from its plane (in 3-D, at the
-  // same UV) and queues the triangle by that distance. In float, four
-  // samples at a time: positions relative to the tile's middle keep it to
-  // about 1e-7 of a tile, far inside any bound.
+  // same UV) and queues the triangle by that distance. In float, a lane
+  // per sample: positions relative to the tile's middle keep it to about
+  // 1e-7 of a tile, far inside any bound.
   void rescore(int t) {
     const Vertex& a = m_vertices[std::size_t(m_corner[std::size_t(3 * t)])];
     const Vertex& b = m_vertices[std::size_t(m_corner[std::size_t(3 * t + 1)])];
@@ -326,19 +326,19 @@ class GreedyMesher {
     const double det = d1.x * d2.y - d1.y * d2.x;
     const glm::dvec3 p1 = b.position - a.position, p2 = c.position - a.position;
     const glm::dvec3 per_x = (p1 * d2.y - p2 * d1.y) / det, per_y = (p2 * d1.x - p1 * d2.x) / det;
-    const Floats step_x = {float(per_x.x), float(per_x.x), float(per_x.x), float(per_x.x)};
-    const Floats step_y = {float(per_x.y), float(per_x.y), float(per_x.y), float(per_x.y)};
-    const Floats step_z = {float(per_x.z), float(per_x.z), float(per_x.z), float(per_x.z)};
-    constexpr Floats kLaneOffsets = {0, 1, 2, 3};
-    Floats farthest2 = {-1, -1, -1, -1};
-    Ints farthest = {-1, -1, -1, -1};
+    const Floats step_x = Floats{} + float(per_x.x), step_y = Floats{} + float(per_x.y),
+                 step_z = Floats{} + float(per_x.z);
+    const Floats lane_offsets = laneNumbers<Floats>();
+    const Ints lane_samples = laneNumbers<Ints>();
+    Floats farthest2 = Floats{} - 1;
+    Ints farthest = Ints{} - 1;
     forEachTexelSpan(a.at, b.at, c.at, m_size, kExactOnEdge, [&](int j, int first, int last) {
       const glm::dvec3 row_start =
           a.position - m_origin + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
       const std::size_t row = std::size_t(j) * std::size_t(m_size) + std::size_t(first);
       const int count = last - first + 1;
       for (int i = 0; i < count; i += kLanes) {
-        const Floats along = kLaneOffsets + float(i);
+        const Floats along = lane_offsets + float(i);
         const Floats dx = load(m_x, row + std::size_t(i)) - (float(row_start.x) + step_x * along);
         const Floats dy = load(m_y, row + std::size_t(i)) - (float(row_start.y) + step_y * along);
         const Floats dz = load(m_z, row + std::size_t(i)) - (float(row_start.z) + step_z * along);
@@ -347,7 +347,7 @@ class GreedyMesher {
         e2 = along < float(count) ? e2 : Floats{} - INFINITY;
         const Ints farther = e2 > farthest2;
         farthest2 = farther ? e2 : farthest2;
-        farthest = farther ? (j * m_size + first + i) + Ints{0, 1, 2, 3} : farthest;
+        farthest = farther ? (j * m_size + first + i) + lane_samples : farthest;
       }
     });
     // The farthest of the lanes' farthest; of equals, the first in the scan.
