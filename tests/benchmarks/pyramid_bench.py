@@ -11,9 +11,12 @@
    - `terrabake tile --backend B --workers N` for each backend.
    It prints tiles/s, the ratio to the GDAL chain, peak memory (RSS of the
    process tree's largest process) and terrabake's per-stage milliseconds per
-   tile (the workers' time, from its `time per tile` log line). With
-   --rounds N the runs take turns N times, each ratio against the GDAL run of
-   its own round, and a last table gives the medians.
+   tile (the workers' time, from its `time per tile` log line). It also
+   prints the CPU time each run took (user and system, the process tree's)
+   and that ratio: other load on a shared machine stretches wall time far
+   more than CPU time. With --rounds N the runs take turns N times, each
+   ratio against the GDAL run of its own round, and a last table gives the
+   medians.
 2. With --per-zoom R: a DEM of (1024 R)^2 pixels without overviews (a VRT
    repeating the sample, so nothing on disk), tiled zoom by zoom from the one
    where it fits a tile to the deepest `auto` picks, one worker; each zoom is
@@ -51,21 +54,21 @@ args = parser.parse_args()
 terrabake = os.path.join(args.build, "src", "app", "terrabake")
 SAMPLE_INNER_LON_LAT = ("9.81", "46.37", "10.19", "46.63")  # west south east north, inside its data
 
-# Runs a command in a child of its own and returns (seconds, peak RSS MiB, stdout + stderr).
+# Runs a command in a child of its own and returns (seconds, peak RSS MiB, CPU seconds, stdout + stderr).
 PROBE = ("import resource, subprocess, sys, time; t = time.monotonic(); "
          "r = subprocess.run(sys.argv[1:], stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True); "
-         "print(r.stdout, end=''); "
-         "print('PROBE', time.monotonic() - t, resource.getrusage(resource.RUSAGE_CHILDREN).ru_maxrss); "
+         "print(r.stdout, end=''); u = resource.getrusage(resource.RUSAGE_CHILDREN); "
+         "print('PROBE', time.monotonic() - t, u.ru_maxrss, u.ru_utime + u.ru_stime); "
          "sys.exit(r.returncode)")
 
 
 def measured(command, env=None):
     result = subprocess.run([sys.executable, "-c", PROBE] + command, capture_output=True, text=True, env=env)
-    probe = re.search(r"PROBE ([0-9.]+) (\d+)\s*$", result.stdout)
+    probe = re.search(r"PROBE ([0-9.]+) (\d+) ([0-9.]+)\s*$", result.stdout)
     if result.returncode != 0 or not probe:
         print(" ".join(command) + " failed:\n" + result.stdout[-3000:] + result.stderr[-2000:], file=sys.stderr)
         sys.exit(1)
-    return float(probe.group(1)), int(probe.group(2)) / 1024, result.stdout
+    return float(probe.group(1)), int(probe.group(2)) / 1024, float(probe.group(3)), result.stdout
 
 
 def count_files(folder, suffix):
@@ -75,17 +78,18 @@ def count_files(folder, suffix):
 def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
     command = [terrabake, "tile", "--dem", dem, "--zoom", zoom, "--out", out, "--layer", layer,
                "--workers", str(workers or args.workers), "--backend", backend, "--force", *extra]
-    seconds, peak, output = measured(command)
+    seconds, peak, cpu, output = measured(command)
     summary = re.search(r"wrote (\d+) tiles .*\((\d+) skipped, (\d+) empty, (\d+) failed\) in ([0-9.]+) s", output)
     if not summary or int(summary.group(4)) != 0:
         print(output[-3000:], file=sys.stderr)
         sys.exit(1)
     stages = re.search(r"time per tile, in the workers: (.*)", output)
-    return int(summary.group(1)), seconds, peak, stages.group(1).strip() if stages else ""
+    return int(summary.group(1)), seconds, peak, cpu, stages.group(1).strip() if stages else ""
 
 
-# One run of the GDAL chain or of a backend: tiles/s in `rate`, peak RSS in MiB, terrabake's stages line.
-Run = collections.namedtuple("Run", "name tiles seconds rate peak stages")
+# One run of the GDAL chain or of a backend: tiles/s in `rate`, tiles per CPU second in `cpu_rate`, peak
+# RSS in MiB, terrabake's stages line.
+Run = collections.namedtuple("Run", "name tiles seconds rate cpu cpu_rate peak stages")
 
 
 def pyramid_round(dem, work):
@@ -94,15 +98,17 @@ def pyramid_round(dem, work):
     shade = os.path.join(work, "hillshade.tif")
     gdal_out = os.path.join(work, "gdal2tiles")
     shutil.rmtree(gdal_out, ignore_errors=True)
-    t_shade, peak_shade, _ = measured(["gdaldem", "hillshade", "-q", "-compute_edges", dem, shade])
-    t_tiles, peak_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
+    t_shade, peak_shade, cpu_shade, _ = measured(["gdaldem", "hillshade", "-q", "-compute_edges", dem, shade])
+    t_tiles, peak_tiles, cpu_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
                                        "-w", "none", "-r", "average", "--xyz", shade, gdal_out])
     gdal_tiles = count_files(gdal_out, ".png")
-    rows.append(Run("gdaldem hillshade + gdal2tiles", gdal_tiles, t_shade + t_tiles, gdal_tiles / (t_shade + t_tiles),
+    seconds, cpu = t_shade + t_tiles, cpu_shade + cpu_tiles
+    rows.append(Run("gdaldem hillshade + gdal2tiles", gdal_tiles, seconds, gdal_tiles / seconds, cpu, gdal_tiles / cpu,
                     max(peak_shade, peak_tiles), ""))
     for backend in args.backends.split(","):
-        tiles, seconds, peak, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
-        rows.append(Run(f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, peak, stages))
+        tiles, seconds, peak, cpu, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
+        rows.append(Run(f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, cpu, tiles / cpu, peak,
+                        stages))
     return rows
 
 
@@ -118,24 +124,28 @@ def pyramid(work):
     for number in range(1, args.rounds + 1):
         rows = pyramid_round(dem, work)
         rounds.append(rows)
-        gdal_rate = rows[0].rate
+        gdal = rows[0]
         if args.rounds > 1:
             print(f"\nround {number} of {args.rounds}")
-        print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
+        print(f"{'run':<34}{'tiles':>7}{'seconds':>9}{'tiles/s':>9}{'vs GDAL':>9}{'CPU s':>8}{'vs GDAL':>9}"
+              f"{'peak MiB':>10}")
         for run in rows:
-            print(f"{run.name:<34}{run.tiles:>7}{run.seconds:>9.2f}{run.rate:>9.1f}{run.rate / gdal_rate:>8.2f}x"
-                  f"{run.peak:>10.0f}")
+            print(f"{run.name:<34}{run.tiles:>7}{run.seconds:>9.2f}{run.rate:>9.1f}{run.rate / gdal.rate:>8.2f}x"
+                  f"{run.cpu:>8.2f}{run.cpu_rate / gdal.cpu_rate:>8.2f}x{run.peak:>10.0f}")
+        print("vs GDAL: tiles/s, then tiles per CPU second, against the GDAL chain's")
         print("\nterrabake, milliseconds per tile by stage (summed over the workers):")
         for run in rows[1:]:
             print(f"  {run.name:<32}{run.stages}", flush=True)
     if args.rounds > 1:
         print(f"\nmedians of {args.rounds} rounds (each ratio against its own round's GDAL run)")
-        print(f"{'run':<34}{'tiles/s':>9}{'vs GDAL':>9}{'peak MiB':>10}")
+        print(f"{'run':<34}{'tiles/s':>9}{'vs GDAL':>9}{'CPU s':>8}{'vs GDAL':>9}{'peak MiB':>10}")
         for k, first in enumerate(rounds[0]):
             rate = statistics.median(each[k].rate for each in rounds)
             ratio = statistics.median(each[k].rate / each[0].rate for each in rounds)
+            cpu = statistics.median(each[k].cpu for each in rounds)
+            cpu_ratio = statistics.median(each[k].cpu_rate / each[0].cpu_rate for each in rounds)
             peak = max(each[k].peak for each in rounds)
-            print(f"{first.name:<34}{rate:>9.1f}{ratio:>8.2f}x{peak:>10.0f}")
+            print(f"{first.name:<34}{rate:>9.1f}{ratio:>8.2f}x{cpu:>8.2f}{cpu_ratio:>8.2f}x{peak:>10.0f}")
 
 
 def lon_lat_of_centre(repeats):
@@ -176,7 +186,7 @@ def per_zoom(work):
         half_lat = half_deg * math.cos(math.radians(lat))
         bbox = f"{max(lon - half_deg, -180)},{max(lat - half_lat, -85)},{min(lon + half_deg, 180)}," \
                f"{min(lat + half_lat, 85)}"
-        tiles, seconds, peak, stages = terrabake_run(vrt, os.path.join(work, "zooms"), f"z{z}", str(z), "cpu",
+        tiles, seconds, peak, _, stages = terrabake_run(vrt, os.path.join(work, "zooms"), f"z{z}", str(z), "cpu",
                                                      ["--bbox", bbox], workers=1)
         return tiles, seconds, sum(float(v) for v in re.findall(r"([0-9.]+) ms", stages)), peak
 
