@@ -7,6 +7,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 #include "core/types.hpp"
 #include "io/layer_layout.hpp"
@@ -26,6 +27,12 @@ struct TileAnswer {
   std::shared_ptr<const FileContent> content;  // kFound only
   std::string reason;                          // otherwise: for the response and the log
 };
+
+// What an archive (MBTiles, PMTiles) gives for a tile it holds, or lacks.
+inline TileAnswer archivedTileAnswer(std::optional<std::string> bytes) {
+  if (!bytes) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
+  return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(hashTaggedContent(std::move(*bytes))), {}};
+}
 
 // On-demand bakes since start; all zero for layers that never bake.
 struct BakeCounters {

@@ -4,7 +4,6 @@
 
 #include "core/error.hpp"
 #include "io/tile_files.hpp"
-#include "server/http_rules.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -51,11 +50,7 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   } catch (const std::exception& e) {
     return {TileAnswer::Status::kFailed, nullptr, oneLine(e.what())};
   }
-  if (!bytes) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
-  // Rows carry no version of their own: the tag is a hash of the bytes.
-  FileContent content{std::move(*bytes), {}};
-  content.etag = contentEtag(content.bytes);
-  return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(content)), {}};
+  return archivedTileAnswer(std::move(bytes));
 }
 
 std::optional<FileContent> MbtilesLayer::tilesetFile(const std::string& path) {
@@ -63,9 +58,7 @@ std::optional<FileContent> MbtilesLayer::tilesetFile(const std::string& path) {
   std::optional<std::string> json = file->tilesetDocument(path);
   giveBack(std::move(file));
   if (!json) return std::nullopt;
-  FileContent content{std::move(*json), {}};
-  content.etag = contentEtag(content.bytes);
-  return content;
+  return hashTaggedContent(std::move(*json));
 }
 
 std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow() {

@@ -12,7 +12,6 @@
 #include "pipeline/layer_plan.hpp"
 #include "pipeline/planned_tileset.hpp"
 #include "pipeline/tile_maker.hpp"
-#include "server/http_rules.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -77,9 +76,7 @@ std::optional<FileContent> OnDemandLayer::tilesetFile(const std::string& path) {
     m_plan_tileset = nullptr;  // planned once: a layer too large for it stays without
     try {
       for (io::TilesetDocument& doc : plan()) {
-        FileContent content{std::move(doc.json), {}};
-        content.etag = contentEtag(content.bytes);
-        m_tileset.emplace(std::move(doc.path), std::move(content));
+        m_tileset.emplace(std::move(doc.path), hashTaggedContent(std::move(doc.json)));
       }
       log::info("layer " + m_name + ": tileset planned, " + std::to_string(m_tileset.size()) + " file" +
                 (m_tileset.size() == 1 ? "" : "s"));

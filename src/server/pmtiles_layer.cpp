@@ -8,7 +8,6 @@
 #include "core/error.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
-#include "server/http_rules.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -70,10 +69,7 @@ TileAnswer PmtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   } catch (const std::exception& e) {
     return {TileAnswer::Status::kFailed, nullptr, oneLine(e.what())};
   }
-  if (!bytes) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
-  FileContent content{std::move(*bytes), {}};
-  content.etag = contentEtag(content.bytes);
-  return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(content)), {}};
+  return archivedTileAnswer(std::move(bytes));
 }
 
 std::optional<FileContent> PmtilesLayer::archive(const std::string& file_name) {

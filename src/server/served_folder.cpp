@@ -8,8 +8,18 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <utility>
+
+#include "server/http_rules.hpp"
 
 namespace terrabake::server {
+
+FileContent hashTaggedContent(std::string bytes) {
+  FileContent content{std::move(bytes), {}};
+  content.etag = contentEtag(content.bytes);
+  return content;
+}
+
 namespace {
 
 // Strong ETag from inode, size and modification time in nanoseconds. terrabake

@@ -13,6 +13,10 @@ struct FileContent {
   std::string etag;
 };
 
+// Bytes with no version of their own (MBTiles rows, PMTiles entries,
+// generated tileset documents), tagged with a hash of themselves.
+FileContent hashTaggedContent(std::string bytes);
+
 // A folder requests may read from. Every read resolves symlinks and refuses
 // a file whose real path is not inside the folder's real path, so neither
 // `..` nor a symlink pointing out can reach anything else.
