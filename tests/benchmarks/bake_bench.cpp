@@ -29,6 +29,7 @@
 #include "gl/baker_factory.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
+#include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
 #include "pipeline/tile_maker.hpp"
 #include "support/analytic_terrain.hpp"
@@ -99,7 +100,8 @@ struct BenchData {
   dem::ReadPlan plan;         // the zoom's plan, judged at the middle tile as a job does
   std::map<int, SyntheticTile> synthetic;  // by tile size
   bake::NormalMap normal_map;              // CPU bake of the 256 synthetic tile, to encode
-  bake::NormalMap sample_normal_map;       // CPU bake of a 256 window of the bundled sample DEM
+  mesh::SampleGrid sample_grid;            // a 256 window of the bundled sample DEM (30 m texels)
+  bake::NormalMap sample_normal_map;       // its CPU bake, with the grid mesh
 };
 
 BenchData& benchData() {
@@ -143,9 +145,9 @@ void prepareBenchData() {
     const int r = std::clamp(grid.height / 2 - int(std::lround(north_m / grid.cell_h)), 0, grid.height - 1);
     return double(pixels.at(c, r));
   };
-  const mesh::SampleGrid sample_grid = test::sampleHeightField(sample_height, kTileSize, kGrid, grid.cell_w);
-  data.sample_normal_map = bake::CpuBaker().bake(mesh::buildHighResMesh(sample_grid),
-                                                 mesh::buildLowPolyMesh(sample_grid, kGrid), kTileSize);
+  data.sample_grid = test::sampleHeightField(sample_height, kTileSize, kGrid, grid.cell_w);
+  data.sample_normal_map = bake::CpuBaker().bake(mesh::buildHighResMesh(data.sample_grid),
+                                                 mesh::buildLowPolyMesh(data.sample_grid, kGrid), kTileSize);
 }
 
 // GlBaker::bake does not make its context current, so at most one GL user (a
@@ -226,6 +228,21 @@ void benchMesh(benchmark::State& state) {
     benchmark::DoNotOptimize(mesh::buildHighResMesh(samples));
     benchmark::DoNotOptimize(mesh::buildLowPolyMesh(samples, kGrid));
   }
+}
+
+// The default low-poly mesh on real terrain: the adaptive mesh of the
+// sample DEM's window within `bound_m` (its edge vertices made beforehand,
+// as a layer takes them from its edge cache).
+void benchAdaptiveMesh(benchmark::State& state, double bound_m) {
+  const mesh::SampleGrid& samples = benchData().sample_grid;
+  const mesh::TileEdgePoints edges = test::ownEdgePoints(samples, bound_m);
+  std::size_t triangles = 0;
+  for (auto _ : state) {
+    const mesh::MeasuredMesh adaptive = mesh::buildAdaptiveMesh(samples, edges, bound_m);
+    triangles = adaptive.mesh.indices.size() / 3;
+    benchmark::DoNotOptimize(adaptive);
+  }
+  state.counters["triangles"] = double(triangles);
 }
 
 void benchReadWindow(benchmark::State& state) {
@@ -352,6 +369,9 @@ void registerBenchmarks() {
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("BM_Mesh", benchMesh)->Unit(benchmark::kMillisecond)->UseRealTime();
+  for (const auto& [name, bound_m] : {std::pair{"BM_AdaptiveMesh/sample/30m", 30.0}, {"BM_AdaptiveMesh/sample/7.5m", 7.5}}) {
+    benchmark::RegisterBenchmark(name, benchAdaptiveMesh, bound_m)->Unit(benchmark::kMillisecond)->UseRealTime();
+  }
   benchmark::RegisterBenchmark("BM_ReadWindow", benchReadWindow)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodeGlb", benchEncodeGlb)->Unit(benchmark::kMillisecond)->UseRealTime();
