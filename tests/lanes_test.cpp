@@ -5,10 +5,10 @@
 
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <vector>
 
 #include "bake/cpu_baker.hpp"
+#include "core/fnv1a.hpp"
 #include "core/lanes.hpp"
 #include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
@@ -44,14 +44,12 @@ class Fingerprint {
  public:
   template <class T>
   void add(const std::vector<T>& values) {
-    std::vector<unsigned char> bytes(values.size() * sizeof(T));
-    if (!bytes.empty()) std::memcpy(bytes.data(), values.data(), bytes.size());
-    for (const unsigned char byte : bytes) m_hash = (m_hash ^ byte) * 1099511628211ull;
+    m_hash = fnv1a(values.data(), values.size() * sizeof(T), m_hash);
   }
   std::uint64_t value() const { return m_hash; }
 
  private:
-  std::uint64_t m_hash = 14695981039346656037ull;
+  std::uint64_t m_hash = kFnv1aOffset;
 };
 
 // The bits of an adaptive mesh and the CPU baker's normal map of a
@@ -73,8 +71,8 @@ TEST(Lanes, KernelsGiveTheSameBitsAtEveryLaneWidth) {
   fingerprint.add(adaptive.mesh.tangent);
   fingerprint.add(adaptive.mesh.indices);
   fingerprint.add(map.texels);
-  EXPECT_EQ(fingerprint.value(), kKernelBits) << "with " << kFloatLanes << " float lanes, " << adaptive.mesh.indices.size() / 3
-                                             << " triangles";
+  EXPECT_EQ(fingerprint.value(), kKernelBits)
+      << "with " << kFloatLanes << " float lanes, " << adaptive.mesh.indices.size() / 3 << " triangles";
 }
 
 }  // namespace

@@ -90,7 +90,9 @@ TEST(HighResMesh, OneVertexPerSampleCoveringTheTile) {
 TEST(GridIndices, BandsKeepTheTrianglesInAnotherOrder) {
   const auto triangles = [](const std::vector<std::uint32_t>& indices) {
     std::vector<std::array<std::uint32_t, 3>> sorted;
-    for (std::size_t k = 0; k + 2 < indices.size(); k += 3) sorted.push_back({indices[k], indices[k + 1], indices[k + 2]});
+    for (std::size_t k = 0; k + 2 < indices.size(); k += 3) {
+      sorted.push_back({indices[k], indices[k + 1], indices[k + 2]});
+    }
     std::sort(sorted.begin(), sorted.end());
     return sorted;
   };

@@ -6,11 +6,10 @@
 #include <cstdio>
 #include <string_view>
 
+#include "core/fnv1a.hpp"
+
 namespace terrabake::server {
 namespace {
-
-constexpr std::uint64_t kFnvOffset = 14695981039346656037ULL;
-constexpr std::uint64_t kFnvPrime = 1099511628211ULL;
 
 struct MediaType {
   const char* extension;
@@ -55,8 +54,7 @@ std::string contentTypeFor(const std::string& file_name) {
 }
 
 std::string contentEtag(const std::string& bytes) {
-  std::uint64_t hash = kFnvOffset;
-  for (const char c : bytes) hash = (hash ^ static_cast<unsigned char>(c)) * kFnvPrime;
+  const std::uint64_t hash = fnv1a(bytes.data(), bytes.size());
   char text[48];
   std::snprintf(text, sizeof text, "\"%016llx-%zx\"", (unsigned long long)hash, bytes.size());
   return text;

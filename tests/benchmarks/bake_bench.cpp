@@ -369,7 +369,8 @@ void registerBenchmarks() {
       ->Unit(benchmark::kMillisecond)
       ->UseRealTime();
   benchmark::RegisterBenchmark("BM_Mesh", benchMesh)->Unit(benchmark::kMillisecond)->UseRealTime();
-  for (const auto& [name, bound_m] : {std::pair{"BM_AdaptiveMesh/sample/30m", 30.0}, {"BM_AdaptiveMesh/sample/7.5m", 7.5}}) {
+  for (const auto& [name, bound_m] :
+       {std::pair{"BM_AdaptiveMesh/sample/30m", 30.0}, {"BM_AdaptiveMesh/sample/7.5m", 7.5}}) {
     benchmark::RegisterBenchmark(name, benchAdaptiveMesh, bound_m)->Unit(benchmark::kMillisecond)->UseRealTime();
   }
   benchmark::RegisterBenchmark("BM_ReadWindow", benchReadWindow)->Unit(benchmark::kMillisecond)->UseRealTime();
