@@ -55,7 +55,7 @@ GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* f
 constexpr int kHighNormalUnit = 0;
 
 // The high-res mesh is drawn in vertical bands this many cells wide (see
-// mesh::gridIndices). On llvmpipe a 256-texel tile's high-res pass took
+// mesh::gridIndices). On llvmpipe, one thread, a 256-texel tile's bake took
 // 13.7-14.0 ms in bands of 16 against 15.6-16.1 ms row by row, the same
 // pixels; bands of 8 and 32 were in between, and meshoptimizer's vertex
 // cache order gave 13.9-20.4 ms.
