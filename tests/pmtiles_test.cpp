@@ -161,6 +161,22 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   const auto past = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=" + std::to_string(archive.size()) + "-"}});
   ASSERT_TRUE(past);
   EXPECT_EQ(past->status, 416);
+  // A range costs its own bytes, not the archive's: grown (sparse) far past
+  // any machine's memory, the archive still answers ranges at both ends.
+  constexpr std::uintmax_t kHugeArchiveBytes = std::uintmax_t(1) << 40;
+  fs::resize_file(tiles_dir / "packed.meshes.pmtiles", kHugeArchiveBytes);
+  const std::string huge = std::to_string(kHugeArchiveBytes);
+  const auto huge_head = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=0-126"}});
+  const auto huge_tail = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=-16"}});
+  ASSERT_TRUE(huge_head && huge_tail);
+  EXPECT_EQ(huge_head->status, 206);
+  EXPECT_EQ(huge_head->get_header_value("Content-Range"), "bytes 0-126/" + huge);
+  EXPECT_EQ(huge_head->body, archive.substr(0, 127));
+  EXPECT_NE(huge_head->get_header_value("ETag"), head->get_header_value("ETag")) << "another file, another tag";
+  EXPECT_EQ(huge_tail->status, 206);
+  EXPECT_EQ(huge_tail->get_header_value("Content-Range"),
+            "bytes " + std::to_string(kHugeArchiveBytes - 16) + "-" + std::to_string(kHugeArchiveBytes - 1) + "/" + huge);
+  EXPECT_EQ(huge_tail->body, std::string(16, '\0'));
   const auto other = test::get(port, "/packed/folder.pmtiles");
   ASSERT_TRUE(other);
   EXPECT_EQ(other->status, 404) << "only the layer's own archives";

@@ -62,9 +62,9 @@ class LayerSource {
     return std::nullopt;
   }
 
-  // One of the archives the layer is stored in, whole, by its file name
+  // One of the archives the layer is stored in, opened, by its file name
   // ("<layer>.pmtiles"); nullopt when the layer has no such archive.
-  virtual std::optional<FileContent> archive(const std::string& /*file_name*/) { return std::nullopt; }
+  virtual std::optional<OpenedFile> archive(const std::string& /*file_name*/) { return std::nullopt; }
 
   // A file of the layer's 3D Tiles tileset ("tileset.json",
   // "tilesets/z/x/y.json"); nullopt when the layer has no such file.

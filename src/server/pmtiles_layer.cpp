@@ -72,9 +72,9 @@ TileAnswer PmtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   return archivedTileAnswer(std::move(bytes));
 }
 
-std::optional<FileContent> PmtilesLayer::archive(const std::string& file_name) {
+std::optional<OpenedFile> PmtilesLayer::archive(const std::string& file_name) {
   if (!m_files.count(file_name)) return std::nullopt;
-  return m_folder.read(file_name);
+  return m_folder.open(file_name);
 }
 
 }  // namespace terrabake::server

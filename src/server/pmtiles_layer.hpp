@@ -34,7 +34,7 @@ class PmtilesLayer : public LayerSource {
   bool isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& /*kept*/) const override {
     return true;
   }
-  std::optional<FileContent> archive(const std::string& file_name) override;
+  std::optional<OpenedFile> archive(const std::string& file_name) override;
 
  private:
   std::string m_name;

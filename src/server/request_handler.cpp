@@ -31,43 +31,71 @@ HttpReply text(int status, const std::string& message) {
   return reply;
 }
 
-// 200 with the body, 304 when the client holds this very version, 206 with
-// the part a single Range asks for (416 past the end).
-HttpReply validated(const HttpRequest& request, std::string content_type, std::string body, const std::string& etag,
-                    const std::string& cache_control) {
+// A body of `length` bytes answered under `etag`: 304 when the client holds
+// this very version, 416 for a range past the end (both `done`), else the
+// headers of a 200, or of a 206 with the part a single Range asks for.
+struct Validation {
   HttpReply reply;
-  reply.headers.emplace_back("ETag", etag);
-  reply.headers.emplace_back("Cache-Control", cache_control);
+  bool done = false;
+  ByteRange range;  // kWhole or kPart
+};
+
+Validation validate(const HttpRequest& request, std::size_t length, const std::string& etag,
+                    const std::string& cache_control) {
+  Validation v;
+  v.reply.headers.emplace_back("ETag", etag);
+  v.reply.headers.emplace_back("Cache-Control", cache_control);
   // If-None-Match first (RFC 9110 13.2.2): a client holding the version wants no part of it.
   if (noneMatchHits(request.if_none_match, etag)) {
     // No body, and no Content-Length: the real length would make some clients wait for a body.
-    reply.status = 304;
-    return reply;
+    v.reply.status = 304;
+    v.done = true;
+    return v;
   }
-  reply.headers.emplace_back("Accept-Ranges", "bytes");
+  v.reply.headers.emplace_back("Accept-Ranges", "bytes");
   const bool range_applies = !request.range.empty() && (request.if_range.empty() || ifRangeHolds(request.if_range, etag));
-  const ByteRange range = range_applies ? parseRange(request.range, body.size()) : ByteRange{};
-  const std::string length = std::to_string(body.size());
-  if (range.kind == ByteRange::Kind::kUnsatisfiable) {
-    HttpReply refused = text(416, "range not satisfiable: the body is " + length + " bytes");
-    refused.headers.emplace_back("Content-Range", "bytes */" + length);
-    return refused;
+  v.range = range_applies ? parseRange(request.range, length) : ByteRange{};
+  const std::string total = std::to_string(length);
+  if (v.range.kind == ByteRange::Kind::kUnsatisfiable) {
+    v.reply = text(416, "range not satisfiable: the body is " + total + " bytes");
+    v.reply.headers.emplace_back("Content-Range", "bytes */" + total);
+    v.done = true;
+  } else if (v.range.kind == ByteRange::Kind::kPart) {
+    v.reply.status = 206;
+    v.reply.headers.emplace_back("Content-Range", "bytes " + std::to_string(v.range.first) + "-" +
+                                                      std::to_string(v.range.last) + "/" + total);
   }
-  if (range.kind == ByteRange::Kind::kPart) {
-    reply.status = 206;
-    reply.headers.emplace_back("Content-Range", "bytes " + std::to_string(range.first) + "-" +
-                                                    std::to_string(range.last) + "/" + length);
-    body = body.substr(range.first, range.last - range.first + 1);
-  }
-  reply.content_type = std::move(content_type);
-  reply.body = std::move(body);
-  return reply;
+  return v;
+}
+
+HttpReply validated(const HttpRequest& request, std::string content_type, std::string body, const std::string& etag,
+                    const std::string& cache_control) {
+  Validation v = validate(request, body.size(), etag, cache_control);
+  if (v.done) return std::move(v.reply);
+  if (v.range.kind == ByteRange::Kind::kPart) body = body.substr(v.range.first, v.range.last - v.range.first + 1);
+  v.reply.content_type = std::move(content_type);
+  v.reply.body = std::move(body);
+  return std::move(v.reply);
+}
+
+// The same for a file: only the part sent is read.
+HttpReply validatedFile(const HttpRequest& request, std::string content_type, const OpenedFile& file,
+                        const std::string& name, const std::string& cache_control) {
+  Validation v = validate(request, file.size(), file.etag(), cache_control);
+  if (v.done) return std::move(v.reply);
+  const bool part = v.range.kind == ByteRange::Kind::kPart;
+  std::optional<std::string> body =
+      part ? file.read(v.range.first, v.range.last - v.range.first + 1) : file.read(0, file.size());
+  if (!body) return text(500, "cannot read " + name);
+  v.reply.content_type = std::move(content_type);
+  v.reply.body = std::move(*body);
+  return std::move(v.reply);
 }
 
 HttpReply staticFile(const HttpRequest& request, const ServedFolder& folder, const std::string& file) {
-  std::optional<FileContent> content = folder.read(file);
-  if (!content) return text(404, "not found: no such file");
-  return validated(request, contentTypeFor(file), std::move(content->bytes), content->etag, kRevalidate);
+  const std::optional<OpenedFile> opened = folder.open(file);
+  if (!opened) return text(404, "not found: no such file");
+  return validatedFile(request, contentTypeFor(file), *opened, file, kRevalidate);
 }
 
 const char* contentTypeOf(io::TileFormat format) {
@@ -209,10 +237,9 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
     case Route::Kind::kArchive: {
       const auto layer = m_layers.find(route.layer);
       if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      std::optional<FileContent> content = layer->second->archive(route.file);
-      if (!content) return text(404, "not found: layer '" + route.layer + "' is stored in no archive " + route.file);
-      return validated(request, contentTypeFor(route.file), std::move(content->bytes), content->etag,
-                       m_tile_cache_control);
+      const std::optional<OpenedFile> archive = layer->second->archive(route.file);
+      if (!archive) return text(404, "not found: layer '" + route.layer + "' is stored in no archive " + route.file);
+      return validatedFile(request, contentTypeFor(route.file), *archive, route.file, m_tile_cache_control);
     }
     case Route::Kind::kElevationTileJson: {
       const auto layer = m_layers.find(route.layer);

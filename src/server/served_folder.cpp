@@ -34,12 +34,27 @@ std::string etagOf(const struct stat& info) {
   return text;
 }
 
-struct FdCloser {
-  int fd;
-  ~FdCloser() { ::close(fd); }
-};
-
 }  // namespace
+
+OpenedFile::OpenedFile(OpenedFile&& other) noexcept
+    : m_fd(std::exchange(other.m_fd, -1)), m_size(other.m_size), m_etag(std::move(other.m_etag)) {}
+
+OpenedFile::~OpenedFile() {
+  if (m_fd >= 0) ::close(m_fd);
+}
+
+std::optional<std::string> OpenedFile::read(std::size_t first, std::size_t count) const {
+  if (first > m_size || count > m_size - first) return std::nullopt;
+  std::string bytes(count, '\0');
+  std::size_t done = 0;
+  while (done < count) {
+    const ssize_t n = ::pread(m_fd, bytes.data() + done, count - done, off_t(first + done));
+    if (n < 0 && errno == EINTR) continue;
+    if (n <= 0) return std::nullopt;
+    done += std::size_t(n);
+  }
+  return bytes;
+}
 
 ServedFolder::ServedFolder(const std::filesystem::path& folder) {
   std::error_code ec;
@@ -59,7 +74,7 @@ std::optional<std::string> ServedFolder::resolve(const std::string& relative) co
   return path;
 }
 
-std::optional<FileContent> ServedFolder::read(const std::string& relative) const {
+std::optional<OpenedFile> ServedFolder::open(const std::string& relative) const {
   const std::optional<std::string> path = resolve(relative);
   if (!path) return std::nullopt;
   // O_NOFOLLOW: a symlink swapped in after resolve() fails instead of being
@@ -67,20 +82,21 @@ std::optional<FileContent> ServedFolder::read(const std::string& relative) const
   // then turns down anything but a regular file.
   const int fd = ::open(path->c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
   if (fd < 0) return std::nullopt;
-  const FdCloser closer{fd};
   struct stat info;
-  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) return std::nullopt;
-  FileContent content;
-  content.etag = etagOf(info);  // of the open file, so tag and bytes always belong together
-  content.bytes.resize(std::size_t(info.st_size));
-  std::size_t done = 0;
-  while (done < content.bytes.size()) {
-    const ssize_t n = ::read(fd, content.bytes.data() + done, content.bytes.size() - done);
-    if (n < 0 && errno == EINTR) continue;
-    if (n <= 0) return std::nullopt;
-    done += std::size_t(n);
+  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
+    ::close(fd);
+    return std::nullopt;
   }
-  return content;
+  // The tag of the open file, so tag and bytes always belong together.
+  return OpenedFile(fd, std::size_t(info.st_size), etagOf(info));
+}
+
+std::optional<FileContent> ServedFolder::read(const std::string& relative) const {
+  const std::optional<OpenedFile> file = open(relative);
+  if (!file) return std::nullopt;
+  std::optional<std::string> bytes = file->read(0, file->size());
+  if (!bytes) return std::nullopt;
+  return FileContent{std::move(*bytes), file->etag()};
 }
 
 std::optional<std::string> ServedFolder::etag(const std::string& relative) const {

@@ -1,9 +1,11 @@
 #pragma once
 // Reading the files the server sends, only ever from inside one folder, with
 // the ETag that validates them.
+#include <cstddef>
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace terrabake::server {
 
@@ -17,6 +19,33 @@ struct FileContent {
 // generated tileset documents), tagged with a hash of themselves.
 FileContent hashTaggedContent(std::string bytes);
 
+// A regular file opened inside a ServedFolder: its length and ETag from one
+// fstat, its bytes read only where asked, so a range of a large archive
+// costs the range, not the file.
+class OpenedFile {
+ public:
+  OpenedFile(OpenedFile&& other) noexcept;
+  OpenedFile& operator=(OpenedFile&&) = delete;
+  OpenedFile(const OpenedFile&) = delete;
+  OpenedFile& operator=(const OpenedFile&) = delete;
+  ~OpenedFile();
+
+  std::size_t size() const { return m_size; }
+  const std::string& etag() const { return m_etag; }
+  // Bytes [first, first + count); nullopt when they do not lie within size()
+  // or the file gives fewer.
+  std::optional<std::string> read(std::size_t first, std::size_t count) const;
+
+ private:
+  friend class ServedFolder;
+  // Takes `fd` over: the file closes it.
+  OpenedFile(int fd, std::size_t size, std::string etag) : m_fd(fd), m_size(size), m_etag(std::move(etag)) {}
+
+  int m_fd;
+  std::size_t m_size;
+  std::string m_etag;
+};
+
 // A folder requests may read from. Every read resolves symlinks and refuses
 // a file whose real path is not inside the folder's real path, so neither
 // `..` nor a symlink pointing out can reach anything else.
@@ -25,8 +54,11 @@ class ServedFolder {
   // The folder need not exist; then nothing can be read from it.
   explicit ServedFolder(const std::filesystem::path& folder);
 
-  // The regular file at `relative` ("12/2177/1301.png", "build/three.module.js").
+  // The regular file at `relative` ("12/2177/1301.png", "build/three.module.js"), whole.
   std::optional<FileContent> read(const std::string& relative) const;
+
+  // The same file, opened to read parts of it.
+  std::optional<OpenedFile> open(const std::string& relative) const;
 
   // The ETag read() would give the file, without reading it.
   std::optional<std::string> etag(const std::string& relative) const;
