@@ -48,9 +48,9 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
       static std::once_flag said_why;
       std::call_once(said_why, [gpu] {
         log::info(gpu ? "backend auto: EGL reaches a hardware GPU, which bakes while the workers' cores read, mesh "
-                        "and encode (README, \"On a hardware GPU\")"
+                        "and encode (docs/performance.md, \"On a hardware GPU\")"
                       : "backend auto: EGL reaches no hardware GPU, so OSMesa (llvmpipe) bakes; without a GPU "
-                        "--backend cpu is faster (README, \"Whole pyramids against the GDAL chain\")");
+                        "--backend cpu is faster (docs/performance.md, \"Whole pyramids against the GDAL chain\")");
       });
       if (gpu) return makeServiceBaker(sharedGpuService());
       return std::make_unique<GlBaker>(createOsMesaContext());

@@ -42,8 +42,8 @@ bool isAbandonedTempFile(const std::string& path);
 // How PNG rows are compressed: libpng's row filters (a PNG_FILTER_* mask; 0:
 // libpng's default, which tries all five per row), then zlib with a strategy
 // and a level. Levels choose how hard LZ77 searches, so they matter only
-// with kLz77. The default is what tiles use, chosen by measurement (README,
-// "PNG encoding"): after Paeth a normal map's rows are mostly runs of small
+// with kLz77. The default is what tiles use, chosen by measurement
+// (docs/performance.md, "PNG encoding"): after Paeth a normal map's rows are mostly runs of small
 // residuals, which run-length matches code in less time and fewer bytes than
 // zlib's level 2 LZ77 search.
 enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly };

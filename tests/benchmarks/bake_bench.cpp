@@ -263,7 +263,7 @@ void benchEncodePng(benchmark::State& state) {
   }
 }
 
-// PNG compression settings against each other (README, "PNG encoding"), on
+// PNG compression settings against each other (docs/performance.md, "PNG encoding"), on
 // a normal map of the sample DEM's real terrain and on the smooth synthetic
 // one: time, and bytes as a counter.
 void benchPngCompression(benchmark::State& state, io::PngCompression compression, bool real_terrain) {
