@@ -177,6 +177,33 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   EXPECT_EQ(huge_tail->get_header_value("Content-Range"),
             "bytes " + std::to_string(kHugeArchiveBytes - 16) + "-" + std::to_string(kHugeArchiveBytes - 1) + "/" + huge);
   EXPECT_EQ(huge_tail->body, std::string(16, '\0'));
+  // Whole, it is sent as read: HEAD reads none of it, and a GET streams it
+  // from its first bytes (the client stops after 1 MiB).
+  httplib::Client client("127.0.0.1", port);
+  client.set_read_timeout(std::chrono::duration_cast<std::chrono::seconds>(test::kWaitLimit).count());
+  const auto huge_length = client.Head("/packed/packed.meshes.pmtiles");
+  ASSERT_TRUE(huge_length);
+  EXPECT_EQ(huge_length->status, 200);
+  EXPECT_EQ(huge_length->get_header_value("Content-Length"), huge);
+  constexpr std::size_t kStreamedBytes = 1 << 20;
+  int streamed_status = 0;
+  std::string streamed;
+  client.Get(
+      "/packed/packed.meshes.pmtiles", {},
+      [&](const httplib::Response& response) {
+        streamed_status = response.status;
+        return true;
+      },
+      [&](const char* data, std::size_t length) {
+        streamed.append(data, length);
+        return streamed.size() < kStreamedBytes;
+      });
+  EXPECT_EQ(streamed_status, 200);
+  ASSERT_LT(archive.size(), kStreamedBytes);
+  ASSERT_GE(streamed.size(), kStreamedBytes);
+  EXPECT_EQ(streamed.substr(0, archive.size()), archive);
+  EXPECT_EQ(streamed.find_first_not_of('\0', archive.size()), std::string::npos);
+  EXPECT_EQ(test::statusOf(port, "/packed/tilejson.json"), 200) << "the server goes on after the client left";
   const auto other = test::get(port, "/packed/folder.pmtiles");
   ASSERT_TRUE(other);
   EXPECT_EQ(other->status, 404) << "only the layer's own archives";

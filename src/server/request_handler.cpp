@@ -78,24 +78,23 @@ HttpReply validated(const HttpRequest& request, std::string content_type, std::s
   return std::move(v.reply);
 }
 
-// The same for a file: only the part sent is read.
-HttpReply validatedFile(const HttpRequest& request, std::string content_type, const OpenedFile& file,
-                        const std::string& name, const std::string& cache_control) {
+// The same for a file, which the connection reads as it sends the part.
+HttpReply validatedFile(const HttpRequest& request, std::string content_type, OpenedFile file,
+                        const std::string& cache_control) {
   Validation v = validate(request, file.size(), file.etag(), cache_control);
   if (v.done) return std::move(v.reply);
   const bool part = v.range.kind == ByteRange::Kind::kPart;
-  std::optional<std::string> body =
-      part ? file.read(v.range.first, v.range.last - v.range.first + 1) : file.read(0, file.size());
-  if (!body) return text(500, "cannot read " + name);
+  const std::size_t first = part ? v.range.first : 0;
+  const std::size_t length = part ? v.range.last - v.range.first + 1 : file.size();
   v.reply.content_type = std::move(content_type);
-  v.reply.body = std::move(*body);
+  v.reply.file_part = HttpReply::FilePart{std::make_shared<const OpenedFile>(std::move(file)), first, length};
   return std::move(v.reply);
 }
 
 HttpReply staticFile(const HttpRequest& request, const ServedFolder& folder, const std::string& file) {
-  const std::optional<OpenedFile> opened = folder.open(file);
+  std::optional<OpenedFile> opened = folder.open(file);
   if (!opened) return text(404, "not found: no such file");
-  return validatedFile(request, contentTypeFor(file), *opened, file, kRevalidate);
+  return validatedFile(request, contentTypeFor(file), std::move(*opened), kRevalidate);
 }
 
 const char* contentTypeOf(io::TileFormat format) {
@@ -237,9 +236,9 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
     case Route::Kind::kArchive: {
       const auto layer = m_layers.find(route.layer);
       if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      const std::optional<OpenedFile> archive = layer->second->archive(route.file);
+      std::optional<OpenedFile> archive = layer->second->archive(route.file);
       if (!archive) return text(404, "not found: layer '" + route.layer + "' is stored in no archive " + route.file);
-      return validatedFile(request, contentTypeFor(route.file), *archive, route.file, m_tile_cache_control);
+      return validatedFile(request, contentTypeFor(route.file), std::move(*archive), m_tile_cache_control);
     }
     case Route::Kind::kElevationTileJson: {
       const auto layer = m_layers.find(route.layer);

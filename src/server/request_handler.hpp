@@ -5,6 +5,7 @@
 #include <functional>
 #include <map>
 #include <memory>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -33,6 +34,14 @@ struct HttpReply {
   std::vector<std::pair<std::string, std::string>> headers;
   std::string content_type;  // with body; "" when there is none
   std::string body;          // HEAD: the server leaves it out, Content-Length stays
+  // Sent instead of `body` when set: `length` bytes of `file` from `first`,
+  // read piece by piece as the connection sends them, so a file of any size
+  // costs a piece of memory.
+  struct FilePart {
+    std::shared_ptr<const OpenedFile> file;
+    std::size_t first = 0, length = 0;
+  };
+  std::optional<FilePart> file_part;
 };
 
 class RequestHandler {

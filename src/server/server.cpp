@@ -86,6 +86,47 @@ void raiseFileLimit(int connections) {
   }
 }
 
+// How much of a file a connection reads at a time while sending it.
+constexpr std::size_t kFilePieceBytes = 64 * 1024;
+
+// A response body that is part of a file, read a piece at a time as the
+// connection sends it (Beast's Body concept, for writing only).
+struct FilePartBody {
+  using value_type = HttpReply::FilePart;
+
+  static std::uint64_t size(const value_type& part) { return part.length; }
+
+  class writer {
+   public:
+    using const_buffers_type = net::const_buffer;
+
+    template <bool isRequest, class Fields>
+    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_part(part) {}
+
+    void init(beast::error_code& ec) { ec = {}; }
+
+    boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
+      ec = {};
+      const std::size_t left = m_part.length - m_sent;
+      if (left == 0) return boost::none;
+      std::optional<std::string> piece = m_part.file->read(m_part.first + m_sent, std::min(left, kFilePieceBytes));
+      if (!piece) {
+        // The head is sent already: all that is left is to drop the connection.
+        ec = make_error_code(boost::system::errc::io_error);
+        return boost::none;
+      }
+      m_piece = std::move(*piece);
+      m_sent += m_piece.size();
+      return std::make_pair(net::const_buffer(m_piece.data(), m_piece.size()), m_sent < m_part.length);
+    }
+
+   private:
+    const value_type& m_part;
+    std::size_t m_sent = 0;
+    std::string m_piece;
+  };
+};
+
 class Session;
 
 // The listening socket, the io_context's threads, the open connections.
@@ -241,23 +282,50 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
   void write(HttpReply reply) {
+    const bool keep = m_keep_alive && !m_closing && !m_server.stopping;
+    if (reply.file_part && !m_head) {
+      auto response = std::make_shared<http::response<FilePartBody>>();
+      setHead(*response, reply, reply.file_part->length, keep);
+      response->body() = std::move(*reply.file_part);
+      return send(std::move(response), keep);
+    }
     auto response = std::make_shared<http::response<http::string_body>>();
-    response->version(m_version);
-    response->result(static_cast<unsigned>(reply.status));
-    for (auto& [name, value] : reply.headers) response->insert(name, value);
+    // Also for HEAD: the length a GET would have.
+    setHead(*response, reply, reply.file_part ? reply.file_part->length : reply.body.size(), keep);
+    if (!m_head) response->body() = std::move(reply.body);
+    send(std::move(response), keep);
+  }
+
+  template <class Response>
+  void setHead(Response& response, const HttpReply& reply, std::size_t body_length, bool keep) const {
+    response.version(m_version);
+    response.result(static_cast<unsigned>(reply.status));
+    for (const auto& [name, value] : reply.headers) response.insert(name, value);
     const bool bodiless = reply.status == 204 || reply.status == 304 || (reply.status >= 100 && reply.status < 200);
     if (!bodiless) {
-      if (!reply.content_type.empty()) response->set(http::field::content_type, reply.content_type);
-      response->content_length(reply.body.size());  // also for HEAD: the length a GET would have
-      if (!m_head) response->body() = std::move(reply.body);
+      if (!reply.content_type.empty()) response.set(http::field::content_type, reply.content_type);
+      response.content_length(body_length);
     }
-    const bool keep = m_keep_alive && !m_closing && !m_server.stopping;
-    response->keep_alive(keep);
+    response.keep_alive(keep);
+  }
+
+  // Writes the answer a piece at a time, each within the read timeout: a
+  // client that stops reading is cut off, a long download is not.
+  template <class Body>
+  void send(std::shared_ptr<http::response<Body>> response, bool keep) {
+    auto serializer = std::make_shared<http::response_serializer<Body>>(*response);
+    sendSome(std::move(response), std::move(serializer), keep);
+  }
+
+  template <class Body>
+  void sendSome(std::shared_ptr<http::response<Body>> response,
+                std::shared_ptr<http::response_serializer<Body>> serializer, bool keep) {
     m_stream.expires_after(m_server.read_timeout);
-    http::async_write(m_stream, *response,
-                      [self = shared_from_this(), response, keep](beast::error_code ec, std::size_t) {
-                        self->onWritten(ec, keep);
-                      });
+    http::async_write_some(m_stream, *serializer,
+                           [self = shared_from_this(), response, serializer, keep](beast::error_code ec, std::size_t) {
+                             if (ec || serializer->is_done()) return self->onWritten(ec, keep);
+                             self->sendSome(response, serializer, keep);
+                           });
   }
 
   void onWritten(beast::error_code ec, bool keep) {
