@@ -266,6 +266,59 @@ TEST(ServeLimits, SlowHeadersAndIdleConnectionsAreClosedOnTime) {
   EXPECT_LT(kept_ms, 3500) << "an idle kept-alive connection was kept";
 }
 
+// A file is sent a piece at a time, each within the read timeout: a client
+// reading slowly but steadily downloads for as long as it takes, one that
+// stops reading is closed about a read timeout after the buffers fill.
+TEST(ServeLimits, ASlowDownloadGoesOnAndAStalledOneIsClosed) {
+  World world;
+  world.config.read_timeout_s = 1;
+  world.config.viewer_dir = (world.dir / "viewer").string();
+  fs::create_directories(world.config.viewer_dir);
+  constexpr std::uintmax_t kFileBytes = std::uintmax_t(1) << 30;  // sparse: no disk, far more than any buffer
+  writeText(world.dir / "viewer" / "big.bin", "x");
+  fs::resize_file(world.dir / "viewer" / "big.bin", kFileBytes);
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+
+  const std::string request = "GET /viewer/big.bin HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+  // Reads 64 KiB every 300 ms, for four read timeouts.
+  constexpr auto kSlowFor = std::chrono::milliseconds(4000);
+  std::size_t slow_bytes = 0;
+  bool slow_cut = false;
+  std::thread slow([&] {
+    const int fd = connectTo(running.port(), 2000);
+    if (!sendAll(fd, request)) return;
+    const auto start = Clock::now();
+    std::vector<char> buffer(64 * 1024);
+    while (Clock::now() - start < kSlowFor) {
+      const ssize_t got = ::recv(fd, buffer.data(), buffer.size(), 0);
+      if (got <= 0) {
+        slow_cut = true;
+        break;
+      }
+      slow_bytes += std::size_t(got);
+      std::this_thread::sleep_for(std::chrono::milliseconds(300));
+    }
+    ::close(fd);
+  });
+  // Takes nothing after the request: closed once the server's writes have
+  // waited a read timeout.
+  double stalled_ms = -1;
+  std::thread stalled([&] {
+    const int fd = connectTo(running.port(), 2000);
+    if (!sendAll(fd, request)) return;
+    const auto start = Clock::now();
+    std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+    stalled_ms = msUntilClosed(fd, start, 20000);
+    ::close(fd);
+  });
+  slow.join();
+  stalled.join();
+  EXPECT_FALSE(slow_cut) << "a steady download was cut after " << slow_bytes << " bytes";
+  EXPECT_GT(slow_bytes, std::size_t(10) * 64 * 1024);
+  EXPECT_GT(stalled_ms, 0) << "a client that stopped reading kept its connection";
+}
+
 // A queued connection would wait for one of the held ones to close, which
 // send nothing and are kept for the read timeout (10 s here): an answer
 // within a second is a refusal, with room for a loaded test machine's stalls.
