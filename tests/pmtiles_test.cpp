@@ -175,7 +175,8 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   EXPECT_NE(huge_head->get_header_value("ETag"), head->get_header_value("ETag")) << "another file, another tag";
   EXPECT_EQ(huge_tail->status, 206);
   EXPECT_EQ(huge_tail->get_header_value("Content-Range"),
-            "bytes " + std::to_string(kHugeArchiveBytes - 16) + "-" + std::to_string(kHugeArchiveBytes - 1) + "/" + huge);
+            "bytes " + std::to_string(kHugeArchiveBytes - 16) + "-" + std::to_string(kHugeArchiveBytes - 1) + "/" +
+                huge);
   EXPECT_EQ(huge_tail->body, std::string(16, '\0'));
   // Whole, it is sent as read: HEAD reads none of it, and a GET streams it
   // from its first bytes (the client stops after 1 MiB).

@@ -43,7 +43,8 @@ const kt::KeyTable<ServeConfig>& table() {
        "connections open at once; beyond that a new one gets 503 and is closed, 16..100000",
        number(&ServeConfig::max_connections, 16, 100000)},
       {"http.read_timeout_s", "", "integer",
-       "seconds a client has to send a request's line and headers, and to take an answer (a file's, each 64 KiB of it), 1..3600",
+       "seconds a client has to send a request's line and headers, and to take an answer (a file's, each 64 KiB "
+       "of it), 1..3600",
        number(&ServeConfig::read_timeout_s, 1, 3600)},
       {"http.idle_timeout_s", "", "integer", "seconds a kept-alive connection may wait for its next request, 1..3600",
        number(&ServeConfig::idle_timeout_s, 1, 3600)},

@@ -43,9 +43,9 @@ bool isAbandonedTempFile(const std::string& path);
 // libpng's default, which tries all five per row), then zlib with a strategy
 // and a level. Levels choose how hard LZ77 searches, so they matter only
 // with kLz77. The default is what tiles use, chosen by measurement
-// (docs/performance.md, "PNG encoding"): after Paeth a normal map's rows are mostly runs of small
-// residuals, which run-length matches code in less time and fewer bytes than
-// zlib's level 2 LZ77 search.
+// (docs/performance.md, "PNG encoding"): after Paeth a normal map's rows are
+// mostly runs of small residuals, which run-length matches code in less time
+// and fewer bytes than zlib's level 2 LZ77 search.
 enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly };
 struct PngCompression {
   int level = 2;
