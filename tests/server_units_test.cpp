@@ -1,7 +1,7 @@
 // Tests of `terrabake serve` that need no server: the serve config (file,
 // defaults, errors), the router (routes, malformed and unknown paths), the
-// HTTP rules (If-None-Match, content types, hosts) and the tile cache (its
-// bound and eviction order).
+// HTTP rules (If-None-Match, content types, hosts), the tile cache (its
+// bound and eviction order) and files read in parts.
 #include <gtest/gtest.h>
 
 #include <cstddef>
@@ -18,6 +18,7 @@
 #include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
 #include "server/route.hpp"
+#include "server/served_folder.hpp"
 #include "server/tile_cache.hpp"
 #include "test_helpers.hpp"
 
@@ -220,6 +221,29 @@ TEST(ServeHttpRules, IfRangeComparesStrongly) {
   EXPECT_FALSE(server::ifRangeHolds("\"abc-13\"", "\"abc-12\""));
   EXPECT_FALSE(server::ifRangeHolds("Wed, 21 Oct 2015 07:28:00 GMT", "\"abc-12\""));
   EXPECT_FALSE(server::ifRangeHolds("", "\"abc-12\""));
+}
+
+TEST(ServedFiles, PartsOfAFileAreReadWhereAskedAndNowhereElse) {
+  const fs::path dir = caseDir();
+  writeText(dir / "file.bin", "0123456789");
+  const server::ServedFolder folder(dir);
+  const std::optional<server::OpenedFile> file = folder.open("file.bin");
+  ASSERT_TRUE(file);
+  EXPECT_EQ(file->size(), 10u);
+  EXPECT_EQ(file->etag(), folder.etag("file.bin"));
+  EXPECT_EQ(file->read(3, 4), "3456");
+  EXPECT_EQ(file->read(0, 10), "0123456789");
+  EXPECT_EQ(file->read(10, 0), "");
+  EXPECT_FALSE(file->read(8, 3)) << "past the end";
+  EXPECT_FALSE(file->read(11, 0));
+  EXPECT_FALSE(file->read(std::size_t(-1), 2)) << "no overflow past the end";
+  const std::optional<FileContent> whole = folder.read("file.bin");
+  ASSERT_TRUE(whole);
+  EXPECT_EQ(whole->bytes, "0123456789");
+  EXPECT_EQ(whole->etag, file->etag());
+  EXPECT_FALSE(folder.open("missing.bin"));
+  EXPECT_FALSE(folder.open("../file.bin"));
+  EXPECT_FALSE(folder.open("")) << "the folder itself is no file";
 }
 
 TEST(ServeConfig, LimitsAndThePublicUrl) {
