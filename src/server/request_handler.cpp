@@ -33,11 +33,12 @@ HttpReply text(int status, const std::string& message) {
 
 // A body of `length` bytes answered under `etag`: 304 when the client holds
 // this very version, 416 for a range past the end (both `done`), else the
-// headers of a 200, or of a 206 with the part a single Range asks for.
+// headers of a 200 with the whole body, or of a 206 with the part a single
+// Range asks for, and which bytes of the body to send.
 struct Validation {
   HttpReply reply;
   bool done = false;
-  ByteRange range;  // kWhole or kPart
+  std::size_t first = 0, count = 0;  // unless done: the bytes to send
 };
 
 Validation validate(const HttpRequest& request, std::size_t length, const std::string& etag,
@@ -54,16 +55,19 @@ Validation validate(const HttpRequest& request, std::size_t length, const std::s
   }
   v.reply.headers.emplace_back("Accept-Ranges", "bytes");
   const bool range_applies = !request.range.empty() && (request.if_range.empty() || ifRangeHolds(request.if_range, etag));
-  v.range = range_applies ? parseRange(request.range, length) : ByteRange{};
+  const ByteRange range = range_applies ? parseRange(request.range, length) : ByteRange{};
   const std::string total = std::to_string(length);
-  if (v.range.kind == ByteRange::Kind::kUnsatisfiable) {
+  v.count = length;
+  if (range.kind == ByteRange::Kind::kUnsatisfiable) {
     v.reply = text(416, "range not satisfiable: the body is " + total + " bytes");
     v.reply.headers.emplace_back("Content-Range", "bytes */" + total);
     v.done = true;
-  } else if (v.range.kind == ByteRange::Kind::kPart) {
+  } else if (range.kind == ByteRange::Kind::kPart) {
     v.reply.status = 206;
-    v.reply.headers.emplace_back("Content-Range", "bytes " + std::to_string(v.range.first) + "-" +
-                                                      std::to_string(v.range.last) + "/" + total);
+    v.reply.headers.emplace_back("Content-Range", "bytes " + std::to_string(range.first) + "-" +
+                                                      std::to_string(range.last) + "/" + total);
+    v.first = range.first;
+    v.count = range.last - range.first + 1;
   }
   return v;
 }
@@ -72,7 +76,7 @@ HttpReply validated(const HttpRequest& request, std::string content_type, std::s
                     const std::string& cache_control) {
   Validation v = validate(request, body.size(), etag, cache_control);
   if (v.done) return std::move(v.reply);
-  if (v.range.kind == ByteRange::Kind::kPart) body = body.substr(v.range.first, v.range.last - v.range.first + 1);
+  if (v.count < body.size()) body = body.substr(v.first, v.count);
   v.reply.content_type = std::move(content_type);
   v.reply.body = std::move(body);
   return std::move(v.reply);
@@ -83,11 +87,8 @@ HttpReply validatedFile(const HttpRequest& request, std::string content_type, Op
                         const std::string& cache_control) {
   Validation v = validate(request, file.size(), file.etag(), cache_control);
   if (v.done) return std::move(v.reply);
-  const bool part = v.range.kind == ByteRange::Kind::kPart;
-  const std::size_t first = part ? v.range.first : 0;
-  const std::size_t length = part ? v.range.last - v.range.first + 1 : file.size();
   v.reply.content_type = std::move(content_type);
-  v.reply.file_part = HttpReply::FilePart{std::make_shared<const OpenedFile>(std::move(file)), first, length};
+  v.reply.file_part = HttpReply::FilePart{std::make_shared<const OpenedFile>(std::move(file)), v.first, v.count};
   return std::move(v.reply);
 }
 
