@@ -3,13 +3,13 @@
 // layout's bytes, and the header and directories keep the spec's rules; a
 // run killed halfway leaves no archive under a final name; flat sea is
 // stored once; TileIDs are the spec's; leaf directories appear when the
-// root would outgrow 16 KiB.
+// root would outgrow 16 KiB; a damaged archive is refused, naming it.
 #include <gtest/gtest.h>
-
 
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
+#include <functional>
 #include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
@@ -304,6 +304,66 @@ TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {
     }
   }
   EXPECT_FALSE(reader.tile({kZoom - 1, 0, 0}));
+}
+
+// An archive of its header, gzipped root directory and metadata, in that
+// order, as the spec lays them out.
+fs::path handMadeArchive(const std::string& name, const std::vector<io::PmtilesEntry>& root,
+                         const std::string& root_bytes_override = {}) {
+  const std::string root_bytes = root_bytes_override.empty() ? io::gzipBytes(io::encodePmtilesDirectory(root))
+                                                             : root_bytes_override;
+  const std::string metadata = io::gzipBytes("{}");
+  io::PmtilesHeader h;
+  h.root_offset = io::kPmtilesHeaderBytes;
+  h.root_length = root_bytes.size();
+  h.metadata_offset = h.root_offset + h.root_length;
+  h.metadata_length = metadata.size();
+  h.leaves_offset = h.data_offset = h.metadata_offset + h.metadata_length;
+  h.internal_compression = 2;
+  h.tile_compression = 1;
+  const fs::path path = test::caseDir() / name;
+  test::writeBytes(path, io::encodePmtilesHeader(h) + root_bytes + metadata);
+  return path;
+}
+
+// What a damaged or crafted archive gets: an InputError naming it, before
+// anything is allocated for the sizes it claims.
+void expectRefused(const std::function<void()>& read, const fs::path& path, const std::string& why) {
+  try {
+    read();
+    ADD_FAILURE() << path << " was read";
+  } catch (const InputError& error) {
+    EXPECT_NE(std::string(error.what()).find(path.string()), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find(why), std::string::npos) << error.what();
+  }
+}
+
+TEST(Pmtiles, ADamagedArchiveIsRefusedNamingItAndNothingPastItsEndIsRead) {
+  const fs::path good = handMadeArchive("good.pmtiles", {{0, 0, 4, 1}});
+  EXPECT_NO_THROW(io::PmtilesReader reader(good.string()));
+  // Lengths and offsets in the header beyond the file, one of them so large
+  // that allocating it would throw std::length_error.
+  for (const auto& [field, value] : std::vector<std::pair<std::size_t, std::uint64_t>>{
+           {16, std::uint64_t(1) << 62}, {16, 1u << 20}, {8, std::uint64_t(1) << 63}, {32, 1000}}) {
+    std::string bytes = test::readBytes(good);
+    for (std::size_t k = 0; k < 8; ++k) bytes[field + k] = char((value >> (8 * k)) & 0xff);
+    const fs::path damaged = test::caseDir() / ("field" + std::to_string(field) + "_" + std::to_string(value));
+    test::writeBytes(damaged, bytes);
+    expectRefused([&] { io::PmtilesReader reader(damaged.string()); }, damaged, "past the archive's end");
+  }
+  // A root directory of 40 MiB of zeros, gzipped to a few KiB.
+  const fs::path bomb = handMadeArchive("bomb.pmtiles", {}, io::gzipBytes(std::string(std::size_t(40) << 20, '\0')));
+  expectRefused([&] { io::PmtilesReader reader(bomb.string()); }, bomb, "inflates to more than 32 MiB");
+  // A leaf directory and a tile whose bytes lie past the end: the archive
+  // opens, the tiles they hold do not read.
+  const fs::path leaf = handMadeArchive("leaf.pmtiles", {{0, 0, std::uint64_t(1) << 40, 0}});
+  const io::PmtilesReader leaf_reader(leaf.string());
+  expectRefused([&] { leaf_reader.tile({0, 0, 0}); }, leaf, "leaf directory");
+  const fs::path tile = handMadeArchive("tile.pmtiles", {{0, std::uint64_t(1) << 62, 4, 1}});
+  const io::PmtilesReader tile_reader(tile.string());
+  expectRefused([&] { tile_reader.tile({0, 0, 0}); }, tile, "past the archive's end");
+  // A directory that claims more entries than its bytes could hold.
+  EXPECT_THROW(io::decodePmtilesDirectory(std::string("\xe8\x07\x01\x01\x01\x01", 6)), std::runtime_error);
 }
 
 }  // namespace

@@ -1,6 +1,7 @@
 #include "io/pmtiles.hpp"
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -167,7 +168,7 @@ std::vector<PmtilesEntry> decodePmtilesDirectory(std::string_view bytes) {
   std::size_t at = 0;
   const std::uint64_t count = getVarint(bytes, at);
   // Each entry takes at least four bytes: a count beyond that is a lie.
-  if (count > bytes.size()) throw std::runtime_error("directory claims more entries than it has bytes");
+  if (count > (bytes.size() - at) / 4) throw std::runtime_error("directory claims more entries than it has bytes");
   std::vector<PmtilesEntry> entries;
   entries.resize(std::size_t(count));
   std::uint64_t last_id = 0;
@@ -214,6 +215,11 @@ std::string gunzipBytes(std::string_view bytes) {
     result = inflate(&stream, Z_NO_FLUSH);
     out.append(chunk, sizeof chunk - stream.avail_out);
     if (result == Z_BUF_ERROR && stream.avail_in == 0) break;
+    if (out.size() > kPmtilesMaxInflatedBytes) {
+      inflateEnd(&stream);
+      throw std::runtime_error("gzip data inflates to more than " + std::to_string(kPmtilesMaxInflatedBytes >> 20) +
+                               " MiB");
+    }
   }
   inflateEnd(&stream);
   if (result != Z_STREAM_END) throw std::runtime_error("not gzip data, or cut short");
@@ -392,13 +398,20 @@ void PmtilesWriter::finish(const std::string& tilejson, const std::string& job) 
 PmtilesReader::PmtilesReader(const std::string& path) : m_path(path) {
   m_fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
   if (m_fd < 0) throwIo("cannot open", path, errno);
+  struct stat status {};
+  if (::fstat(m_fd, &status) != 0) {
+    const int error = errno;
+    ::close(m_fd);
+    throwIo("cannot read", path, error);
+  }
+  m_size = std::uint64_t(status.st_size);
   try {
     m_header = decodePmtilesHeader(readAt(0, kPmtilesHeaderBytes));
     if (m_header.internal_compression != kCompressionGzip && m_header.internal_compression != kCompressionNone) {
       throw std::runtime_error("directories compressed other than with gzip");
     }
-    m_root = decodePmtilesDirectory(internal(readAt(m_header.root_offset, m_header.root_length)));
-    m_metadata = internal(readAt(m_header.metadata_offset, m_header.metadata_length));
+    m_root = decodePmtilesDirectory(internal(m_header.root_offset, m_header.root_length));
+    m_metadata = internal(m_header.metadata_offset, m_header.metadata_length);
   } catch (const std::runtime_error& e) {
     ::close(m_fd);
     throw InputError("'" + path + "' is no PMTiles v3 archive terrabake reads: " + e.what());
@@ -407,11 +420,25 @@ PmtilesReader::PmtilesReader(const std::string& path) : m_path(path) {
 
 PmtilesReader::~PmtilesReader() { ::close(m_fd); }
 
+void PmtilesReader::checkInside(std::uint64_t offset, std::uint64_t length) const {
+  if (offset > m_size || length > m_size - offset) {
+    throw std::runtime_error(std::to_string(length) + " bytes at byte " + std::to_string(offset) +
+                             " lie past the archive's end (" + std::to_string(m_size) + " bytes)");
+  }
+}
+
 std::string PmtilesReader::readAt(std::uint64_t offset, std::uint64_t length) const {
+  checkInside(offset, length);
   return preadAll(m_fd, offset, length, m_path);
 }
 
-std::string PmtilesReader::internal(std::string bytes) const {
+std::string PmtilesReader::internal(std::uint64_t offset, std::uint64_t length) const {
+  checkInside(offset, length);
+  if (length > kPmtilesMaxInflatedBytes) {
+    throw std::runtime_error("a directory or the metadata of " + std::to_string(length) + " bytes, more than " +
+                             std::to_string(kPmtilesMaxInflatedBytes >> 20) + " MiB");
+  }
+  std::string bytes = readAt(offset, length);
   return m_header.internal_compression == kCompressionGzip ? gunzipBytes(bytes) : bytes;
 }
 
@@ -427,14 +454,16 @@ std::optional<std::string> PmtilesReader::tile(const TileId& tile) const {
                                        [](std::uint64_t v, const PmtilesEntry& e) { return v < e.tile_id; });
     if (next == dir->begin()) return std::nullopt;
     const PmtilesEntry& e = *(next - 1);
-    if (e.run_length > 0) {
-      if (id >= e.tile_id + e.run_length) return std::nullopt;
-      return readAt(m_header.data_offset + e.offset, e.length);
-    }
     try {
-      leaf = decodePmtilesDirectory(internal(readAt(m_header.leaves_offset + e.offset, e.length)));
+      if (e.run_length > 0) {
+        if (id - e.tile_id >= e.run_length) return std::nullopt;
+        return readAt(m_header.data_offset + e.offset, e.length);
+      }
+      leaf = decodePmtilesDirectory(internal(m_header.leaves_offset + e.offset, e.length));
+    } catch (const InputError&) {
+      throw;  // names the archive already
     } catch (const std::runtime_error& error) {
-      throw InputError("'" + m_path + "': leaf directory: " + error.what());
+      throw InputError("'" + m_path + "': " + (e.run_length > 0 ? "tile data: " : "leaf directory: ") + error.what());
     }
     dir = &leaf;
   }

@@ -45,7 +45,12 @@ struct PmtilesEntry {
 std::string encodePmtilesDirectory(const std::vector<PmtilesEntry>& entries);
 std::vector<PmtilesEntry> decodePmtilesDirectory(std::string_view bytes);
 
-// gzip (RFC 1952) through zlib. gunzip throws std::runtime_error on bad input.
+// gzip (RFC 1952) through zlib. gunzip throws std::runtime_error on bad input
+// and on data that inflates to more than kPmtilesMaxInflatedBytes: an
+// archive's directories and metadata, read whole, are far smaller (a leaf of
+// 100,000 tiles is about 1 MiB), and a crafted directory of a few MiB would
+// otherwise inflate to gigabytes.
+inline constexpr std::size_t kPmtilesMaxInflatedBytes = std::size_t(32) << 20;
 std::string gzipBytes(std::string_view bytes);
 std::string gunzipBytes(std::string_view bytes);
 
@@ -131,11 +136,17 @@ class PmtilesReader {
   std::optional<std::string> tile(const TileId& tile) const;
 
  private:
+  // Offsets and lengths come from the archive itself: a part past its end is
+  // refused (std::runtime_error) before anything is allocated for it.
+  void checkInside(std::uint64_t offset, std::uint64_t length) const;
   std::string readAt(std::uint64_t offset, std::uint64_t length) const;
-  std::string internal(std::string bytes) const;
+  // A directory or the metadata: read, then inflated when the archive's
+  // internal compression is gzip.
+  std::string internal(std::uint64_t offset, std::uint64_t length) const;
 
   std::string m_path;
   int m_fd = -1;
+  std::uint64_t m_size = 0;  // of the file, when opened
   PmtilesHeader m_header;
   std::vector<PmtilesEntry> m_root;
   std::string m_metadata;
