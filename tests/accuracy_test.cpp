@@ -374,5 +374,57 @@ TEST(RendererFrame, RoughTerrainDecodesToTheHighResNormalsEverywhere) {
   EXPECT_LE(s.max, kMaxRendererFrameDeg);
 }
 
+// A whole-world DEM of the ellipsoid itself (height 0 in EPSG:4326, 5-degree
+// pixels), tiled in the geodetic scheme at zooms 0-1: every tile reaches a
+// pole, and its apron past it. Each texel, the polar rows included, decodes to
+// the ellipsoid's normal there within the 8-bit bounds above. Before the
+// apron's latitudes past a pole were taken round the meridian, every such tile
+// failed ("position is not finite"), and before the frames at a pole were
+// taken along their meridians, the texels near it decoded upside down.
+TEST(WholeWorld, TilesReachingThePolesDecodeToTheEllipsoidsNormal) {
+  constexpr int kWorldTileSize = 32;
+  const auto dem = test::sharedFixture("flat_world_epsg4326.tif", [](const auto& path) {
+    ts::writeFloatDem(path, 4326, {-180, 5, 0, 90, 0, -5}, 72, 36, [](double, double) { return 0.0; });
+  });
+  const std::filesystem::path out = test::caseDir();
+  config::TileJob job = test::tileJob(dem, "", SchemeKind::kGeodetic, 0, 1);
+  job.output_dir = (out / "geodetic").string();
+  job.tile_size = kWorldTileSize;
+  job.backend = Backend::kCpu;
+  const auto summary = pipeline::runTileJob(job);
+  EXPECT_EQ(summary.written, 2 + 8);
+  ASSERT_EQ(summary.failed, 0);
+
+  std::vector<double> angles;
+  for (int zoom : {0, 1}) {
+    for (const TileId& tile : tilesOfZoom(test::layerDir(job), zoom)) {
+      const test::DecodedTile decoded = test::readTile(test::layerDir(job), tile);
+      for (int j = 0; j < kWorldTileSize; ++j) {
+        for (int i = 0; i < kWorldTileSize; ++i) {
+          const auto n = decoded.ecefNormal(i, j);
+          ASSERT_TRUE(n.has_value()) << tile.str() << " texel " << i << ", " << j;
+          const glm::dvec2 lon_lat = test::geodeticTexelLonLat(tile, kWorldTileSize, i, j);
+          angles.push_back(test::angleBetweenDeg(*n, ts::ellipsoidUpEcef(lon_lat.x, lon_lat.y)));
+        }
+      }
+    }
+  }
+  const AngleStats s = summarise(angles);
+  std::printf("whole world, geodetic zooms 0-1: %zu texels, mean %.4f deg, p99 %.4f deg, max %.4f deg\n", s.count,
+              s.mean, s.p99, s.max);
+  EXPECT_LE(s.mean, kMaxMeanDeg8);
+  EXPECT_LE(s.p99, kMaxP99Deg8);
+
+  // The DEM's own (native) square tile reaches 90 degrees past the south
+  // pole: it is made all the same, not failed.
+  config::TileJob native = test::tileJob(dem, "", SchemeKind::kNative, 0, 0);
+  native.output_dir = (out / "native").string();
+  native.tile_size = kWorldTileSize;
+  native.backend = Backend::kCpu;
+  const auto native_summary = pipeline::runTileJob(native);
+  EXPECT_EQ(native_summary.written, 1);
+  EXPECT_EQ(native_summary.failed, 0);
+}
+
 }  // namespace
 }  // namespace terrabake

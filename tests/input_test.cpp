@@ -344,6 +344,37 @@ TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
   EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
 }
 
+// Eight pixels of 1e-12 degrees: at zooms 0-3 a texel spans some 1e11 of
+// them, which the footprint mean once sized its weights by (std::bad_alloc
+// for every tile, or the whole memory). Pixels past the raster weigh
+// nothing: the job ends at once, as one that makes nothing.
+TEST(Inputs, ATinyDemAtCoarseZoomsMakesNothingWithoutRunningOutOfMemory) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {10, 1e-12, 0, 46, 0, -1e-12};
+  writeDem(dir / "tiny.tif", 8, 8, gt, hill);
+  test::ChildLimits limits;
+  limits.address_space = std::size_t(3) << 30;
+  const RunResult r = run(tileArgs(dir / "tiny.tif", dir / "out", "tiny", "0-3"), limits, std::chrono::seconds(60));
+  EXPECT_EQ(r.exit_code, kExitNothingMade) << describe(r);
+  EXPECT_TRUE(contains(r.err, "holds a valid DEM sample")) << describe(r);
+  EXPECT_FALSE(contains(r.err, "bad_alloc")) << describe(r);
+}
+
+// A UTM DEM tiled in the geodetic scheme from zoom 0: the middle tile of the
+// coarse zooms reaches 80 degrees of longitude past the UTM zone, where the
+// projection has no inverse. The read plan is then judged inside the DEM;
+// it once stopped the job ("cannot transform a tile centre").
+TEST(Inputs, UtmDemTilesInTheGeodeticSchemeFromZoomZero) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {500000, 30, 0, 5100000, 0, -30};
+  writeDem(dir / "utm.tif", 64, 64, gt, hill, 32632);
+  std::vector<std::string> args = tileArgs(dir / "utm.tif", dir / "out", "utm", "0-12");
+  args.insert(args.end(), {"--scheme", "geodetic"});
+  const RunResult r = run(args);
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(fs::exists(dir / "out" / "utm" / "12")) << describe(r);
+}
+
 // 0.2 degrees across the antimeridian at 50 N, stored from 179.9 to 180.1:
 // zoom 12 has 4 tiles a side there (1 or 2 columns each side), not 4096.
 TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {

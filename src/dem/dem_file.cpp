@@ -385,15 +385,27 @@ std::shared_ptr<const ReducedLevels> FileMeta::reducedLevels() const {
 }
 
 FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file, bool may_reduce) const {
-  // Size of one grid cell in DEM pixels, measured at the grid's centre.
-  const double cx = grid.centreX(grid.width / 2.0), cy = grid.centreY(grid.height / 2.0);
-  double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
-  if (!to_file.Transform(3, x, y)) {
-    throw InputError("dem: cannot transform a tile centre into '" + shortened(m_info.path) + "'");
+  // Size of one grid cell in DEM pixels, measured at (cx, cy) of the grid.
+  const auto pixelsPerCell = [&](double cx, double cy) -> std::optional<double> {
+    double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
+    if (!to_file.Transform(3, x, y)) return std::nullopt;
+    const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
+    const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
+    return std::sqrt(du * dv);
+  };
+  // At the grid's centre; where the DEM's CRS cannot take that point (a
+  // coarse zoom's tile reaching 80 degrees of longitude past a UTM zone), at
+  // the DEM's centre, brought inside the grid.
+  std::optional<double> measured = pixelsPerCell(grid.centreX(grid.width / 2.0), grid.centreY(grid.height / 2.0));
+  if (!measured) {
+    const Extent dem = boundsIn(grid.crs);
+    const double west = grid.origin_x, north = grid.origin_y;
+    const double east = west + grid.width * grid.cell_w, south = north - grid.height * grid.cell_h;
+    measured = pixelsPerCell(std::clamp((dem.min_x + dem.max_x) / 2, west, east - grid.cell_w),
+                             std::clamp((dem.min_y + dem.max_y) / 2, south + grid.cell_h, north));
   }
-  const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
-  const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
-  const double pixels_per_cell = std::sqrt(du * dv);
+  if (!measured) throw InputError("dem: cannot transform a tile centre into '" + shortened(m_info.path) + "'");
+  const double pixels_per_cell = *measured;
 
   FilePlan plan;
   plan.average = pixels_per_cell > 1.0;

@@ -59,16 +59,27 @@ double tentIntegral(double t) {
   return 0.5 + u - 0.5 * u * std::abs(u);
 }
 
-// weights[k]: the share of pixel span.first + k in the integral, over the
-// span, of the samples joined by straight lines; they sum to the span's
-// width, and the mean of a linear ramp is its value at the span's centre,
-// whatever the phase. (A height is a ratio of two such integrals: the
-// widths divide out.)
-void spanWeights(const Span& span, std::vector<double>& weights) {
-  weights.resize(std::size_t(span.last - span.first + 1));
-  for (std::size_t k = 0; k < weights.size(); ++k) {
-    const double from_sample = span.low - (double(span.first + long(k)) + 0.5);
-    weights[k] = tentIntegral(from_sample + span.width) - tentIntegral(from_sample);
+// at(pixel): the share of the pixel in the integral, over the span, of the
+// samples joined by straight lines; over all the span's pixels they sum to
+// its width, and the mean of a linear ramp is its value at the span's
+// centre, whatever the phase. (A height is a ratio of two such integrals:
+// the widths divide out.) Kept for the pixels read alone: a texel may span
+// far more pixels than the raster has (a DEM of a few pixels at zoom 0).
+struct SpanWeights {
+  long first = 0;  // the pixel of weights[0]
+  std::vector<double> weights;
+
+  double at(long pixel) const { return weights[std::size_t(pixel - first)]; }
+};
+
+// Weights of the span's pixels within [lowest, highest].
+void spanWeights(const Span& span, long lowest, long highest, SpanWeights& out) {
+  out.first = std::max(span.first, lowest);
+  const long last = std::min(span.last, highest);
+  out.weights.resize(last >= out.first ? std::size_t(last - out.first + 1) : 0);
+  for (std::size_t k = 0; k < out.weights.size(); ++k) {
+    const double from_sample = span.low - (double(out.first + long(k)) + 0.5);
+    out.weights[k] = tentIntegral(from_sample + span.width) - tentIntegral(from_sample);
   }
 }
 
@@ -220,25 +231,25 @@ struct FootprintSums {
 
   // Pixel by pixel, over rows [top, bottom] of `strip`; `x_weights` and
   // `y_weights` from spanWeights.
-  void addPixels(const SourceWindow& strip, const Footprint& f, const std::vector<double>& x_weights,
-                 const std::vector<double>& y_weights, long top, long bottom) {
+  void addPixels(const SourceWindow& strip, const Footprint& f, const SpanWeights& x_weights,
+                 const SpanWeights& y_weights, long top, long bottom) {
     const long x_from = std::max(f.x.first, strip.col0);
     const long x_to = std::min(f.x.last, strip.col0 + strip.width - 1);
     for (long y = std::max(f.y.first, top); y <= std::min(f.y.last, bottom); ++y) {
       RowSums row;
       for (long x = x_from, i = long(strip.indexOf(x_from, y)); x <= x_to; ++x, ++i) {
-        row.addPixel(strip, std::size_t(i), x_weights[std::size_t(x - f.x.first)]);
+        row.addPixel(strip, std::size_t(i), x_weights.at(x));
       }
-      addRow(row, y_weights[std::size_t(y - f.y.first)]);
+      addRow(row, y_weights.at(y));
     }
   }
 
   // Through prefix sums of rows [top, bottom] of pixels [col0, col1].
-  void addRowIntegrals(const RowPrefixSums& prefix, const Footprint& f, const std::vector<double>& y_weights,
+  void addRowIntegrals(const RowPrefixSums& prefix, const Footprint& f, const SpanWeights& y_weights,
                        long col0, long col1, long top, long bottom) {
     const RowSpan x_span{spanEndAt(f.x.low, col0, col1), spanEndAt(f.x.low + f.x.width, col0, col1)};
     for (long y = std::max(f.y.first, top); y <= std::min(f.y.last, bottom); ++y) {
-      addRow(prefix.integralAlong(y - top, x_span), y_weights[std::size_t(y - f.y.first)]);
+      addRow(prefix.integralAlong(y - top, x_span), y_weights.at(y));
     }
   }
 
@@ -316,15 +327,15 @@ std::optional<Raster<float>> averageEach(GDALRasterBandH band, const LatticeTran
 
   RowPrefixSums prefix;
   std::vector<FootprintSums> sums(footprints.size());
-  std::vector<double> x_weights, y_weights;
+  SpanWeights x_weights, y_weights;
   const auto add = [&](const SourceWindow& strip, long top, long bottom) {
     bool prefix_built = false;  // only wide footprints need them
     for (std::size_t k = 0; k < footprints.size(); ++k) {
       const Footprint& f = footprints[k];
       if (!f.known || f.y.last < top || f.y.first > bottom || reach.offAlongX(f.x)) continue;
-      spanWeights(f.y, y_weights);
+      spanWeights(f.y, reach.row0, reach.row1, y_weights);
       if (f.x.last - f.x.first < kMaxPixelsSummedAlongARow) {
-        spanWeights(f.x, x_weights);
+        spanWeights(f.x, reach.col0, reach.col1, x_weights);
         sums[k].addPixels(strip, f, x_weights, y_weights, top, bottom);
         continue;
       }
@@ -369,9 +380,9 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   reach.clipToRaster();
   if (reach.empty()) return heights;
 
-  std::vector<std::vector<double>> column_weights(columns.size()), row_weights(rows.size());
-  for (std::size_t c = 0; c < columns.size(); ++c) spanWeights(columns[c], column_weights[c]);
-  for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], row_weights[r]);
+  std::vector<SpanWeights> column_weights(columns.size()), row_weights(rows.size());
+  for (std::size_t c = 0; c < columns.size(); ++c) spanWeights(columns[c], reach.col0, reach.col1, column_weights[c]);
+  for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], reach.row0, reach.row1, row_weights[r]);
   const std::size_t width = columns.size();
   std::vector<FootprintSums> sums(width * rows.size());
   std::vector<RowSums> along_row(width);
@@ -383,12 +394,12 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
         if (reach.offAlongX(x)) continue;
         const long x_from = std::max(x.first, strip.col0), x_to = std::min(x.last, strip.col0 + strip.width - 1);
         for (long at = x_from, i = long(strip.indexOf(x_from, y)); at <= x_to; ++at, ++i) {
-          along_row[c].addPixel(strip, std::size_t(i), column_weights[c][std::size_t(at - x.first)]);
+          along_row[c].addPixel(strip, std::size_t(i), column_weights[c].at(at));
         }
       }
       for (std::size_t r = 0; r < rows.size(); ++r) {
         if (y < rows[r].first || y > rows[r].last) continue;
-        const double share = row_weights[r][std::size_t(y - rows[r].first)];
+        const double share = row_weights[r].at(y);
         for (std::size_t c = 0; c < width; ++c) {
           if (!reach.offAlongX(columns[c])) sums[r * width + c].addRow(along_row[c], share);
         }

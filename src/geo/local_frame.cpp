@@ -3,29 +3,47 @@
 #include <GeographicLib/Geocentric.hpp>
 #include <GeographicLib/LocalCartesian.hpp>
 #include <GeographicLib/Math.hpp>
+#include <glm/vec2.hpp>
 
 #include <cmath>
 #include <vector>
 
 namespace terrabake::geo {
+namespace {
+
+// A latitude past a pole, as the rows of a tile's apron beyond it reach (or
+// a geographic DEM's own square tiles, which may reach further), goes on
+// along the meridian's circle: that far back from the pole on the opposite
+// meridian. GeographicLib takes |lat| > 90 as NaN. Exact for |lat| <= 90.
+glm::dvec2 foldedPastPole(double lon_deg, double lat_deg) {
+  const double along = std::remainder(lat_deg, 360.0);  // in [-180, 180]
+  if (along > 90) return {lon_deg + 180, 180 - along};
+  if (along < -90) return {lon_deg + 180, -180 - along};
+  return {lon_deg, along};
+}
+
+}  // namespace
 
 struct LocalFrame::Impl {
   GeographicLib::LocalCartesian enu;
 };
 
-LocalFrame::LocalFrame(double lon_deg, double lat_deg)
-    : m_impl(std::make_unique<Impl>(
-          Impl{GeographicLib::LocalCartesian(lat_deg, lon_deg, 0.0, GeographicLib::Geocentric::WGS84())})),
-      m_lon_deg(lon_deg),
-      m_lat_deg(lat_deg) {}
+LocalFrame::LocalFrame(double lon_deg, double lat_deg) {
+  const glm::dvec2 origin = foldedPastPole(lon_deg, lat_deg);
+  m_impl = std::make_unique<Impl>(
+      Impl{GeographicLib::LocalCartesian(origin.y, origin.x, 0.0, GeographicLib::Geocentric::WGS84())});
+  m_lon_deg = origin.x;
+  m_lat_deg = origin.y;
+}
 
 LocalFrame::~LocalFrame() = default;
 LocalFrame::LocalFrame(LocalFrame&&) noexcept = default;
 LocalFrame& LocalFrame::operator=(LocalFrame&&) noexcept = default;
 
 glm::dvec3 LocalFrame::toLocal(double lon_deg, double lat_deg, double height_m) const {
+  const glm::dvec2 folded = foldedPastPole(lon_deg, lat_deg);
   double east = 0, north = 0, up = 0;
-  m_impl->enu.Forward(lat_deg, lon_deg, height_m, east, north, up);
+  m_impl->enu.Forward(folded.y, folded.x, height_m, east, north, up);
   return {east, up, -north};
 }
 
@@ -45,8 +63,10 @@ std::vector<glm::dvec3> LocalFrame::toLocalGraticule(const std::vector<double>& 
   for (std::size_t c = 0; c < lon_deg.size(); ++c) Math::sincosd(lon_deg[c], sin_lon[c], cos_lon[c]);
   std::vector<glm::dvec3> local(lon_deg.size() * lat_deg.size());
   for (std::size_t r = 0; r < lat_deg.size(); ++r) {
+    // Past a pole the cosine turns negative, which puts the point on the
+    // opposite meridian, as foldedPastPole does.
     double sin_lat = 0, cos_lat = 0;
-    Math::sincosd(Math::LatFix(lat_deg[r]), sin_lat, cos_lat);
+    Math::sincosd(lat_deg[r], sin_lat, cos_lat);
     const double n = a / std::sqrt(1 - e2 * Math::sq(sin_lat));
     for (std::size_t c = 0; c < lon_deg.size(); ++c) {
       const std::size_t k = r * lon_deg.size() + c;
@@ -87,8 +107,9 @@ std::array<double, 16> LocalFrame::localToEcef() const {
 }
 
 glm::dvec3 geodeticToEcef(double lon_deg, double lat_deg, double height_m) {
+  const glm::dvec2 folded = foldedPastPole(lon_deg, lat_deg);
   double x = 0, y = 0, z = 0;
-  GeographicLib::Geocentric::WGS84().Forward(lat_deg, lon_deg, height_m, x, y, z);
+  GeographicLib::Geocentric::WGS84().Forward(folded.y, folded.x, height_m, x, y, z);
   return {x, y, z};
 }
 

@@ -11,7 +11,10 @@ namespace terrabake::geo {
 
 class LocalFrame {
  public:
-  // Origin at (lon_deg, lat_deg) on the ellipsoid (height 0).
+  // Origin at (lon_deg, lat_deg) on the ellipsoid (height 0). Here and
+  // below, a latitude past a pole (the apron of a tile that reaches one)
+  // goes on round the meridian's circle: 90 + d is 90 - d on the opposite
+  // meridian.
   LocalFrame(double lon_deg, double lat_deg);
   ~LocalFrame();
   LocalFrame(LocalFrame&&) noexcept;
@@ -40,7 +43,8 @@ class LocalFrame {
   double m_lat_deg;
 };
 
-// Geodetic point to earth-centred earth-fixed metres (WGS84).
+// Geodetic point to earth-centred earth-fixed metres (WGS84); a latitude past
+// a pole as LocalFrame takes it.
 glm::dvec3 geodeticToEcef(double lon_deg, double lat_deg, double height_m);
 
 }  // namespace terrabake::geo
