@@ -375,22 +375,75 @@ TEST(Inputs, UtmDemTilesInTheGeodeticSchemeFromZoomZero) {
   EXPECT_TRUE(fs::exists(dir / "out" / "utm" / "12")) << describe(r);
 }
 
+// Polar DEMs in the geodetic scheme, whose tiles reach a pole and their
+// aprons past it: 20 km around the south pole in Antarctic polar
+// stereographic (a texel there once made a footprint 1e19 pixels wide, and
+// the read walked it for ever), and 20 km across the antimeridian near the
+// north pole in NSIDC's (its longitudes come back west > east, which once
+// sized the backdrop negative: "unexpected: cannot create std::vector").
+TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {-100000, 100, 0, 100000, 0, -100};
+  writeDem(dir / "antarctic.tif", kHillPixels, kHillPixels, gt, hill, 3031);
+  writeDem(dir / "arctic.tif", kHillPixels, kHillPixels, gt, hill, 3413);
+  for (const std::string name : {"antarctic", "arctic"}) {
+    std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / "out", name, "auto");
+    args.insert(args.end(), {"--scheme", "geodetic"});
+    const RunResult r = run(args, {}, std::chrono::seconds(60));
+    EXPECT_EQ(r.exit_code, kExitOk) << name << ": " << describe(r);
+    EXPECT_TRUE(contains(r.out + r.err, " 0 failed)")) << name << ": " << describe(r);
+  }
+}
+
+// Longitudes counted 0 to 360: the same hills at 190 E and at 170 W make the
+// same tiles, and the job plans no tile beyond them (it once planned 456
+// empty ones at zoom 12, from a piece of the box running west > east, and
+// in the geodetic scheme found no DEM sample at all).
+TEST(Inputs, LongitudesCountedTo360TileLikeTheSamePlaceCountedFromMinus180) {
+  const fs::path dir = caseDir();
+  const double past_180[6] = {190, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  const double before_180[6] = {-170, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "past.tif", kHillPixels, kHillPixels, past_180, hill);
+  writeDem(dir / "before.tif", kHillPixels, kHillPixels, before_180, hill);
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    const auto runOf = [&](const std::string& name) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name);
+      args.insert(args.end(), {"--scheme", scheme});
+      return run(args);
+    };
+    const RunResult past = runOf("past"), before = runOf("before");
+    ASSERT_EQ(past.exit_code, kExitOk) << scheme << ": " << describe(past);
+    ASSERT_EQ(before.exit_code, kExitOk) << scheme << ": " << describe(before);
+    EXPECT_TRUE(contains(past.out + past.err, "(0 skipped, 0 empty, 0 failed)")) << scheme << ": " << describe(past);
+    expectSameTiles(dir / scheme / "past", dir / scheme / "before");
+  }
+}
+
 // 0.2 degrees across the antimeridian at 50 N, stored from 179.9 to 180.1:
 // zoom 12 has 4 tiles a side there (1 or 2 columns each side), not 4096.
 TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
   const fs::path dir = caseDir();
   const double gt[6] = {179.9, kHillPixelDeg, 0, 50, 0, -kHillPixelDeg};
   writeDem(dir / "across.tif", kHillPixels, kHillPixels, gt, hill);
-  const RunResult r = run(tileArgs(dir / "across.tif", dir / "out", "across"));
-  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
-  EXPECT_TRUE(contains(r.err, "zoom 12: 16 tiles")) << describe(r);
-  const auto tiles = tilesOf(dir / "out" / "across");
-  bool west = false, east = false;  // both sides of the antimeridian
-  for (const auto& [name, bytes] : tiles) {
-    west = west || name.rfind("12/4095/", 0) == 0;
-    east = east || name.rfind("12/0/", 0) == 0;
+  // Web Mercator, and the geodetic scheme, whose lon/lat grid once met the
+  // DEM's pixels past 180 nowhere: its tiles west of 180 came out empty.
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    std::vector<std::string> args = tileArgs(dir / "across.tif", dir / scheme, "across");
+    args.insert(args.end(), {"--scheme", scheme});
+    const RunResult r = run(args);
+    ASSERT_EQ(r.exit_code, kExitOk) << scheme << ": " << describe(r);
+    // 0.088 degrees a Web Mercator tile, 0.044 a geodetic one
+    const std::string planned = scheme == "webmercator" ? "zoom 12: 16 tiles" : "zoom 12: 30 tiles";
+    EXPECT_TRUE(contains(r.err, planned)) << scheme << ": " << describe(r);
+    EXPECT_TRUE(contains(r.out + r.err, "(0 skipped, 0 empty, 0 failed)")) << scheme << ": " << describe(r);
+    const int last_column = scheme == "webmercator" ? 4095 : 8191;
+    bool west = false, east = false;  // both sides of the antimeridian
+    for (const auto& [name, bytes] : tilesOf(dir / scheme / "across")) {
+      west = west || name.rfind("12/" + std::to_string(last_column) + "/", 0) == 0;
+      east = east || name.rfind("12/0/", 0) == 0;
+    }
+    EXPECT_TRUE(west && east) << scheme << ": " << describe(r);
   }
-  EXPECT_TRUE(west && east) << describe(r);
 }
 
 // ---------------------------------------------------------- nothing to make

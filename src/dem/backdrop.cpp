@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 
+#include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
 
 namespace terrabake::dem {
@@ -25,7 +26,15 @@ std::array<double, 4> cubicWeights(double t) {
 }  // namespace
 
 Backdrop::Backdrop(const DemSource& dem, const std::string& crs) {
-  const Extent e = dem.boundsIn(crs);
+  Extent e = dem.boundsIn(crs);
+  // Longitudes of a DEM across the antimeridian come back west > east: the
+  // backdrop then spans every longitude. Counted 0 to 360, they are the
+  // places the tiles name from -180.
+  if (e.min_x > e.max_x) {
+    e.min_x = -180, e.max_x = 180;
+  } else if (isLonLatCrs(crs)) {
+    e = turnedIntoRange(e);
+  }
   const double margin = kMargin * std::max(e.width(), e.height());
   const double span = std::max(e.width(), e.height()) + 2 * margin;
   const double cell = span / kCells;

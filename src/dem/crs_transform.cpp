@@ -2,6 +2,9 @@
 
 #include <ogr_spatialref.h>
 
+#include <cmath>
+#include <map>
+
 #include "core/error.hpp"
 #include "dem/gdal_util.hpp"
 
@@ -28,6 +31,20 @@ void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
     throw InputError("dem: cannot transform tile coordinates to longitude/latitude");
   }
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};
+}
+
+bool isLonLatCrs(const std::string& crs) {
+  thread_local std::map<std::string, bool> known;
+  const auto it = known.find(crs);
+  if (it != known.end()) return it->second;
+  return known.emplace(crs, spatialReference(crs).IsGeographic()).first->second;
+}
+
+double turnTowards(double from, double to) { return 360 * std::round((to - from) / 360); }
+
+Extent turnedIntoRange(const Extent& lon_lat) {
+  const double turn_deg = 360 * std::floor((lon_lat.min_x + 180) / 360);
+  return {lon_lat.min_x - turn_deg, lon_lat.min_y, lon_lat.max_x - turn_deg, lon_lat.max_y};
 }
 
 Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to) {

@@ -24,6 +24,17 @@ class ToLonLat {
   std::unique_ptr<Impl> m_impl;
 };
 
+// Whether `crs` counts in longitude and latitude (kept per thread: it is
+// asked for every read).
+bool isLonLatCrs(const std::string& crs);
+
+// The whole turns of 360 degrees that bring longitude `from` nearest `to`.
+double turnTowards(double from, double to);
+
+// `lon_lat` moved by whole turns of 360 degrees so that its west edge lies in
+// [-180, 180): a DEM counted 0 to 360 is the same place.
+Extent turnedIntoRange(const Extent& lon_lat);
+
 // The smallest extent of CRS `to` that holds `extent` of CRS `from`, edges
 // densified so curved edges stay inside. Throws InputError.
 Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to);

@@ -12,6 +12,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "dem/crs_transform.hpp"
 #include "dem/dem_file.hpp"
 #include "dem/gdal_util.hpp"
 
@@ -84,6 +85,13 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
     return whole;
   }
   if (!(bounds.min_x <= bounds.max_x) || !(bounds.min_y <= bounds.max_y)) return whole;  // across the antimeridian
+  if (file.srs().IsGeographic() && isLonLatCrs(grid.crs)) {
+    // A DEM stored past 180 (179.9 to 180.1, or 0 to 360) meets a lon/lat
+    // grid a whole turn round, as LatticeTransformer reads it.
+    const double turn_deg =
+        turnTowards((bounds.min_x + bounds.max_x) / 2, grid.origin_x + grid.width * grid.cell_w / 2);
+    bounds.min_x += turn_deg, bounds.max_x += turn_deg;
+  }
   const double margin_x = 0.05 * bounds.width() + 4 * grid.cell_w;
   const double margin_y = 0.05 * bounds.height() + 4 * grid.cell_h;
   const auto clampTo = [](double v, int high) { return int(std::clamp(v, 0.0, double(high))); };

@@ -140,8 +140,10 @@ SpanEnd spanEndAt(double end, long col0, long col1) {
   // not at all when x >= end + 0.5.
   const long last_full = floorToLong(end - 1.5);
   e.full = std::clamp(last_full + 1 - col0, 0L, count);
-  for (long x = last_full + 1; double(x) < end + 0.5; ++x) {
-    if (x < col0 || x > col1) continue;
+  // At most two pixels, and only those of [col0, col1]: an end far past the
+  // raster (a texel whose corner the DEM's CRS throws far away) starts no
+  // long walk.
+  for (long x = std::max(last_full + 1, col0); x <= col1 && double(x) < end + 0.5; ++x) {
     const double share = tentIntegral(end - (double(x) + 0.5));
     if (share <= 0) continue;
     e.partial[e.partial_count] = x - col0;

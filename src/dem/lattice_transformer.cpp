@@ -1,12 +1,14 @@
 #include "dem/lattice_transformer.hpp"
 
 #include <gdal_alg.h>
+#include <ogr_spatialref.h>
 
 #include <algorithm>
 #include <cmath>
 
 #include "core/error.hpp"
 #include "core/floor.hpp"
+#include "dem/crs_transform.hpp"
 
 namespace terrabake::dem {
 
@@ -16,6 +18,15 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
   // No target dataset: the transformer's "destination" is CRS coordinates.
   m_exact = GDALCreateGenImgProjTransformer2(source, nullptr, const_cast<char**>(options));
   if (!m_exact) throw InputError("dem: no transformation from the DEM to the tiling CRS");
+  OGRSpatialReference source_srs, target_srs;
+  const char* source_wkt = GDALGetProjectionRef(source);
+  if (source_wkt && source_srs.importFromWkt(source_wkt) == OGRERR_NONE &&
+      target_srs.importFromWkt(target_wkt.c_str()) == OGRERR_NONE && source_srs.IsGeographic() &&
+      target_srs.IsGeographic()) {
+    double gt[6] = {};
+    GDALGetGeoTransform(source, gt);
+    m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
+  }
 }
 
 LatticeTransformer::~LatticeTransformer() { GDALDestroyGenImgProjTransformer(m_exact); }
@@ -35,6 +46,12 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
   m_nodes_x = int(long(std::ceil(east / m_spacing_x)) + 1 - m_first_x + 1);
   m_nodes_y = int(long(std::ceil(north / m_spacing_y)) + 1 - m_first_y + 1);
 
+  // Lon/lat to lon/lat takes no turn of the globe: a DEM stored past 180
+  // (179.9 to 180.1, or 0 to 360) is met by the grid a whole turn round.
+  double turn_deg = 0;
+  if (m_source_centre_lon) {
+    turn_deg = turnTowards((west + east) / 2, *m_source_centre_lon);
+  }
   const std::size_t count = std::size_t(m_nodes_x) * m_nodes_y;
   m_source_x.resize(count);
   m_source_y.resize(count);
@@ -43,7 +60,7 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
   for (int j = 0; j < m_nodes_y; ++j) {
     for (int i = 0; i < m_nodes_x; ++i) {
       // Node coordinates from integers alone: identical for every window.
-      m_source_x[std::size_t(j) * m_nodes_x + i] = double(m_first_x + i) * m_spacing_x;
+      m_source_x[std::size_t(j) * m_nodes_x + i] = double(m_first_x + i) * m_spacing_x + turn_deg;
       m_source_y[std::size_t(j) * m_nodes_x + i] = double(m_first_y + j) * m_spacing_y;
     }
   }

@@ -2,6 +2,7 @@
 // Internal to the dem module (it speaks GDAL types).
 #include <gdal.h>
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,8 @@ class LatticeTransformer {
   };
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
+  // Both CRSs geographic: the source's middle longitude.
+  std::optional<double> m_source_centre_lon;
   bool m_separable = false;  // every node valid, x the same down each column, y along each row
   double m_gt[6] = {};      // target grid: pixels -> target CRS
   double m_spacing_x = 0, m_spacing_y = 0;

@@ -36,7 +36,7 @@ std::string lonLatText(const Extent& e) {
 std::vector<Extent> lonLatPieces(const Extent& box) {
   Extent e = box;
   if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
-  if (e.min_x < -180) e.min_x += 360, e.max_x += 360;
+  e = dem::turnedIntoRange(e);  // longitudes counted 0 to 360 are the same places
   if (e.max_x - e.min_x >= 360 || e.max_x <= 180) {
     return {{std::max(e.min_x, -180.0), e.min_y, std::min(e.max_x, 180.0), e.max_y}};
   }
@@ -208,7 +208,8 @@ LayerPlan planLayer(const config::TileJob& job) {
     if (const auto area = plan.scheme->fromLonLat(piece)) pieces.push_back(*area);
   }
   const bool across = pieces.size() > 1;
-  const Extent dem_area = across ? pieces.front() : dem->boundsIn(plan.scheme->crs());
+  Extent dem_area = across ? pieces.front() : dem->boundsIn(plan.scheme->crs());
+  if (!across && dem::isLonLatCrs(plan.scheme->crs())) dem_area = dem::turnedIntoRange(dem_area);
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);
