@@ -392,6 +392,9 @@ TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
     const RunResult r = run(args, {}, std::chrono::seconds(60));
     EXPECT_EQ(r.exit_code, kExitOk) << name << ": " << describe(r);
     EXPECT_TRUE(contains(r.out + r.err, " 0 failed)")) << name << ": " << describe(r);
+    const RunResult info = run({"info", (dir / (name + ".tif")).string()});
+    EXPECT_TRUE(contains(info.out, "webmercator  none: the DEM lies beyond the latitudes its tiles reach"))
+        << name << ": " << describe(info);
   }
 }
 
@@ -444,6 +447,11 @@ TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
     }
     EXPECT_TRUE(west && east) << scheme << ": " << describe(r);
   }
+  // `info` counts the tiles of both pieces, as the job plans them (it once
+  // counted whole rows of the world: 3,071 tiles down to zoom 10).
+  const RunResult info = run({"info", (dir / "across.tif").string()});
+  EXPECT_EQ(info.exit_code, kExitOk) << describe(info);
+  EXPECT_TRUE(contains(info.out, "webmercator  7-10, 14 tiles: z7 2, z8 4, z9 4, z10 4")) << describe(info);
 }
 
 // ---------------------------------------------------------- nothing to make

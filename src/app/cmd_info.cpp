@@ -41,13 +41,18 @@ std::string crsText(const dem::DemInfo& info) {
 // One line per scheme: the suggested zooms, from where the DEM fits one tile
 // down to auto's choice, and the tiles each of them takes.
 void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
-  const Extent area = dem.boundsIn(scheme.crs());
-  const int max_zoom = pipeline::autoMaxZoom(scheme, area, dem);
-  const int min_zoom = pipeline::oneTileZoom(scheme, area, max_zoom);
+  const std::vector<Extent> areas = pipeline::demAreas(scheme, dem);
+  if (areas.empty()) {
+    std::printf("  %-13snone: the DEM lies beyond the latitudes its tiles reach\n", scheme.name().c_str());
+    return;
+  }
+  const int max_zoom = pipeline::autoMaxZoom(scheme, areas.front(), dem);
+  const int min_zoom = pipeline::oneTileZoom(scheme, areas.front(), max_zoom);
   std::vector<std::string> counts;
   std::size_t total = 0;
   for (int z = min_zoom; z <= max_zoom; ++z) {
-    const std::size_t tiles = std::size_t(scheme.rangeCovering(area, z).count());
+    std::size_t tiles = 0;
+    for (const Extent& area : areas) tiles += std::size_t(scheme.rangeCovering(area, z).count());
     total += tiles;
     counts.push_back("z" + std::to_string(z) + " " + std::to_string(tiles));
   }

@@ -30,19 +30,6 @@ std::string lonLatText(const Extent& e) {
   return text;
 }
 
-// The DEM's lon/lat box as pieces that each lie within -180..180: two when
-// it crosses the antimeridian (GDAL gives west > east then, or a longitude
-// beyond 180 for a geographic DEM stored past it).
-std::vector<Extent> lonLatPieces(const Extent& box) {
-  Extent e = box;
-  if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
-  e = dem::turnedIntoRange(e);  // longitudes counted 0 to 360 are the same places
-  if (e.max_x - e.min_x >= 360 || e.max_x <= 180) {
-    return {{std::max(e.min_x, -180.0), e.min_y, std::min(e.max_x, 180.0), e.max_y}};
-  }
-  return {{e.min_x, e.min_y, 180, e.max_y}, {-180, e.min_y, e.max_x - 360, e.max_y}};
-}
-
 // What the layer covers in longitude / latitude: the DEM's bounds, within the
 // latitudes the scheme reaches and within the job's bbox, in one piece or
 // two (across the antimeridian). Throws NothingToMake when nothing is left.
@@ -201,15 +188,10 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.scheme = tiling::makeScheme(job.scheme, job.tile_size, &dem->info().grid);
   plan.settings = tileSettings(job);
   const std::vector<Extent> lon_lat = lonLatCover(job, *plan.scheme, *dem);
-  // Across the antimeridian a global scheme takes the pieces each side; else
-  // the DEM's extent transformed straight into the scheme's CRS.
-  std::vector<Extent> pieces;
-  for (const Extent& piece : lonLatPieces(dem->boundsIn(kLonLat))) {
-    if (const auto area = plan.scheme->fromLonLat(piece)) pieces.push_back(*area);
-  }
-  const bool across = pieces.size() > 1;
-  Extent dem_area = across ? pieces.front() : dem->boundsIn(plan.scheme->crs());
-  if (!across && dem::isLonLatCrs(plan.scheme->crs())) dem_area = dem::turnedIntoRange(dem_area);
+  // lonLatCover found the DEM within the scheme's latitudes: it has an area.
+  const std::vector<Extent> dem_areas = demAreas(*plan.scheme, *dem);
+  const bool across = dem_areas.size() > 1;
+  const Extent dem_area = dem_areas.front();
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);

@@ -1,5 +1,6 @@
 #include "pipeline/zoom_choice.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -16,6 +17,30 @@ namespace {
 constexpr double kSizeTolerance = 1e-9;
 
 }  // namespace
+
+std::vector<Extent> lonLatPieces(const Extent& box) {
+  Extent e = box;
+  if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
+  e = dem::turnedIntoRange(e);  // longitudes counted 0 to 360 are the same places
+  if (e.max_x - e.min_x >= 360 || e.max_x <= 180) {
+    return {{std::max(e.min_x, -180.0), e.min_y, std::min(e.max_x, 180.0), e.max_y}};
+  }
+  return {{e.min_x, e.min_y, 180, e.max_y}, {-180, e.min_y, e.max_x - 360, e.max_y}};
+}
+
+std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
+  const Extent lon_lat = dem.boundsIn("EPSG:4326");
+  if (lon_lat.min_y >= scheme.maxLatDeg() || lon_lat.max_y <= -scheme.maxLatDeg()) return {};
+  std::vector<Extent> pieces;
+  for (const Extent& piece : lonLatPieces(lon_lat)) {
+    if (const auto area = scheme.fromLonLat(piece)) pieces.push_back(*area);
+  }
+  if (pieces.size() > 1) return pieces;
+  // One piece: the DEM's extent transformed straight into the scheme's CRS.
+  Extent area = dem.boundsIn(scheme.crs());
+  if (dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
+  return {area};
+}
 
 double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w, double cell_h) {
   std::vector<glm::dvec2> ends = {

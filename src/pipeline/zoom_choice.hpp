@@ -1,6 +1,7 @@
 #pragma once
 // Which zooms suit a DEM: `tiling.zoom: auto` and `terrabake info` both ask.
 #include <string>
+#include <vector>
 
 #include "core/types.hpp"
 #include "dem/dem_source.hpp"
@@ -15,6 +16,16 @@ double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w
 
 // The ground size of a DEM pixel at the centre of the DEM.
 double demPixelSizeM(const dem::DemSource& dem);
+
+// The DEM's lon/lat box as pieces that each lie within -180..180: two when
+// it crosses the antimeridian (GDAL gives west > east then, or a longitude
+// beyond 180 for a geographic DEM stored past it).
+std::vector<Extent> lonLatPieces(const Extent& box);
+
+// Where the DEM lies in the scheme's CRS, as a job plans it: its extent, or
+// across the antimeridian the pieces either side (the first, east of it,
+// judges the zooms); none when it lies beyond the scheme's latitudes.
+std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem);
 
 // The deepest zoom whose texels, at the centre of `area` (the DEM in the
 // scheme's CRS), are no smaller than the DEM's pixels; 0 when even zoom 0's
