@@ -9,6 +9,8 @@
 #include <memory>
 #include <vector>
 
+#include <glm/trigonometric.hpp>
+
 #include "layer_check.hpp"
 #include "support/analytic_terrain.hpp"
 
@@ -424,6 +426,41 @@ TEST(WholeWorld, TilesReachingThePolesDecodeToTheEllipsoidsNormal) {
   const auto native_summary = pipeline::runTileJob(native);
   EXPECT_EQ(native_summary.written, 1);
   EXPECT_EQ(native_summary.failed, 0);
+}
+
+// Tiles either side of the antimeridian are neighbours: on a whole-world
+// DEM of hills that run on across it, their shared edge has the same
+// vertices, frames and all (docs/CONTRACT.md §5), in both global schemes.
+// The reprojection takes a Web Mercator apron past the edge the short way
+// round, to the far side of the DEM; a row of lattice nodes then jumped a
+// whole turn, and the edges stood up to 1.9 km apart at zoom 5.
+TEST(WholeWorld, TilesEitherSideOfTheAntimeridianShareTheirEdge) {
+  const auto dem = test::sharedFixture("hills_world_epsg4326.tif", [](const auto& path) {
+    ts::writeFloatDem(path, 4326, {-180, 0.5, 0, 90, 0, -0.5}, 720, 360, [](double lon, double lat) {
+      const double c = std::cos(glm::radians(lat));
+      return 3000 * std::sin(2 * glm::radians(lon) + 0.5) * c * c;
+    });
+  });
+  constexpr int kZoom = 12;
+  const std::filesystem::path out = test::caseDir();
+  for (const SchemeKind scheme : {SchemeKind::kWebMercator, SchemeKind::kGeodetic}) {
+    const std::string name(wordOf(scheme));
+    const auto bake = [&](const std::string& side, double west, double east) {
+      config::TileJob job = test::tileJob(dem, "", scheme, kZoom, kZoom);
+      job.output_dir = (out / name / side).string();
+      job.backend = Backend::kCpu;
+      job.bbox = {west, -0.01, east, 0.01};
+      const auto summary = pipeline::runTileJob(job);
+      EXPECT_GT(summary.written, 0) << name << " " << side;
+      return test::layerDir(job);
+    };
+    const std::filesystem::path west_of = bake("west_of", 179.99, 180), east_of = bake("east_of", -180, -179.99);
+    const int last_column = (scheme == SchemeKind::kWebMercator ? 1 : 2) << kZoom;
+    const int row = 1 << (kZoom - 1);  // the first south of the equator, in both schemes
+    SCOPED_TRACE(name);
+    test::expectSharedEdge(test::readTile(west_of, {kZoom, last_column - 1, row}).glb,
+                           test::readTile(east_of, {kZoom, 0, row}).glb, true);
+  }
 }
 
 }  // namespace

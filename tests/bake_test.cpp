@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <limits>
 #include <string>
 #include <thread>
 #include <tuple>
@@ -62,6 +63,15 @@ std::uint16_t encodeComponent(double c, int bits) {
 }
 
 class BakerKnownAnswers : public ::testing::TestWithParam<Backend> {};
+
+// A texel whose frame is singular has no normal (NaN or infinite out of the
+// bake): it is written flat, never cast from NaN to an integer.
+TEST(EncodeNormalMap, ATexelWithoutANormalIsWrittenFlat) {
+  const float nan = std::numeric_limits<float>::quiet_NaN(), inf = std::numeric_limits<float>::infinity();
+  const bake::NormalMap map{2, {{nan, 0, 1}, {0, inf, 0}, {0, 0, -nan}, {1, 0, 0}}};
+  EXPECT_EQ(bake::encodeNormalMap(map, 8, Green::kUp).pixels,
+            (std::vector<std::uint16_t>{128, 128, 255, 128, 128, 255, 128, 128, 255, 255, 128, 128}));
+}
 
 TEST_P(BakerKnownAnswers, IdenticalFlatMeshesGiveStraightUp) {
   TERRABAKE_BAKER_OR_SKIP(baker, GetParam());

@@ -71,7 +71,11 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
     return std::uint16_t((std::clamp(c, -1.0, 1.0) * 0.5 + 0.5) * max_value + 0.5);
   };
   for (std::size_t k = 0; k < map.texels.size(); ++k) {
-    const glm::vec3& n = map.texels[k];
+    glm::vec3 n = map.texels[k];
+    // A texel whose frame is singular (a native tile of a lon/lat DEM that
+    // reaches past a pole folds onto itself) has no normal in it: it gets
+    // the frame's own, flat, rather than a NaN no integer can hold.
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0, 0, 1);
     image.pixels[3 * k + 0] = quantise(n.x);
     image.pixels[3 * k + 1] = quantise(green_sign * n.y);
     image.pixels[3 * k + 2] = quantise(n.z);

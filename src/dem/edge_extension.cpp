@@ -64,8 +64,23 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   GDALRasterBandH band = GDALGetRasterBand(vrt, 1);
   // Where no source reaches, a VRT reads its nodata value: NaN, a void.
   GDALSetRasterNoDataValue(band, NAN);
-  if (VRTAddSimpleSource(band, GDALRasterBand::ToHandle(file.GetRasterBand(band_index)), 0, 0, width, height, kPixels,
-                         kPixels, width, height, nullptr, VRT_NODATA_UNSET) != CE_None) {
+  GDALRasterBandH source = GDALRasterBand::ToHandle(file.GetRasterBand(band_index));
+  if (VRTAddSimpleSource(band, source, 0, 0, width, height, kPixels, kPixels, width, height, nullptr,
+                         VRT_NODATA_UNSET) != CE_None) {
+    GDALClose(vrt);
+    return nullptr;
+  }
+  // Round the whole globe the pixels past one edge are those inside the
+  // other: the border there holds them, so that tiles either side of the
+  // antimeridian read the same heights across it.
+  const OGRSpatialReference* srs = file.GetSpatialRef();
+  const bool whole_globe = srs && srs->IsGeographic() && width >= kPixels &&
+                           std::abs(width * std::abs(gt[1]) - 360) <= kWholeGlobeSlack * std::abs(gt[1]);
+  if (whole_globe &&
+      (VRTAddSimpleSource(band, source, width - kPixels, 0, kPixels, height, 0, kPixels, kPixels, height, nullptr,
+                          VRT_NODATA_UNSET) != CE_None ||
+       VRTAddSimpleSource(band, source, 0, 0, kPixels, height, kPixels + width, kPixels, kPixels, height, nullptr,
+                          VRT_NODATA_UNSET) != CE_None)) {
     GDALClose(vrt);
     return nullptr;
   }

@@ -35,10 +35,18 @@ class EdgeExtension {
   // behind the second ring.
   static constexpr int kSourceExtra = kPixels + 3;
 
+  // A geographic raster within this share of a pixel of 360 degrees wide
+  // spans the whole globe, its last pixel next to its first. (A grid of
+  // pixel centres from -180 to 180, one pixel over, repeats a column: it
+  // keeps the void border.)
+  static constexpr double kWholeGlobeSlack = 1e-6;
+
   // `file` (band `band`, as Float32) inside a border of kPixels void pixels, as a
   // new in-memory VRT over it that the caller closes: beyond the file's edge
-  // a read then finds pixels that extendIntoVoids can fill. `file` must
-  // outlive it. Returns nullptr when GDAL cannot make it.
+  // a read then finds pixels that extendIntoVoids can fill. Where a
+  // geographic `file` spans the whole globe, its east and west borders
+  // hold the pixels across the antimeridian instead. `file` must outlive it.
+  // Returns nullptr when GDAL cannot make it.
   static GDALDataset* withVoidBorder(GDALDataset& file, int band = 1);
 };
 

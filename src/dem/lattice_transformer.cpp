@@ -20,12 +20,13 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
   if (!m_exact) throw InputError("dem: no transformation from the DEM to the tiling CRS");
   OGRSpatialReference source_srs, target_srs;
   const char* source_wkt = GDALGetProjectionRef(source);
-  if (source_wkt && source_srs.importFromWkt(source_wkt) == OGRERR_NONE &&
-      target_srs.importFromWkt(target_wkt.c_str()) == OGRERR_NONE && source_srs.IsGeographic() &&
-      target_srs.IsGeographic()) {
+  if (source_wkt && source_srs.importFromWkt(source_wkt) == OGRERR_NONE && source_srs.IsGeographic()) {
     double gt[6] = {};
     GDALGetGeoTransform(source, gt);
-    m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
+    m_pixels_a_turn = 360 / std::abs(gt[1]);
+    if (target_srs.importFromWkt(target_wkt.c_str()) == OGRERR_NONE && target_srs.IsGeographic()) {
+      m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
+    }
   }
 }
 
@@ -66,10 +67,31 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
   }
   GDALGenImgProjTransform(m_exact, TRUE, int(count), m_source_x.data(), m_source_y.data(), z.data(),
                           m_valid.data());
+  if (m_pixels_a_turn) unwrapRows();
   m_separable = std::all_of(m_valid.begin(), m_valid.end(), [](int v) { return v != 0; });
   for (std::size_t k = 0; m_separable && k < count; ++k) {
     const std::size_t i = k % std::size_t(m_nodes_x);
     m_separable = m_source_x[k] == m_source_x[i] && m_source_y[k] == m_source_y[k - i];
+  }
+}
+
+void LatticeTransformer::unwrapRows() {
+  const double turn = *m_pixels_a_turn;
+  for (int j = 0; j < m_nodes_y; ++j) {
+    double* x = &m_source_x[std::size_t(j) * std::size_t(m_nodes_x)];
+    const int* valid = &m_valid[std::size_t(j) * std::size_t(m_nodes_x)];
+    // From the row's middle outwards, each node within half a turn of the
+    // one before it.
+    const auto follow = [&](int from, int to, int step) {
+      for (int i = from + step, last = from; i != to; i += step) {
+        if (!valid[i]) continue;
+        if (valid[last]) x[i] += turn * std::round((x[last] - x[i]) / turn);
+        last = i;
+      }
+    };
+    const int middle = m_nodes_x / 2;
+    follow(middle, m_nodes_x, 1);
+    follow(middle, -1, -1);
   }
 }
 

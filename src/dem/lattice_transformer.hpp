@@ -64,6 +64,13 @@ class LatticeTransformer {
   };
 
   void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
+  // A geographic source: its pixels in 360 degrees. Where the reprojection
+  // takes longitudes the short way round the antimeridian (a tile's apron
+  // past it), a row of nodes would jump a whole turn; unwrapRows keeps each
+  // row continuous from its middle, so the pixels past the DEM's edge are
+  // those beyond it (EdgeExtension's border), not the far side's.
+  std::optional<double> m_pixels_a_turn;
+  void unwrapRows();
   // Both CRSs geographic: the source's middle longitude.
   std::optional<double> m_source_centre_lon;
   bool m_separable = false;  // every node valid, x the same down each column, y along each row
