@@ -6,20 +6,37 @@ in vec3 v_normal;
 in vec3 v_tangent;
 in vec3 v_bitangent;
 
-out vec4 o_normal;
+// The normal, octahedron-encoded: two floats hold a unit vector to float
+// rounding, and the read back, the slowest part of a bake on a hardware GPU
+// after the first pass, moves two thirds of the bytes of RGB.
+out vec2 o_normal;
 
 uniform sampler2D u_high_normal;
 
+// Outside the octahedron's square: a texel no high-res triangle covers.
+const float kNoNormal = 2.0;
+
+vec2 octahedronEncoded(vec3 n) {
+  vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
+  if (n.z < 0.0) p = (1.0 - abs(p.yx)) * vec2(p.x >= 0.0 ? 1.0 : -1.0, p.y >= 0.0 ? 1.0 : -1.0);
+  return p;
+}
+
 void main() {
   vec4 high = texelFetch(u_high_normal, ivec2(gl_FragCoord.xy), 0);
-  if (high.a == 0.0) {  // no high-res triangle here
-    o_normal = vec4(0.0);
+  if (high.a == 0.0) {
+    o_normal = vec2(kNoNormal);
     return;
   }
-  vec3 n = normalize(v_normal);
-  vec3 t = normalize(v_tangent);
-  vec3 b = normalize(v_bitangent);
-  // Interpolated T, B and N are not orthogonal: invert, do not transpose.
-  vec3 x = inverse(mat3(t, b, n)) * normalize(high.xyz);
-  o_normal = vec4(normalize(x), 1.0);
+  // normalize(inverse(mat3(T, B, N)) * v) of the normalised interpolants,
+  // as the CPU baker computes it: interpolated T, B and N are not
+  // orthogonal, so the inverse is needed, not the transpose. Its rows are
+  // the adjugate's (B x N, N x T, T x B) over the determinant; normalising a
+  // column scales its row by the column's length, and the final normalize
+  // drops the determinant but for its sign, and v's length.
+  vec3 t = v_tangent, b = v_bitangent, n = v_normal, v = high.xyz;
+  vec3 bn = cross(b, n), nt = cross(n, t), tb = cross(t, b);
+  float handedness = dot(t, bn) < 0.0 ? -1.0 : 1.0;
+  vec3 x = handedness * vec3(length(t) * dot(bn, v), length(b) * dot(nt, v), length(n) * dot(tb, v));
+  o_normal = octahedronEncoded(normalize(x));
 }

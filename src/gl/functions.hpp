@@ -59,6 +59,7 @@ namespace terrabake::gl {
   X(PFNGLBUFFERSUBDATAPROC, BufferSubData)                          \
   X(PFNGLVERTEXATTRIBPOINTERPROC, VertexAttribPointer)              \
   X(PFNGLENABLEVERTEXATTRIBARRAYPROC, EnableVertexAttribArray)      \
+  X(PFNGLDRAWARRAYSPROC, DrawArrays)                                \
   X(PFNGLDRAWELEMENTSPROC, DrawElements)
 
 struct Functions {

@@ -1,7 +1,7 @@
 #pragma once
-// The GPU bake: the high-res mesh is rasterised in UV space into a float
-// framebuffer, then the low-poly mesh, whose fragments write that normal in
-// the low-poly tangent space interpolated over their triangle.
+// The GPU bake: the high-res mesh's vertices are rasterised in UV space into
+// a float framebuffer, then the low-poly mesh, whose fragments write that
+// normal in the low-poly tangent space interpolated over their triangle.
 // A GlBaker must be used on the thread that made it. bake() waits for its
 // tile; submit() and collect() keep up to `in_flight` tiles on the GPU at
 // once, so the caller can prepare the next while the GPU draws this one.
@@ -29,7 +29,7 @@ class GlBaker : public bake::Baker {
   // A finished tile's normals, mapped from GL memory: any thread may read
   // them until releaseResult().
   struct Result {
-    const glm::vec3* texels;  // size x size, row 0 at v = 0
+    const glm::vec2* texels;  // size x size, row 0 at v = 0, octahedron-encoded: copy() decodes
     int size;
     bake::NormalMap copy() const;
   };

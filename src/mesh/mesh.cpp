@@ -133,18 +133,14 @@ void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool centra
 
 }  // namespace
 
-std::vector<std::uint32_t> gridIndices(int cols, int rows, int band_cells) {
-  const int band = band_cells > 0 ? band_cells : cols - 1;
+std::vector<std::uint32_t> gridIndices(int cols, int rows) {
   std::vector<std::uint32_t> indices;
   indices.reserve(std::size_t(cols - 1) * (rows - 1) * 6);
-  for (int first = 0; first + 1 < cols; first += band) {
-    const int end = std::min(first + band, cols - 1);  // one past the band's last cell
-    for (int r = 0; r + 1 < rows; ++r) {
-      for (int c = first; c < end; ++c) {
-        const std::uint32_t nw = r * cols + c, ne = nw + 1;
-        const std::uint32_t sw = nw + cols, se = sw + 1;
-        indices.insert(indices.end(), {nw, sw, se, nw, se, ne});
-      }
+  for (int r = 0; r + 1 < rows; ++r) {
+    for (int c = 0; c + 1 < cols; ++c) {
+      const std::uint32_t nw = r * cols + c, ne = nw + 1;
+      const std::uint32_t sw = nw + cols, se = sw + 1;
+      indices.insert(indices.end(), {nw, sw, se, nw, se, ne});
     }
   }
   return indices;

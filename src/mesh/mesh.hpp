@@ -67,12 +67,9 @@ struct TrianglePoint {
   double weight[3];
 };
 
-// Indices of a row-major grid of cols x rows vertices, split as above: the
-// cells row by row, or, with `band_cells`, row by row within vertical bands
-// that many cells wide, one band after another. The triangles are the same
-// either way; a band's neighbouring rows share vertices that a rasteriser
-// has just transformed.
-std::vector<std::uint32_t> gridIndices(int cols, int rows, int band_cells = 0);
+// Indices of a row-major grid of cols x rows vertices, split as above, the
+// cells row by row.
+std::vector<std::uint32_t> gridIndices(int cols, int rows);
 
 // The UV of each vertex of a HighResMesh of cols x rows vertices: vertex
 // (i, j) lies at the centre of texel (i - 1, j - 1) of a tile of cols - 2
