@@ -1,7 +1,6 @@
 #include "dem/lattice_transformer.hpp"
 
 #include <gdal_alg.h>
-#include <ogr_spatialref.h>
 
 #include <algorithm>
 #include <cmath>
@@ -18,15 +17,12 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
   // No target dataset: the transformer's "destination" is CRS coordinates.
   m_exact = GDALCreateGenImgProjTransformer2(source, nullptr, const_cast<char**>(options));
   if (!m_exact) throw InputError("dem: no transformation from the DEM to the tiling CRS");
-  OGRSpatialReference source_srs, target_srs;
   const char* source_wkt = GDALGetProjectionRef(source);
-  if (source_wkt && source_srs.importFromWkt(source_wkt) == OGRERR_NONE && source_srs.IsGeographic()) {
+  if (source_wkt && *source_wkt && isLonLatCrs(source_wkt)) {
     double gt[6] = {};
     GDALGetGeoTransform(source, gt);
     m_pixels_a_turn = 360 / std::abs(gt[1]);
-    if (target_srs.importFromWkt(target_wkt.c_str()) == OGRERR_NONE && target_srs.IsGeographic()) {
-      m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
-    }
+    if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
   }
 }
 

@@ -438,7 +438,7 @@ std::string PmtilesReader::internal(std::uint64_t offset, std::uint64_t length) 
     throw std::runtime_error("a directory or the metadata of " + std::to_string(length) + " bytes, more than " +
                              std::to_string(kPmtilesMaxInflatedBytes >> 20) + " MiB");
   }
-  std::string bytes = readAt(offset, length);
+  std::string bytes = preadAll(m_fd, offset, length, m_path);
   return m_header.internal_compression == kCompressionGzip ? gunzipBytes(bytes) : bytes;
 }
 
