@@ -291,6 +291,39 @@ TEST(Inputs, FlippedDemsGiveTheTilesOfTheNorthUpOne) {
   }
 }
 
+// Many DEMs store heights as integers with the band's scale and offset
+// (Int16 decimetres: 0.1); the heights are samples * scale + offset.
+TEST(Inputs, ScaledSamplesAreReadAsTheHeightsTheyStandFor) {
+  const fs::path dir = caseDir();
+  constexpr double kScale = 0.1, kOffset = 500;
+  constexpr float kNoData = 32767;
+  // Big enough for the reduced levels of the coarse zooms, read at every zoom.
+  constexpr int kSide = 1024;
+  const auto in_hole = [](int c, int r) { return c >= 60 && c < 80 && r >= 90 && r < 110; };
+  const auto sample = [&](int c, int r) { return in_hole(c, r) ? kNoData : std::round((hill(c, r) - kOffset) / kScale); };
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "scaled.tif", kSide, kSide, gt, sample, 4326, 1, GDT_Int16);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "scaled.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    GDALRasterBand* band = ds->GetRasterBand(1);
+    ASSERT_EQ(band->SetScale(kScale), CE_None);
+    ASSERT_EQ(band->SetOffset(kOffset), CE_None);
+    ASSERT_EQ(band->SetNoDataValue(kNoData), CE_None);
+  }
+  writeDem(dir / "metres.tif", kSide, kSide, gt, [&](int c, int r) {
+    return in_hole(c, r) ? NAN : float(sample(c, r) * kScale + kOffset);
+  });
+  for (const std::string name : {"scaled", "metres"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name, "5-10"));
+    ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
+    EXPECT_TRUE(contains(r.err, "reduced levels")) << describe(r);
+  }
+  expectSameTiles(dir / "out" / "metres", dir / "out" / "scaled");
+  const RunResult info = run({"info", (dir / "scaled.tif").string()});
+  EXPECT_TRUE(contains(info.out, "heights    samples x 0.1 + 500 (the band's scale and offset)")) << describe(info);
+}
+
 TEST(Inputs, RotatedDemIsRefusedByName) {
   const fs::path dir = caseDir();
   const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};

@@ -218,6 +218,7 @@ struct LevelReader {
   DatasetPtr decimated;  // a decimated view of the level; null when read whole
   DatasetPtr dataset;    // the level with EdgeExtension's void border
   std::unique_ptr<LatticeTransformer> transformer;
+  VoidRule voids;        // the file's, or forHeights() for a reduced level
 };
 
 FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
@@ -331,6 +332,15 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
                          colourName(interp) + " channel (" + m_info.data_type + "); it is read as heights");
   }
   m_voids.nodata = m_info.nodata;
+  m_voids.scale = band->GetScale();
+  m_voids.offset = band->GetOffset();
+  if (!std::isfinite(m_voids.scale) || m_voids.scale == 0 || !std::isfinite(m_voids.offset)) {
+    throw InputError("dem: band " + std::to_string(m_band) + " of " + name + " declares heights as samples times " +
+                     std::to_string(m_voids.scale) + " plus " + std::to_string(m_voids.offset) +
+                     ", which makes no heights");
+  }
+  m_info.scale = m_voids.scale;
+  m_info.offset = m_voids.offset;
   m_voids.min_height = options.min_height;
   m_voids.max_height = options.max_height;
   m_voids.implausible = &m_implausible;
@@ -442,6 +452,7 @@ struct DemFile::Impl {
     if (it != readers.end()) return it->second;
     const std::string& path = meta.info().path;
     LevelReader reader;
+    reader.voids = meta.voids();
     GDALDataset* level = dataset.get();
     const std::shared_ptr<const ReducedLevels> reduced = meta.reducedLevels();
     if (overview >= 0 && reduced) {
@@ -450,6 +461,7 @@ struct DemFile::Impl {
       reader.file.reset(reduced->open(std::size_t(overview), gt, meta.srsWkt()));
       if (!reader.file) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
       level = reader.file.get();
+      reader.voids = meta.voids().forHeights();
     } else if (overview >= 0) {
       const std::string option = "OVERVIEW_LEVEL=" + std::to_string(overview);
       const char* options[] = {option.c_str(), nullptr};
@@ -494,7 +506,7 @@ void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float
   LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs);
   reader.transformer->prepare(grid);
   CPLErrorReset();
-  const VoidRule& voids = m_meta->voids();
+  const VoidRule& voids = reader.voids;
   GDALRasterBandH band = GDALRasterBand::ToHandle(reader.dataset->GetRasterBand(1));
   const std::optional<Raster<float>> resampled = plan.average
                                                      ? averageOverFootprints(band, *reader.transformer, grid, voids)

@@ -21,6 +21,7 @@ struct DemInfo {
   std::optional<double> nodata;  // as the (first) file declares it
   int overview_count = 0;
   std::string data_type;         // of the band read, as GDAL names it: "Int16", "Float32", ...
+  double scale = 1, offset = 0;  // the band's: a height is a sample * scale + offset
   int band = 1;                  // the band heights are read from
   int band_count = 1;
   std::string crs_name;          // "WGS 84 / UTM zone 32N"

@@ -77,7 +77,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
       for (int block = 0; block < finest.width; ++block) {
         for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
           if (voids.isVoid(row[c])) continue;
-          sums[std::size_t(block)] += row[c];
+          sums[std::size_t(block)] += voids.height(row[c]);
           ++counts[std::size_t(block)];
         }
       }

@@ -17,7 +17,11 @@ bool SourceWindow::read(GDALRasterBandH band, long first_col, long first_row, in
   long long implausible = 0;
   for (std::size_t i = 0; i < count; ++i) {
     data[i] = !voids.isVoid(values[i]);
-    if (!data[i] && voids.isImplausible(values[i])) ++implausible;
+    if (data[i]) {
+      values[i] = voids.height(values[i]);
+    } else if (voids.isImplausible(values[i])) {
+      ++implausible;
+    }
   }
   voids.count(implausible);
   valid = data;

@@ -12,28 +12,46 @@ namespace terrabake::dem {
 // -32768 and some products -32767; nothing on Earth lies below -11 km.
 inline constexpr double kVoidMarkerMax = -32767.0;
 
-// What counts as a void in one file: NaN, infinities, the void markers, the
-// declared nodata value, and heights beyond the plausible range (1e30 in a
-// Float32 file, -3.4e38 undeclared: heights no terrain has, which would
-// otherwise tip every normal next to them).
+// How one file's samples become heights, and which are voids: NaN,
+// infinities, the void markers, the declared nodata value (all three as
+// stored), and heights beyond the plausible range (1e30 in a Float32 file,
+// -3.4e38 undeclared: heights no terrain has, which would otherwise tip
+// every normal next to them).
 struct VoidRule {
   std::optional<double> nodata;  // as the file declares it
-  double min_height = -std::numeric_limits<double>::infinity();  // in the file's units
+  // The band's scale and offset: a stored sample s is the height
+  // s * scale + offset (GDAL's convention; Int16 decimetres have 0.1).
+  double scale = 1;
+  double offset = 0;
+  double min_height = -std::numeric_limits<double>::infinity();  // in the file's height units
   double max_height = std::numeric_limits<double>::infinity();
   // Counts the samples read that were voids only for being implausible
   // (infinite or beyond the range); null: not counted.
   std::atomic<long long>* implausible = nullptr;
 
-  bool isVoid(float value) const {
-    return !std::isfinite(value) || value <= kVoidMarkerMax || (nodata && value == *nodata) ||
-           value < min_height || value > max_height;
+  float height(float sample) const { return float(sample * scale + offset); }
+  // The rule for samples that are heights already (a file's reduced
+  // levels): voids are NaN, heights beyond the range stay voids.
+  VoidRule forHeights() const {
+    VoidRule heights;
+    heights.min_height = min_height;
+    heights.max_height = max_height;
+    return heights;
+  }
+  bool isVoid(float sample) const {
+    return !std::isfinite(sample) || sample <= kVoidMarkerMax || (nodata && sample == *nodata) ||
+           isBeyondRange(sample);
   }
   // A void that is neither NaN, a void marker nor the declared nodata value.
-  bool isImplausible(float value) const {
-    if (std::isnan(value)) return false;
-    if (std::isinf(value)) return true;
-    if (value <= kVoidMarkerMax || (nodata && value == *nodata)) return false;
-    return value < min_height || value > max_height;
+  bool isImplausible(float sample) const {
+    if (std::isnan(sample)) return false;
+    if (std::isinf(sample)) return true;
+    if (sample <= kVoidMarkerMax || (nodata && sample == *nodata)) return false;
+    return isBeyondRange(sample);
+  }
+  bool isBeyondRange(float sample) const {
+    const double h = sample * scale + offset;
+    return h < min_height || h > max_height;
   }
   void count(long long samples) const {
     if (implausible && samples > 0) implausible->fetch_add(samples, std::memory_order_relaxed);
