@@ -335,9 +335,10 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   m_voids.scale = band->GetScale();
   m_voids.offset = band->GetOffset();
   if (!std::isfinite(m_voids.scale) || m_voids.scale == 0 || !std::isfinite(m_voids.offset)) {
-    throw InputError("dem: band " + std::to_string(m_band) + " of " + name + " declares heights as samples times " +
-                     std::to_string(m_voids.scale) + " plus " + std::to_string(m_voids.offset) +
-                     ", which makes no heights");
+    char text[160];
+    std::snprintf(text, sizeof text, "declares heights as samples times %g plus %g, which makes no heights",
+                  m_voids.scale, m_voids.offset);
+    throw InputError("dem: band " + std::to_string(m_band) + " of " + name + " " + text);
   }
   m_info.scale = m_voids.scale;
   m_info.offset = m_voids.offset;
