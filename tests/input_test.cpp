@@ -324,6 +324,27 @@ TEST(Inputs, ScaledSamplesAreReadAsTheHeightsTheyStandFor) {
   EXPECT_TRUE(contains(info.out, "heights    samples x 0.1 + 500 (the band's scale and offset)")) << describe(info);
 }
 
+TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "feet.tif");
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "feet.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    ASSERT_EQ(ds->GetRasterBand(1)->SetUnitType("ft"), CE_None);
+  }
+  const RunResult as_metres = run(tileArgs(dir / "feet.tif", dir / "out", "as_metres"));
+  ASSERT_EQ(as_metres.exit_code, kExitOk) << describe(as_metres);
+  EXPECT_TRUE(contains(as_metres.err, "warning: dem: band 1 of '" + (dir / "feet.tif").string() +
+                                          "' gives its heights in 'ft', which are read as metres: set "
+                                          "heights.z_scale (--z-scale) to 0.3048 for feet"))
+      << describe(as_metres);
+  std::vector<std::string> args = tileArgs(dir / "feet.tif", dir / "out", "feet");
+  args.insert(args.end(), {"--z-scale", "0.3048"});
+  const RunResult feet = run(args);
+  ASSERT_EQ(feet.exit_code, kExitOk) << describe(feet);
+  EXPECT_FALSE(contains(feet.err, "warning")) << describe(feet);
+}
+
 TEST(Inputs, RotatedDemIsRefusedByName) {
   const fs::path dir = caseDir();
   const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};

@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -133,6 +134,24 @@ MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool 
   nRasterYSize = m_source->GetRasterYSize();
   std::copy(north_up_gt, north_up_gt + 6, m_gt);
   SetBand(1, new MirroredBand(this, m_source->GetRasterBand(band), flip_x, flip_y));
+}
+
+// What to set when a band's unit of height (GDAL's unit type) is not
+// metres; nothing for metres or no unit.
+std::optional<std::string> heightUnitAdvice(const std::string& unit) {
+  std::string u;
+  for (char c : unit) u += char(std::tolower(static_cast<unsigned char>(c)));
+  for (const char* metres : {"", "m", "metre", "metres", "meter", "meters"}) {
+    if (u == metres) return std::nullopt;
+  }
+  if (u.find("us") != std::string::npos && (u.find("ft") != std::string::npos || u.find("foot") != std::string::npos ||
+                                            u.find("feet") != std::string::npos)) {
+    return std::string("set heights.z_scale (--z-scale) to 0.3048006096 for US survey feet");
+  }
+  for (const char* feet : {"ft", "foot", "feet", "international foot"}) {
+    if (u == feet) return std::string("set heights.z_scale (--z-scale) to 0.3048 for feet");
+  }
+  return std::string("set heights.z_scale (--z-scale) to the metres in one of its units");
 }
 
 // A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
@@ -325,6 +344,12 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
     m_warnings.push_back("dem: " + name + " has " + std::to_string(band_count) + " bands (" + colours +
                          (band_count > 4 ? ", ..." : "") + "); heights are read from band " +
                          std::to_string(m_band) + " (heights.band)");
+  }
+  if (options.metres_per_unit == 1) {
+    if (const std::optional<std::string> advice = heightUnitAdvice(band->GetUnitType())) {
+      m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " gives its heights in '" +
+                           band->GetUnitType() + "', which are read as metres: " + *advice);
+    }
   }
   const GDALColorInterp interp = band->GetColorInterpretation();
   if (interp != GCI_Undefined && interp != GCI_GrayIndex) {

@@ -56,6 +56,7 @@ struct DemOptions {
   // divided by heights.z_scale).
   double min_height = kMinPlausibleHeightM;
   double max_height = kMaxPlausibleHeightM;
+  double metres_per_unit = 1;  // heights.z_scale: a file whose band names another unit is warned about at 1
 };
 
 struct ReadPlan {

@@ -180,6 +180,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   options.band = job.band;
   options.min_height = dem::kMinPlausibleHeightM / job.z_scale;
   options.max_height = dem::kMaxPlausibleHeightM / job.z_scale;
+  options.metres_per_unit = job.z_scale;
   const auto dem = std::make_shared<const dem::DemSource>(job.dems, options);
   for (const std::string& warning : dem->warnings()) log::warning(warning);
   LayerPlan plan;
