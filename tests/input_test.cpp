@@ -336,7 +336,7 @@ TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
   ASSERT_EQ(as_metres.exit_code, kExitOk) << describe(as_metres);
   EXPECT_TRUE(contains(as_metres.err, "warning: dem: band 1 of '" + (dir / "feet.tif").string() +
                                           "' gives its heights in 'ft', which are read as metres: set "
-                                          "heights.z_scale (--z-scale) to 0.3048 for feet"))
+                                          "heights.z_scale (--z-scale) to 0.3048"))
       << describe(as_metres);
   std::vector<std::string> args = tileArgs(dir / "feet.tif", dir / "out", "feet");
   args.insert(args.end(), {"--z-scale", "0.3048"});

@@ -136,22 +136,25 @@ MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool 
   SetBand(1, new MirroredBand(this, m_source->GetRasterBand(band), flip_x, flip_y));
 }
 
-// What to set when a band's unit of height (GDAL's unit type) is not
-// metres; nothing for metres or no unit.
-std::optional<std::string> heightUnitAdvice(const std::string& unit) {
+// Metres in one of a band's units of height (GDAL's unit type): 1 for
+// metres or no unit, nothing for a unit it does not know.
+std::optional<double> metresPerHeightUnit(const std::string& unit) {
   std::string u;
   for (char c : unit) u += char(std::tolower(static_cast<unsigned char>(c)));
   for (const char* metres : {"", "m", "metre", "metres", "meter", "meters"}) {
-    if (u == metres) return std::nullopt;
+    if (u == metres) return 1.0;
   }
-  if (u.find("us") != std::string::npos && (u.find("ft") != std::string::npos || u.find("foot") != std::string::npos ||
-                                            u.find("feet") != std::string::npos)) {
-    return std::string("set heights.z_scale (--z-scale) to 0.3048006096 for US survey feet");
+  for (const char* centimetres : {"cm", "centimetre", "centimetres", "centimeter", "centimeters"}) {
+    if (u == centimetres) return 0.01;
   }
-  for (const char* feet : {"ft", "foot", "feet", "international foot"}) {
-    if (u == feet) return std::string("set heights.z_scale (--z-scale) to 0.3048 for feet");
+  for (const char* millimetres : {"mm", "millimetre", "millimetres", "millimeter", "millimeters"}) {
+    if (u == millimetres) return 0.001;
   }
-  return std::string("set heights.z_scale (--z-scale) to the metres in one of its units");
+  const bool feet = u.find("ft") != std::string::npos || u.find("foot") != std::string::npos ||
+                    u.find("feet") != std::string::npos;
+  if (feet && u.find("us") != std::string::npos) return 1200.0 / 3937.0;  // the US survey foot
+  if (feet) return 0.3048;
+  return std::nullopt;
 }
 
 // A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
@@ -345,10 +348,26 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
                          (band_count > 4 ? ", ..." : "") + "); heights are read from band " +
                          std::to_string(m_band) + " (heights.band)");
   }
+  // Heights in another unit than metres make every slope wrong by its
+  // factor; heights.z_scale is that factor, so only its default is doubted.
   if (options.metres_per_unit == 1) {
-    if (const std::optional<std::string> advice = heightUnitAdvice(band->GetUnitType())) {
-      m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " gives its heights in '" +
-                           band->GetUnitType() + "', which are read as metres: " + *advice);
+    const std::string band_unit = band->GetUnitType();
+    const char* vertical_unit = nullptr;
+    const double vertical_metres = m_srs.IsCompound() ? m_srs.GetTargetLinearUnits("VERT_CS", &vertical_unit) : 1.0;
+    std::string height_unit;
+    std::optional<double> metres;
+    if (!band_unit.empty()) {
+      height_unit = "'" + band_unit + "'";
+      metres = metresPerHeightUnit(band_unit);
+    } else if (vertical_metres != 1) {
+      height_unit = std::string("'") + (vertical_unit ? vertical_unit : "unnamed") + "' (its vertical CRS's)";
+      metres = vertical_metres;
+    }
+    if (!height_unit.empty() && metres != 1.0) {
+      char factor[64] = "the metres in one of its units";
+      if (metres) std::snprintf(factor, sizeof factor, "%.10g", *metres);
+      m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " gives its heights in " + height_unit +
+                           ", which are read as metres: set heights.z_scale (--z-scale) to " + factor);
     }
   }
   const GDALColorInterp interp = band->GetColorInterpretation();
