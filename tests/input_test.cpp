@@ -343,6 +343,15 @@ TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
   const RunResult feet = run(args);
   ASSERT_EQ(feet.exit_code, kExitOk) << describe(feet);
   EXPECT_FALSE(contains(feet.err, "warning")) << describe(feet);
+  // A CRS of feet (New York's state plane) says nothing of the heights, but
+  // they are mostly feet too.
+  const double state_plane[6] = {980000, 10, 0, 200000, 0, -10};
+  writeDem(dir / "state_plane.tif", 100, 100, state_plane, hill, 2263);
+  const RunResult info = run({"info", (dir / "state_plane.tif").string()});
+  EXPECT_TRUE(contains(info.err, "is in a CRS measured in US survey foot and does not say what its heights are in; "
+                                 "they are read as metres: if they are feet too, set heights.z_scale (--z-scale) "
+                                 "to 0.3048006096"))
+      << describe(info);
 }
 
 TEST(Inputs, RotatedDemIsRefusedByName) {

@@ -368,6 +368,18 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
       if (metres) std::snprintf(factor, sizeof factor, "%.10g", *metres);
       m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " gives its heights in " + height_unit +
                            ", which are read as metres: set heights.z_scale (--z-scale) to " + factor);
+    } else if (height_unit.empty() && m_srs.IsProjected()) {
+      // Nothing says what the heights are in, but DEMs in a CRS of feet
+      // (the US state planes) mostly give their heights in feet too.
+      const char* linear_unit = nullptr;
+      const double linear_metres = m_srs.GetLinearUnits(&linear_unit);
+      if (std::abs(linear_metres - 0.3048) < 1e-6) {
+        char factor[32];
+        std::snprintf(factor, sizeof factor, "%.10g", linear_metres);
+        m_warnings.push_back("dem: " + name + " is in a CRS measured in " + (linear_unit ? linear_unit : "feet") +
+                             " and does not say what its heights are in; they are read as metres: if they are "
+                             "feet too, set heights.z_scale (--z-scale) to " + factor);
+      }
     }
   }
   const GDALColorInterp interp = band->GetColorInterpretation();
