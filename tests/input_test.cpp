@@ -354,6 +354,29 @@ TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
       << describe(info);
 }
 
+TEST(Inputs, ADemPlacedByControlPointsIsRefusedSayingSo) {
+  const fs::path dir = caseDir();
+  {
+    GDALAllRegister();
+    GDALDriver* driver = GetGDALDriverManager()->GetDriverByName("GTiff");
+    std::unique_ptr<GDALDataset> ds(driver->Create((dir / "gcps.tif").c_str(), 20, 20, 1, GDT_Float32, nullptr));
+    ASSERT_NE(ds, nullptr);
+    OGRSpatialReference wgs84;
+    wgs84.importFromEPSG(4326);
+    GDAL_GCP gcps[3];
+    GDALInitGCPs(3, gcps);
+    const double at[3][4] = {{0, 0, 10, 46}, {20, 0, 10.02, 46}, {0, 20, 10, 45.98}};  // pixel, line, lon, lat
+    for (int k = 0; k < 3; ++k) {
+      gcps[k].dfGCPPixel = at[k][0], gcps[k].dfGCPLine = at[k][1], gcps[k].dfGCPX = at[k][2], gcps[k].dfGCPY = at[k][3];
+    }
+    ASSERT_EQ(ds->SetGCPs(3, gcps, &wgs84), CE_None);
+    GDALDeinitGCPs(3, gcps);
+  }
+  const RunResult r = run(tileArgs(dir / "gcps.tif", dir / "out", "gcps"));
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  EXPECT_TRUE(contains(r.err, "is placed by 3 ground control points, not a geotransform (warp it first")) << describe(r);
+}
+
 TEST(Inputs, RotatedDemIsRefusedByName) {
   const fs::path dir = caseDir();
   const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};

@@ -266,6 +266,12 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
                      GDALGetDataTypeName(type) + "), not heights");
   }
 
+  double gt[6];
+  const bool has_geotransform = ds.GetGeoTransform(gt) == CE_None;
+  if (!has_geotransform && ds.GetGCPCount() > 0) {
+    throw InputError("dem: " + name + " is placed by " + std::to_string(ds.GetGCPCount()) +
+                     " ground control points, not a geotransform (warp it first, e.g. gdalwarp -t_srs EPSG:4326)");
+  }
   const OGRSpatialReference* srs = ds.GetSpatialRef();
   if (!srs || srs->IsEmpty()) {
     throw InputError("dem: " + name + " has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
@@ -273,10 +279,7 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   m_srs = *srs;
   m_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
 
-  double gt[6];
-  if (ds.GetGeoTransform(gt) != CE_None) {
-    throw InputError("dem: " + name + " has no georeferencing (geotransform)");
-  }
+  if (!has_geotransform) throw InputError("dem: " + name + " has no georeferencing (geotransform)");
   if (gt[2] != 0.0 || gt[4] != 0.0) {
     throw InputError("dem: " + name +
                      " is rotated (its geotransform turns or shears the pixel grid); warp it north-up first, "
