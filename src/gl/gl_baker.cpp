@@ -102,7 +102,7 @@ void decodeOctahedra(const glm::vec2* encoded, std::size_t count, glm::vec3* nor
     const Floats fold = z < zero ? -z : zero;  // the lower half folds over the square's corners
     const Floats x = ex >= zero ? ex - fold : ex + fold;
     const Floats y = ey >= zero ? ey - fold : ey + fold;
-    const Floats scale = (ax > one) | (ay > one) ? zero : one / squareRoot(x * x + y * y + z * z);
+    const Floats scale = ((ax > one) | (ay > one)) ? zero : one / squareRoot(x * x + y * y + z * z);
     for (std::size_t k = 0; k < lanes; ++k) normals[first + k] = {x[k] * scale[k], y[k] * scale[k], z[k] * scale[k]};
   }
 }
