@@ -377,6 +377,36 @@ TEST(Inputs, ADemPlacedByControlPointsIsRefusedSayingSo) {
   EXPECT_TRUE(contains(r.err, "is placed by 3 ground control points, not a geotransform (warp it first")) << describe(r);
 }
 
+// GeoPackage, netCDF and HDF files hold their rasters as subdatasets, each
+// opened by a name gdalinfo lists.
+TEST(Inputs, AContainersRastersAreTiledByTheirSubdatasetNames) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "hills.tif");
+  const fs::path container = dir / "dems.gpkg";
+  for (const char* table : {"first", "second"}) {
+    std::unique_ptr<GDALDataset> source(GDALDataset::Open((dir / "hills.tif").c_str(), GDAL_OF_RASTER));
+    ASSERT_NE(source, nullptr);
+    const std::string table_option = std::string("RASTER_TABLE=") + table;
+    const char* options[] = {table_option.c_str(), fs::exists(container) ? "APPEND_SUBDATASET=YES" : nullptr, nullptr};
+    GDALDriver* gpkg = GetGDALDriverManager()->GetDriverByName("GPKG");
+    ASSERT_NE(gpkg, nullptr);
+    std::unique_ptr<GDALDataset> copy(gpkg->CreateCopy(container.c_str(), source.get(), FALSE,
+                                                       const_cast<char**>(options), nullptr, nullptr));
+    ASSERT_NE(copy, nullptr) << table;
+  }
+  const RunResult whole = run(tileArgs(container, dir / "out", "whole"));
+  EXPECT_EQ(whole.exit_code, kExitInput) << describe(whole);
+  EXPECT_TRUE(contains(whole.err, "holds 2 rasters as subdatasets; give one as the DEM, e.g. 'GPKG:" +
+                                      container.string() + ":first'"))
+      << describe(whole);
+  const RunResult second = run(tileArgs("GPKG:" + container.string() + ":second", dir / "out", "second"));
+  ASSERT_EQ(second.exit_code, kExitOk) << describe(second);
+  const RunResult plain = run(tileArgs(dir / "hills.tif", dir / "out", "plain"));
+  ASSERT_EQ(plain.exit_code, kExitOk) << describe(plain);
+  EXPECT_FALSE(tilesOf(dir / "out" / "second").empty());
+  EXPECT_EQ(tilesOf(dir / "out" / "second").size(), tilesOf(dir / "out" / "plain").size());
+}
+
 TEST(Inputs, RotatedDemIsRefusedByName) {
   const fs::path dir = caseDir();
   const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};

@@ -446,9 +446,20 @@ std::vector<double> parseBox(const KeySpec& key, const Value& value) {
   return box;
 }
 
+// A subdataset's name, as gdalinfo lists a container's rasters: a driver's
+// prefix and a colon, 'NETCDF:"dem.nc":elevation', 'GPKG:dems.gpkg:alps'.
+bool isSubdatasetName(const std::string& text) {
+  const std::size_t colon = text.find(':');
+  if (colon == std::string::npos || colon < 2) return false;
+  return std::all_of(text.begin(), text.begin() + std::ptrdiff_t(colon), [](char c) {
+    return (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '_';
+  });
+}
+
 std::string resolvePath(const fs::path& base_dir, const std::string& text) {
   if (text.empty()) return text;  // left for problem() to reject
   if (text.rfind("/vsi", 0) == 0) return resolveVsiPath(base_dir, text);
+  if (isSubdatasetName(text)) return text;  // GDAL's to read, as written
   const fs::path path(text);
   fs::path normal = (path.is_absolute() ? path : base_dir / path).lexically_normal();
   if (!normal.has_filename() && normal.has_parent_path()) normal = normal.parent_path();

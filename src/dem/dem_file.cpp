@@ -212,18 +212,19 @@ const char* fileKind(unsigned mode) {
   return "not a regular file";
 }
 
-// Through GDAL's virtual file layer, so /vsizip/, /vsicurl/ and the like are
-// checked as GDAL will read them; a FIFO or device would block or never end.
-void checkReadable(const std::string& path) {
+// Whether `path` is a file, through GDAL's virtual file layer, so that
+// /vsizip/, /vsicurl/ and the like are checked as GDAL will read them;
+// refuses a FIFO or device, which would block or never end. False for no
+// file: a subdataset's name ('NETCDF:"dem.nc":elevation') is none.
+bool isReadableFile(const std::string& path) {
   VSIStatBufL status;
-  if (VSIStatExL(path.c_str(), &status, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG) != 0) {
-    throw InputError("dem: cannot open '" + shortened(path) + "': no such file");
-  }
+  if (VSIStatExL(path.c_str(), &status, VSI_STAT_EXISTS_FLAG | VSI_STAT_NATURE_FLAG) != 0) return false;
   const unsigned mode = unsigned(status.st_mode);
   if (!S_ISREG(mode) && !S_ISDIR(mode)) {  // some formats are folders
     throw InputError("dem: cannot read '" + shortened(path) + "': it is " + fileKind(mode) +
                      ", not a regular file");
   }
+  return true;
 }
 
 std::string colourName(GDALColorInterp interp) {
@@ -246,14 +247,25 @@ struct LevelReader {
 FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   ensureGdalReady();
   const std::string name = "'" + shortened(path) + "'";
-  checkReadable(path);
+  const bool is_file = isReadableFile(path);
   CPLErrorReset();
   DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
       path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  if (!dataset && !is_file) throw InputError("dem: cannot open " + name + ": no such file");
   if (!dataset) throw InputError("dem: " + name + " is not a raster GDAL can read (" + lastGdalError() + ")");
   GDALDataset& ds = *dataset;
   const int band_count = ds.GetRasterCount();
-  if (band_count < 1) throw InputError("dem: " + name + " has no raster band");
+  if (band_count < 1) {
+    // Containers (netCDF, HDF, GeoPackage) hold their rasters as subdatasets, each opened by a name of its own.
+    const CSLConstList subdatasets = ds.GetMetadata("SUBDATASETS");
+    const char* first = CSLFetchNameValue(subdatasets, "SUBDATASET_1_NAME");
+    if (first) {
+      const int count = CSLCount(subdatasets) / 2;  // a NAME and a DESC each
+      throw InputError("dem: " + name + " holds " + std::to_string(count) + " raster" + (count == 1 ? "" : "s") +
+                       " as subdatasets; give one as the DEM, e.g. '" + first + "' (gdalinfo lists them)");
+    }
+    throw InputError("dem: " + name + " has no raster band");
+  }
   if (options.band > band_count) {
     throw InputError("dem: " + name + " has " + std::to_string(band_count) + " band" +
                      (band_count == 1 ? "" : "s") + ", heights.band asks for band " + std::to_string(options.band));
