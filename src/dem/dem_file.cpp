@@ -157,6 +157,42 @@ std::optional<double> metresPerHeightUnit(const std::string& unit) {
   return std::nullopt;
 }
 
+// A warning when band `band_number` of a file (`name`, quoted) gives its
+// heights in another unit than metres: its unit type, a compound CRS's
+// vertical unit, or, where neither says, a projected CRS measured in feet
+// (the US state planes, whose DEMs mostly give heights in feet too).
+// Heights in another unit make every slope wrong by its factor.
+std::optional<std::string> heightUnitWarning(GDALRasterBand& band, int band_number, const OGRSpatialReference& srs,
+                                             const std::string& name) {
+  const std::string band_unit = band.GetUnitType();
+  const char* vertical_unit = nullptr;
+  const double vertical_metres = srs.IsCompound() ? srs.GetTargetLinearUnits("VERT_CS", &vertical_unit) : 1.0;
+  std::string height_unit;
+  std::optional<double> metres;
+  if (!band_unit.empty()) {
+    height_unit = "'" + band_unit + "'";
+    metres = metresPerHeightUnit(band_unit);
+  } else if (vertical_metres != 1) {
+    height_unit = std::string("'") + (vertical_unit ? vertical_unit : "unnamed") + "' (its vertical CRS's)";
+    metres = vertical_metres;
+  }
+  if (!height_unit.empty()) {
+    if (metres == 1.0) return std::nullopt;
+    char factor[64] = "the metres in one of its units";
+    if (metres) std::snprintf(factor, sizeof factor, "%.10g", *metres);
+    return "dem: band " + std::to_string(band_number) + " of " + name + " gives its heights in " + height_unit +
+           ", which are read as metres: set heights.z_scale (--z-scale) to " + factor;
+  }
+  const char* linear_unit = nullptr;
+  const double linear_metres = srs.IsProjected() ? srs.GetLinearUnits(&linear_unit) : 1.0;
+  if (std::abs(linear_metres - 0.3048) > 1e-6) return std::nullopt;  // the foot and the US survey foot
+  char factor[32];
+  std::snprintf(factor, sizeof factor, "%.10g", linear_metres);
+  return "dem: " + name + " is in a CRS measured in " + (linear_unit ? linear_unit : "feet") +
+         " and does not say what its heights are in; they are read as metres: if they are feet too, set "
+         "heights.z_scale (--z-scale) to " + factor;
+}
+
 // A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
 // in-memory VRT over `level`'s band `band`, covering the same extent.
 GDALDataset* decimatedView(GDALDataset& level, int band, int factor) {
@@ -363,38 +399,11 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
                          (band_count > 4 ? ", ..." : "") + "); heights are read from band " +
                          std::to_string(m_band) + " (heights.band)");
   }
-  // Heights in another unit than metres make every slope wrong by its
-  // factor; heights.z_scale is that factor, so only its default is doubted.
+  // heights.z_scale is the factor a unit of height other than metres needs,
+  // so only its default is doubted.
   if (options.metres_per_unit == 1) {
-    const std::string band_unit = band->GetUnitType();
-    const char* vertical_unit = nullptr;
-    const double vertical_metres = m_srs.IsCompound() ? m_srs.GetTargetLinearUnits("VERT_CS", &vertical_unit) : 1.0;
-    std::string height_unit;
-    std::optional<double> metres;
-    if (!band_unit.empty()) {
-      height_unit = "'" + band_unit + "'";
-      metres = metresPerHeightUnit(band_unit);
-    } else if (vertical_metres != 1) {
-      height_unit = std::string("'") + (vertical_unit ? vertical_unit : "unnamed") + "' (its vertical CRS's)";
-      metres = vertical_metres;
-    }
-    if (!height_unit.empty() && metres != 1.0) {
-      char factor[64] = "the metres in one of its units";
-      if (metres) std::snprintf(factor, sizeof factor, "%.10g", *metres);
-      m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " gives its heights in " + height_unit +
-                           ", which are read as metres: set heights.z_scale (--z-scale) to " + factor);
-    } else if (height_unit.empty() && m_srs.IsProjected()) {
-      // Nothing says what the heights are in, but DEMs in a CRS of feet
-      // (the US state planes) mostly give their heights in feet too.
-      const char* linear_unit = nullptr;
-      const double linear_metres = m_srs.GetLinearUnits(&linear_unit);
-      if (std::abs(linear_metres - 0.3048) < 1e-6) {
-        char factor[32];
-        std::snprintf(factor, sizeof factor, "%.10g", linear_metres);
-        m_warnings.push_back("dem: " + name + " is in a CRS measured in " + (linear_unit ? linear_unit : "feet") +
-                             " and does not say what its heights are in; they are read as metres: if they are "
-                             "feet too, set heights.z_scale (--z-scale) to " + factor);
-      }
+    if (std::optional<std::string> warning = heightUnitWarning(*band, m_band, m_srs, name)) {
+      m_warnings.push_back(*warning);
     }
   }
   const GDALColorInterp interp = band->GetColorInterpretation();
