@@ -66,20 +66,19 @@ TEST(GridLowPolyMesh, VerticesSitOnTheSurface) {
   EXPECT_NEAR(mesh.position.back().z, 32 * 4.0, 1e-4);
 }
 
-TEST(HighResMesh, OneVertexPerSampleCoveringTheTile) {
+TEST(HighResMesh, OneVertexOnEachTexelCentre) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildHighResMesh(samples);
-  EXPECT_EQ(mesh.cols, 66);
-  EXPECT_EQ(mesh.rows, 66);
-  EXPECT_EQ(mesh.normal.size(), std::size_t(66 * 66));
+  EXPECT_EQ(mesh.cols, 64);
+  EXPECT_EQ(mesh.rows, 64);
+  EXPECT_EQ(mesh.normal.size(), std::size_t(64 * 64));
   const std::vector<glm::vec2> uv = mesh::highResUvs(mesh.cols, mesh.rows);
   ASSERT_EQ(uv.size(), mesh.normal.size());
-  // First and last vertices lie half a texel beyond the tile edges.
-  EXPECT_FLOAT_EQ(uv.front().x, -0.5f / 64);
-  EXPECT_FLOAT_EQ(uv.back().y, 1 + 0.5f / 64);
-  // Vertex (1, 1) is texel (0, 0)'s centre; vertex (2, 1) the next one east.
-  EXPECT_EQ(uv[66 + 1], glm::vec2(0.5f / 64, 0.5f / 64));
-  EXPECT_EQ(uv[66 + 2], glm::vec2(1.5f / 64, 0.5f / 64));
+  // Vertex (0, 0) is texel (0, 0)'s centre, vertex (1, 0) the next one east,
+  // the last vertex the last texel's centre: every vertex is in the viewport.
+  EXPECT_EQ(uv.front(), glm::vec2(0.5f / 64, 0.5f / 64));
+  EXPECT_EQ(uv[1], glm::vec2(1.5f / 64, 0.5f / 64));
+  EXPECT_EQ(uv.back(), glm::vec2(63.5f / 64, 63.5f / 64));
 }
 
 // Bands change the order of the grid's triangles, not the triangles: the
@@ -152,7 +151,7 @@ TEST(HighResMesh, NormalsAtTheDataEdgeIgnoreTheFill) {
   constexpr double kMaxDeg = 0.02;
   for (int j = 0; j < 32; ++j) {
     for (int i = kLastData - 2; i <= kLastData; ++i) {
-      const std::size_t k = std::size_t(j + 1) * std::size_t(mesh.cols) + std::size_t(i + 1);  // vertices start at texel -1
+      const std::size_t k = std::size_t(j) * std::size_t(mesh.cols) + std::size_t(i);
       const glm::dvec3 at = samples.position.at(samples.apron + i, samples.apron + j);
       EXPECT_LT(test::angleDeg(glm::dvec3(mesh.normal[k]), exactNormal(at)), kMaxDeg) << "texel " << i << ", " << j;
     }

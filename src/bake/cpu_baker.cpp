@@ -12,15 +12,15 @@ namespace terrabake::bake {
 namespace {
 
 void checkOneVertexPerTexel(const mesh::HighResMesh& high, int size) {
-  if (high.cols != size + 2 || high.rows != size + 2) {
+  if (high.cols != size || high.rows != size) {
     throw std::invalid_argument("cpu baker: the high-res mesh is not one vertex per texel of the tile");
   }
 }
 
-// Texel (i, j)'s centre is high-res vertex (i + 1, j + 1): the high-res
-// surface's normal there.
+// Texel (i, j)'s centre is high-res vertex (i, j): the high-res surface's
+// normal there.
 const glm::vec3& highResNormal(const mesh::HighResMesh& high, int i, int j) {
-  return high.normal[std::size_t(j + 1) * std::size_t(high.cols) + std::size_t(i + 1)];
+  return high.normal[std::size_t(j) * std::size_t(high.cols) + std::size_t(i)];
 }
 
 // A low-poly vertex's normal, tangent and bitangent w * cross(n, t), as a

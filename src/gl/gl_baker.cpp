@@ -62,7 +62,9 @@ constexpr int kHighNormalUnit = 0;
 // no index buffer. Measured in one run on an NVIDIA H200, tiles baked a
 // second by 16 threads: 5,231-5,302 with points, 4,925-5,015 with
 // triangles; on llvmpipe, one thread, a 256-texel tile's bake took
-// 12.0-12.4 ms against 12.7-15.1 ms.
+// 12.0-12.4 ms against 12.7-15.1 ms. Every point lies inside the viewport:
+// llvmpipe sends each batch of vertices that holds one outside through its
+// slow clipping pipeline (see docs/performance.md).
 
 // A buffer object whose storage is made again only when the data outgrows
 // it: re-specifying storage for every tile makes a software renderer map and

@@ -160,10 +160,9 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   const int a = samples.apron;
   const auto& p = samples.position;
   HighResMesh mesh;
-  // Vertices for texel indices -1 .. s: one beyond each edge covers the tile.
-  mesh.cols = s + 2;
-  mesh.rows = s + 2;
-  mesh.normal.resize(std::size_t(mesh.cols) * mesh.rows);
+  mesh.cols = s;
+  mesh.rows = s;
+  mesh.normal.resize(std::size_t(s) * std::size_t(s));
   // Rows of samples that are all the DEM's (the vertices' rows and one
   // either side lie inside the apron).
   std::vector<std::uint8_t> all_dem(std::size_t(p.height), 1);
@@ -173,27 +172,24 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
       all_dem[std::size_t(r)] = std::all_of(row, row + p.width, [](std::uint8_t v) { return v != 0; });
     }
   }
-  for (int j = -1; j <= s; ++j) {
+  for (int j = 0; j < s; ++j) {
     // Two normals at a time; an odd row's last pair is one sample twice.
-    glm::vec3* normals = &mesh.normal[std::size_t(j + 1) * std::size_t(mesh.cols)];
+    glm::vec3* normals = &mesh.normal[std::size_t(j) * std::size_t(s)];
     const std::size_t r = std::size_t(a + j);
     const bool central = all_dem[r - 1] && all_dem[r] && all_dem[r + 1];
-    for (int i = 0; i < mesh.cols; i += 2) {
-      const int next = std::min(i + 1, mesh.cols - 1);
-      sampleNormals(samples, a - 1 + i, a - 1 + next, a + j, central, normals[i], normals[next]);
+    for (int i = 0; i < s; i += 2) {
+      const int next = std::min(i + 1, s - 1);
+      sampleNormals(samples, a + i, a + next, a + j, central, normals[i], normals[next]);
     }
   }
   return mesh;
 }
 
 std::vector<glm::vec2> highResUvs(int cols, int rows) {
-  const int s = cols - 2;
-  // The UV of texel centre k along an axis, for k = -1 .. s.
-  auto centre = [s](int vertex) { return float((vertex - 1 + 0.5) / s); };
   std::vector<glm::vec2> uv;
   uv.reserve(std::size_t(cols) * std::size_t(rows));
   for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < cols; ++i) uv.emplace_back(centre(i), centre(j));
+    for (int i = 0; i < cols; ++i) uv.emplace_back(float((i + 0.5) / cols), float((j + 0.5) / rows));
   }
   return uv;
 }

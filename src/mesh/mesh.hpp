@@ -26,14 +26,14 @@ struct SampleGrid {
   Raster<std::uint8_t> from_dem;
 };
 
-// One vertex per height sample, as a row-major grid (row 0 north). Each grid
-// cell is split along its north-west to south-east diagonal into the
-// triangles (NW, SW, SE) and (NW, SE, NE), counter-clockwise seen from above.
-// The grid runs one sample beyond each tile edge so that it covers the whole
-// tile in UV space; apron vertices have UVs outside [0, 1]. A bake needs
-// only where each vertex lies in UV space, which the grid alone fixes
+// One vertex per texel, on its centre, as a row-major grid (row 0 north):
+// vertex (i, j) is sample (apron + i, apron + j). Each grid cell is split
+// along its north-west to south-east diagonal into the triangles (NW, SW, SE)
+// and (NW, SE, NE), counter-clockwise seen from above. A bake needs only
+// where each vertex lies in UV space, which the grid alone fixes
 // (highResUvs), and its normal: the positions stay in the SampleGrid the
-// mesh is built from.
+// mesh is built from. No texel centre but a vertex's own lies inside the
+// triangles, so a bake writes each texel its vertex's normal.
 struct HighResMesh {
   int cols = 0;
   int rows = 0;
@@ -72,14 +72,15 @@ struct TrianglePoint {
 std::vector<std::uint32_t> gridIndices(int cols, int rows);
 
 // The UV of each vertex of a HighResMesh of cols x rows vertices: vertex
-// (i, j) lies at the centre of texel (i - 1, j - 1) of a tile of cols - 2
-// texels, row-major like the mesh. The same for every tile of a size.
+// (i, j) lies at the centre of texel (i, j), row-major like the mesh. The
+// same for every tile of a size.
 std::vector<glm::vec2> highResUvs(int cols, int rows);
 
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
-// three for the high-res normals up to the first sample beyond the edge (a
-// one-sided difference there reaches two samples further), and one low-poly
-// cell (plus one sample to interpolate in) for the low-poly normals at the edge.
+// the contract's three at least (docs/CONTRACT.md §3), of which the
+// high-res normals at the edge texels use two (a one-sided difference there
+// reaches two samples out), and one low-poly cell (plus one sample to
+// interpolate in) for the low-poly normals at the edge.
 int requiredApron(int tile_size, int grid);
 
 // Samples each side of the tile the adaptive mesh needs: its edge vertices'
