@@ -324,6 +324,89 @@ TEST(Inputs, ScaledSamplesAreReadAsTheHeightsTheyStandFor) {
   EXPECT_TRUE(contains(info.out, "heights    samples x 0.1 + 500 (the band's scale and offset)")) << describe(info);
 }
 
+// Overwrites band `band` of a GTiff with `value_at(col, row)`; `alpha`: marks it an alpha band.
+void writeBand(const fs::path& path, int band, const std::function<float(int, int)>& value_at, bool alpha = false) {
+  std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+  ASSERT_NE(ds, nullptr) << path;
+  const int width = ds->GetRasterXSize(), height = ds->GetRasterYSize();
+  std::vector<float> values(std::size_t(width) * std::size_t(height));
+  for (int r = 0; r < height; ++r) {
+    for (int c = 0; c < width; ++c) values[std::size_t(r) * std::size_t(width) + std::size_t(c)] = value_at(c, r);
+  }
+  GDALRasterBand* b = ds->GetRasterBand(band);
+  ASSERT_EQ(b->RasterIO(GF_Write, 0, 0, width, height, values.data(), width, height, GDT_Float32, 0, 0), CE_None);
+  if (alpha) {
+    ASSERT_EQ(b->SetColorInterpretation(GCI_AlphaBand), CE_None);
+  }
+}
+
+// Files that mark their voids by a mask keep whatever height underneath:
+// gdalwarp -dstalpha writes 0 beside a Float32 alpha of 0 (an alpha GDAL's
+// own masks do not know), TIFFs carry masks of their own. Those samples are
+// voids, as NaN is, in every read and reduced level, flipped or not.
+TEST(Inputs, MaskedSamplesAreVoidsWhateverHeightTheyHold) {
+  const fs::path dir = caseDir();
+  // Big enough for the reduced levels of the coarse zooms, read at every zoom.
+  constexpr int kSide = 1024;
+  const auto no_data = [](int c, int r) { return c >= 900 || (c >= 60 && c < 80 && r >= 90 && r < 110); };
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "nan.tif", kSide, kSide, gt, [&](int c, int r) { return no_data(c, r) ? NAN : hill(c, r); });
+  const auto zero_outside = [&](int c, int r) { return no_data(c, r) ? 0.0f : hill(c, r); };
+  const auto opacity = [&](int c, int r) { return no_data(c, r) ? 0.0f : 255.0f; };
+  writeDem(dir / "alpha.tif", kSide, kSide, gt, zero_outside, 4326, 2);
+  writeBand(dir / "alpha.tif", 2, opacity, true);
+  const double south = kHillNorth - kSide * kHillPixelDeg;
+  const double south_up[6] = {kHillWest, kHillPixelDeg, 0, south, 0, kHillPixelDeg};
+  const auto flipped = [&](const std::function<float(int, int)>& f) {
+    return [=](int c, int r) { return f(c, kSide - 1 - r); };
+  };
+  writeDem(dir / "alpha_south_up.tif", kSide, kSide, south_up, flipped(zero_outside), 4326, 2);
+  writeBand(dir / "alpha_south_up.tif", 2, flipped(opacity), true);
+  writeDem(dir / "mask.tif", kSide, kSide, gt, zero_outside);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "mask.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    ASSERT_EQ(ds->CreateMaskBand(GMF_PER_DATASET), CE_None);
+    std::vector<GByte> mask(std::size_t(kSide) * kSide);
+    for (int r = 0; r < kSide; ++r) {
+      for (int c = 0; c < kSide; ++c) mask[std::size_t(r) * kSide + std::size_t(c)] = no_data(c, r) ? 0 : 255;
+    }
+    ASSERT_EQ(ds->GetRasterBand(1)->GetMaskBand()->RasterIO(GF_Write, 0, 0, kSide, kSide, mask.data(), kSide, kSide,
+                                                           GDT_Byte, 0, 0),
+              CE_None);
+  }
+  for (const std::string name : {"nan", "alpha", "alpha_south_up", "mask"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name, "5-10"));
+    ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
+    EXPECT_FALSE(contains(r.err, "bands")) << describe(r);  // the alpha band is no second band of heights
+  }
+  for (const std::string name : {"alpha", "alpha_south_up", "mask"}) {
+    SCOPED_TRACE(name);
+    expectSameTiles(dir / "out" / "nan", dir / "out" / name);
+  }
+  const RunResult info = run({"info", (dir / "alpha.tif").string()});
+  EXPECT_TRUE(contains(info.out, "mask       band 2 (alpha): no data where it is 0")) << describe(info);
+}
+
+// The coarse zooms of a file without overviews read its reduced levels,
+// which hold the heights band alone, whichever band that is.
+TEST(Inputs, HeightsOfASecondBandAreReadAtEveryZoom) {
+  const fs::path dir = caseDir();
+  constexpr int kSide = 1024;
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "first.tif", kSide, kSide, gt, hill);
+  writeDem(dir / "second.tif", kSide, kSide, gt, [](int, int) { return 7.0f; }, 4326, 2);
+  writeBand(dir / "second.tif", 2, hill);
+  const RunResult first = run(tileArgs(dir / "first.tif", dir / "out", "first", "5-10"));
+  ASSERT_EQ(first.exit_code, kExitOk) << describe(first);
+  std::vector<std::string> args = tileArgs(dir / "second.tif", dir / "out", "second", "5-10");
+  args.insert(args.end(), {"--band", "2"});
+  const RunResult second = run(args);
+  ASSERT_EQ(second.exit_code, kExitOk) << describe(second);
+  EXPECT_TRUE(contains(second.err, "reduced levels")) << describe(second);
+  expectSameTiles(dir / "out" / "first", dir / "out" / "second");
+}
+
 TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
   const fs::path dir = caseDir();
   writeHills(dir / "feet.tif");

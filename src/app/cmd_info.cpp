@@ -81,6 +81,7 @@ void printInfo(const dem::DemSource& dem, int tile_size) {
   std::printf("size       %d x %d pixels, %s, %d overview%s\n", g.width, g.height, info.data_type.c_str(),
               info.overview_count, info.overview_count == 1 ? "" : "s");
   std::printf("nodata     %s\n", info.nodata ? format("%.10g", *info.nodata).c_str() : "none declared");
+  if (!info.mask.empty()) std::printf("mask       %s: no data where it is 0\n", info.mask.c_str());
   if (info.scale != 1 || info.offset != 0) {
     std::printf("heights    samples x %s + %s (the band's scale and offset)\n", format("%.10g", info.scale).c_str(),
                 format("%.10g", info.offset).c_str());

@@ -21,6 +21,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "dem/dataset_views.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
@@ -41,99 +42,6 @@ std::optional<int> epsgCode(const OGRSpatialReference& srs) {
   const char* code = identified.GetAuthorityCode(nullptr);
   if (!authority || !EQUAL(authority, "EPSG") || !code) return std::nullopt;
   return std::atoi(code);
-}
-
-struct GdalDatasetCloser {
-  void operator()(GDALDataset* ds) const { GDALClose(ds); }
-};
-using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
-
-// A file whose rows are stored south-up or whose columns run east to west
-// (a negative pixel height or width), seen north-up: one band, the chosen
-// one, read through a mirror, with the geotransform of the same pixels in
-// north-up order. Every later step then sees the terrain as in any north-up
-// file, so both give the same tiles.
-class MirroredDataset final : public GDALDataset {
- public:
-  MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt);
-  CPLErr GetGeoTransform(double* gt) override {
-    std::copy(m_gt, m_gt + 6, gt);
-    return CE_None;
-  }
-  const OGRSpatialReference* GetSpatialRef() const override { return m_source->GetSpatialRef(); }
-
- private:
-  DatasetPtr m_source;
-  double m_gt[6];
-};
-
-class MirroredBand final : public GDALRasterBand {
- public:
-  MirroredBand(MirroredDataset* owner, GDALRasterBand* source, bool flip_x, bool flip_y)
-      : m_source(source), m_flip_x(flip_x), m_flip_y(flip_y) {
-    poDS = owner;
-    nBand = 1;
-    nRasterXSize = source->GetXSize();
-    nRasterYSize = source->GetYSize();
-    eDataType = source->GetRasterDataType();
-    nBlockXSize = std::min(nRasterXSize, 256);
-    nBlockYSize = std::min(nRasterYSize, 256);
-  }
-  double GetNoDataValue(int* has_nodata) override { return m_source->GetNoDataValue(has_nodata); }
-
- protected:
-  CPLErr IReadBlock(int block_x, int block_y, void* data) override {
-    const int x = block_x * nBlockXSize, y = block_y * nBlockYSize;
-    const int w = std::min(nBlockXSize, nRasterXSize - x), h = std::min(nBlockYSize, nRasterYSize - y);
-    const int size = GDALGetDataTypeSizeBytes(eDataType);
-    return IRasterIO(GF_Read, x, y, w, h, data, w, h, eDataType, size, GSpacing(size) * nBlockXSize, nullptr);
-  }
-
-  // The mirrored window of the source, read into the buffer, then mirrored
-  // in place: columns reversed within each row, rows in reverse order.
-  CPLErr IRasterIO(GDALRWFlag flag, int x, int y, int w, int h, void* data, int buffer_w, int buffer_h,
-                   GDALDataType type, GSpacing pixel_space, GSpacing line_space, GDALRasterIOExtraArg*) override {
-    if (flag != GF_Read) return CE_Failure;
-    const int source_x = m_flip_x ? nRasterXSize - x - w : x;
-    const int source_y = m_flip_y ? nRasterYSize - y - h : y;
-    const CPLErr read = m_source->RasterIO(GF_Read, source_x, source_y, w, h, data, buffer_w, buffer_h, type,
-                                           pixel_space, line_space, nullptr);
-    if (read != CE_None) return read;
-    const std::size_t size = std::size_t(GDALGetDataTypeSizeBytes(type));
-    auto* bytes = static_cast<GByte*>(data);
-    unsigned char swap[16];
-    const auto exchange = [&](GByte* a, GByte* b) {
-      std::memcpy(swap, a, size);
-      std::memcpy(a, b, size);
-      std::memcpy(b, swap, size);
-    };
-    if (m_flip_x) {
-      for (int r = 0; r < buffer_h; ++r) {
-        GByte* row = bytes + r * line_space;
-        for (int a = 0, b = buffer_w - 1; a < b; ++a, --b) exchange(row + a * pixel_space, row + b * pixel_space);
-      }
-    }
-    if (m_flip_y) {
-      for (int a = 0, b = buffer_h - 1; a < b; ++a, --b) {
-        for (int c = 0; c < buffer_w; ++c) {
-          exchange(bytes + a * line_space + c * pixel_space, bytes + b * line_space + c * pixel_space);
-        }
-      }
-    }
-    return CE_None;
-  }
-
- private:
-  GDALRasterBand* m_source;
-  bool m_flip_x, m_flip_y;
-};
-
-MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt)
-    : m_source(std::move(source)) {
-  nRasterXSize = m_source->GetRasterXSize();
-  nRasterYSize = m_source->GetRasterYSize();
-  std::copy(north_up_gt, north_up_gt + 6, m_gt);
-  SetBand(1, new MirroredBand(this, m_source->GetRasterBand(band), flip_x, flip_y));
 }
 
 // Metres in one of a band's units of height (GDAL's unit type): 1 for
@@ -193,27 +101,10 @@ std::optional<std::string> heightUnitWarning(GDALRasterBand& band, int band_numb
          "heights.z_scale (--z-scale) to " + factor;
 }
 
-// A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
-// in-memory VRT over `level`'s band `band`, covering the same extent.
-GDALDataset* decimatedView(GDALDataset& level, int band, int factor) {
-  const int width = level.GetRasterXSize(), height = level.GetRasterYSize();
-  const int w = std::max(1, (width + factor - 1) / factor), h = std::max(1, (height + factor - 1) / factor);
-  VRTDatasetH vrt = VRTCreate(w, h);
-  if (!vrt) return nullptr;
-  double gt[6];
-  level.GetGeoTransform(gt);
-  gt[1] *= double(width) / w;
-  gt[5] *= double(height) / h;
-  GDALSetGeoTransform(vrt, gt);
-  GDALSetProjection(vrt, level.GetProjectionRef());
-  GDALRasterBand* source = level.GetRasterBand(band);
-  VRTAddBand(vrt, source->GetRasterDataType(), nullptr);
-  if (VRTAddSimpleSource(GDALGetRasterBand(vrt, 1), GDALRasterBand::ToHandle(source), 0, 0, width, height, 0, 0,
-                         w, h, "near", VRT_NODATA_UNSET) != CE_None) {
-    GDALClose(vrt);
-    return nullptr;
-  }
-  return GDALDataset::FromHandle(vrt);
+// How `info` names a mask (DemInfo::mask); empty when there is none.
+std::string maskDescription(const NoDataMask& mask) {
+  if (mask.alpha_band) return "band " + std::to_string(mask.alpha_band) + " (alpha)";
+  return mask.mask_band ? "its mask band" : "";
 }
 
 // The file opened again, north-up (through a mirror when stored flipped),
@@ -224,11 +115,15 @@ std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta) {
   DatasetPtr dataset(GDALDataset::FromHandle(
       GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
   if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
-  if (!meta.flipX() && !meta.flipY()) return {std::move(dataset), meta.band()};
+  int band = meta.band();
+  if (meta.masked()) {
+    dataset = maskedView(std::move(dataset), band, meta.mask());
+    band = 1;
+  }
+  if (!meta.flipX() && !meta.flipY()) return {std::move(dataset), band};
   double gt[6];
   meta.northUpGeoTransform(gt);
-  DatasetPtr mirrored(new MirroredDataset(std::move(dataset), meta.band(), meta.flipX(), meta.flipY(), gt));
-  return {std::move(mirrored), 1};
+  return {mirroredView(std::move(dataset), band, meta.flipX(), meta.flipY(), gt), 1};
 }
 
 // Rasters no wider or taller than this: beyond, sizes overflow the integer
@@ -374,6 +269,8 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   int has_nodata = 0;
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) m_info.nodata = nodata;
+  m_mask = noDataMaskOf(ds, m_band);
+  m_info.mask = maskDescription(m_mask);
   // A mirrored file is read at full resolution: its overviews are stored flipped too.
   if (!m_flip_x && !m_flip_y) {
     for (int i = 0; i < band->GetOverviewCount(); ++i) m_overview_widths.push_back(band->GetOverview(i)->GetXSize());
@@ -390,7 +287,8 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   }
   m_info.crs_unit = unit ? unit : "unknown";
 
-  if (band_count > 1) {
+  // A second band that is the first's alpha is read as its mask.
+  if (band_count > 1 && !(band_count == 2 && m_mask.alpha_band)) {
     std::string colours;
     for (int b = 1; b <= band_count && b <= 4; ++b) {
       colours += (b > 1 ? ", " : "") + colourName(ds.GetRasterBand(b)->GetColorInterpretation());
@@ -535,6 +433,7 @@ struct DemFile::Impl {
     LevelReader reader;
     reader.voids = meta.voids();
     GDALDataset* level = dataset.get();
+    int level_band = band;
     const std::shared_ptr<const ReducedLevels> reduced = meta.reducedLevels();
     if (overview >= 0 && reduced) {
       double gt[6];
@@ -542,6 +441,7 @@ struct DemFile::Impl {
       reader.file.reset(reduced->open(std::size_t(overview), gt, meta.srsWkt()));
       if (!reader.file) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
       level = reader.file.get();
+      level_band = 1;
       reader.voids = meta.voids().forHeights();
     } else if (overview >= 0) {
       const std::string option = "OVERVIEW_LEVEL=" + std::to_string(overview);
@@ -551,11 +451,15 @@ struct DemFile::Impl {
       if (!reader.file) {
         throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
       }
+      level_band = meta.band();
+      if (meta.masked()) {
+        reader.file = maskedView(std::move(reader.file), level_band, meta.mask());
+        level_band = 1;
+      }
       level = reader.file.get();
     }
-    int level_band = band;
     if (decimate > 1) {
-      reader.decimated.reset(decimatedView(*level, level_band, decimate));
+      reader.decimated = decimatedView(*level, level_band, decimate);
       if (!reader.decimated) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
       level = reader.decimated.get();
       level_band = 1;

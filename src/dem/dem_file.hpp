@@ -13,6 +13,7 @@
 #include <ogr_spatialref.h>
 
 #include "core/types.hpp"
+#include "dem/dataset_views.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
@@ -32,6 +33,9 @@ class FileMeta {
   const std::string& srsWkt() const { return m_info.grid.crs; }
   int band() const { return m_band; }
   // Rows stored south-up, columns east-to-west: read through a mirror.
+  // What marks where the file has no data besides nodata (dataset_views.hpp).
+  const NoDataMask& mask() const { return m_mask; }
+  bool masked() const { return m_mask.any(); }
   bool flipX() const { return m_flip_x; }
   bool flipY() const { return m_flip_y; }
   const VoidRule& voids() const { return m_voids; }
@@ -63,6 +67,7 @@ class FileMeta {
   DemInfo m_info;
   OGRSpatialReference m_srs;
   int m_band = 1;
+  NoDataMask m_mask;
   bool m_flip_x = false, m_flip_y = false;
   std::vector<int> m_overview_widths;
   mutable std::atomic<long long> m_implausible{0};

@@ -1,0 +1,209 @@
+#include "dem/dataset_views.hpp"
+
+#include <gdal_vrt.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <vector>
+
+namespace terrabake::dem {
+namespace {
+
+// A file whose rows are stored south-up or whose columns run east to west
+// (a negative pixel height or width), seen north-up: one band, the chosen
+// one, read through a mirror, with the geotransform of the same pixels in
+// north-up order. Every later step then sees the terrain as in any north-up
+// file, so both give the same tiles.
+class MirroredDataset final : public GDALDataset {
+ public:
+  MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt);
+  CPLErr GetGeoTransform(double* gt) override {
+    std::copy(m_gt, m_gt + 6, gt);
+    return CE_None;
+  }
+  const OGRSpatialReference* GetSpatialRef() const override { return m_source->GetSpatialRef(); }
+
+ private:
+  DatasetPtr m_source;
+  double m_gt[6];
+};
+
+class MirroredBand final : public GDALRasterBand {
+ public:
+  MirroredBand(MirroredDataset* owner, GDALRasterBand* source, bool flip_x, bool flip_y)
+      : m_source(source), m_flip_x(flip_x), m_flip_y(flip_y) {
+    poDS = owner;
+    nBand = 1;
+    nRasterXSize = source->GetXSize();
+    nRasterYSize = source->GetYSize();
+    eDataType = source->GetRasterDataType();
+    nBlockXSize = std::min(nRasterXSize, 256);
+    nBlockYSize = std::min(nRasterYSize, 256);
+  }
+  double GetNoDataValue(int* has_nodata) override { return m_source->GetNoDataValue(has_nodata); }
+
+ protected:
+  CPLErr IReadBlock(int block_x, int block_y, void* data) override {
+    const int x = block_x * nBlockXSize, y = block_y * nBlockYSize;
+    const int w = std::min(nBlockXSize, nRasterXSize - x), h = std::min(nBlockYSize, nRasterYSize - y);
+    const int size = GDALGetDataTypeSizeBytes(eDataType);
+    return IRasterIO(GF_Read, x, y, w, h, data, w, h, eDataType, size, GSpacing(size) * nBlockXSize, nullptr);
+  }
+
+  // The mirrored window of the source, read into the buffer, then mirrored
+  // in place: columns reversed within each row, rows in reverse order.
+  CPLErr IRasterIO(GDALRWFlag flag, int x, int y, int w, int h, void* data, int buffer_w, int buffer_h,
+                   GDALDataType type, GSpacing pixel_space, GSpacing line_space, GDALRasterIOExtraArg*) override {
+    if (flag != GF_Read) return CE_Failure;
+    const int source_x = m_flip_x ? nRasterXSize - x - w : x;
+    const int source_y = m_flip_y ? nRasterYSize - y - h : y;
+    const CPLErr read = m_source->RasterIO(GF_Read, source_x, source_y, w, h, data, buffer_w, buffer_h, type,
+                                           pixel_space, line_space, nullptr);
+    if (read != CE_None) return read;
+    const std::size_t size = std::size_t(GDALGetDataTypeSizeBytes(type));
+    auto* bytes = static_cast<GByte*>(data);
+    unsigned char swap[16];
+    const auto exchange = [&](GByte* a, GByte* b) {
+      std::memcpy(swap, a, size);
+      std::memcpy(a, b, size);
+      std::memcpy(b, swap, size);
+    };
+    if (m_flip_x) {
+      for (int r = 0; r < buffer_h; ++r) {
+        GByte* row = bytes + r * line_space;
+        for (int a = 0, b = buffer_w - 1; a < b; ++a, --b) exchange(row + a * pixel_space, row + b * pixel_space);
+      }
+    }
+    if (m_flip_y) {
+      for (int a = 0, b = buffer_h - 1; a < b; ++a, --b) {
+        for (int c = 0; c < buffer_w; ++c) {
+          exchange(bytes + a * line_space + c * pixel_space, bytes + b * line_space + c * pixel_space);
+        }
+      }
+    }
+    return CE_None;
+  }
+
+ private:
+  GDALRasterBand* m_source;
+  bool m_flip_x, m_flip_y;
+};
+
+MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt)
+    : m_source(std::move(source)) {
+  nRasterXSize = m_source->GetRasterXSize();
+  nRasterYSize = m_source->GetRasterYSize();
+  std::copy(north_up_gt, north_up_gt + 6, m_gt);
+  SetBand(1, new MirroredBand(this, m_source->GetRasterBand(band), flip_x, flip_y));
+}
+
+// Blocks of a masked band are at most this many pixels a side: a driver
+// that reads its raster as one block would otherwise make one of the whole
+// file.
+constexpr int kMaxMaskedBlockSide = 1024;
+
+class MaskedDataset final : public GDALDataset {
+ public:
+  MaskedDataset(DatasetPtr source, int band, NoDataMask mask);
+  CPLErr GetGeoTransform(double* gt) override { return m_source->GetGeoTransform(gt); }
+  const OGRSpatialReference* GetSpatialRef() const override { return m_source->GetSpatialRef(); }
+
+ private:
+  DatasetPtr m_source;
+};
+
+class MaskedBand final : public GDALRasterBand {
+ public:
+  MaskedBand(MaskedDataset* owner, GDALRasterBand* source, GDALRasterBand* mask) : m_source(source), m_mask(mask) {
+    poDS = owner;
+    nBand = 1;
+    nRasterXSize = source->GetXSize();
+    nRasterYSize = source->GetYSize();
+    eDataType = GDT_Float32;
+    source->GetBlockSize(&nBlockXSize, &nBlockYSize);
+    nBlockXSize = std::clamp(nBlockXSize, 1, std::min(nRasterXSize, kMaxMaskedBlockSide));
+    nBlockYSize = std::clamp(nBlockYSize, 1, std::min(nRasterYSize, kMaxMaskedBlockSide));
+  }
+
+ protected:
+  CPLErr IReadBlock(int block_x, int block_y, void* data) override {
+    const int x = block_x * nBlockXSize, y = block_y * nBlockYSize;
+    const int w = std::min(nBlockXSize, nRasterXSize - x), h = std::min(nBlockYSize, nRasterYSize - y);
+    auto* heights = static_cast<float*>(data);
+    const GSpacing row = GSpacing(sizeof(float)) * nBlockXSize;
+    if (m_source->RasterIO(GF_Read, x, y, w, h, heights, w, h, GDT_Float32, sizeof(float), row, nullptr) != CE_None) {
+      return CE_Failure;
+    }
+    // An alpha band's partial transparency still holds data.
+    m_opacity.resize(std::size_t(w) * std::size_t(h));
+    if (m_mask->RasterIO(GF_Read, x, y, w, h, m_opacity.data(), w, h, GDT_Byte, 0, 0, nullptr) != CE_None) {
+      return CE_Failure;
+    }
+    for (int r = 0; r < h; ++r) {
+      for (int c = 0; c < w; ++c) {
+        if (m_opacity[std::size_t(r) * std::size_t(w) + std::size_t(c)] == 0) {
+          heights[std::size_t(r) * std::size_t(nBlockXSize) + std::size_t(c)] = NAN;
+        }
+      }
+    }
+    return CE_None;
+  }
+
+ private:
+  GDALRasterBand* m_source;
+  GDALRasterBand* m_mask;
+  std::vector<GByte> m_opacity;  // of the block being read
+};
+
+MaskedDataset::MaskedDataset(DatasetPtr source, int band, NoDataMask mask) : m_source(std::move(source)) {
+  nRasterXSize = m_source->GetRasterXSize();
+  nRasterYSize = m_source->GetRasterYSize();
+  GDALRasterBand* heights = m_source->GetRasterBand(band);
+  SetBand(1, new MaskedBand(this, heights,
+                            mask.alpha_band ? m_source->GetRasterBand(mask.alpha_band) : heights->GetMaskBand()));
+}
+
+}  // namespace
+
+DatasetPtr mirroredView(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt) {
+  return DatasetPtr(new MirroredDataset(std::move(source), band, flip_x, flip_y, north_up_gt));
+}
+
+NoDataMask noDataMaskOf(GDALDataset& file, int band) {
+  NoDataMask mask;
+  for (int b = 1; b <= file.GetRasterCount() && !mask.alpha_band; ++b) {
+    if (b != band && file.GetRasterBand(b)->GetColorInterpretation() == GCI_AlphaBand) mask.alpha_band = b;
+  }
+  // GDAL's mask of a band with a nodata value is that value, and one of a
+  // band without any reads all valid.
+  mask.mask_band = !mask.alpha_band && (file.GetRasterBand(band)->GetMaskFlags() & (GMF_ALL_VALID | GMF_NODATA)) == 0;
+  return mask;
+}
+
+DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask) {
+  return DatasetPtr(new MaskedDataset(std::move(source), band, mask));
+}
+
+DatasetPtr decimatedView(GDALDataset& level, int band, int factor) {
+  const int width = level.GetRasterXSize(), height = level.GetRasterYSize();
+  const int w = std::max(1, (width + factor - 1) / factor), h = std::max(1, (height + factor - 1) / factor);
+  VRTDatasetH vrt = VRTCreate(w, h);
+  if (!vrt) return nullptr;
+  double gt[6];
+  level.GetGeoTransform(gt);
+  gt[1] *= double(width) / w;
+  gt[5] *= double(height) / h;
+  GDALSetGeoTransform(vrt, gt);
+  GDALSetProjection(vrt, level.GetProjectionRef());
+  GDALRasterBand* source = level.GetRasterBand(band);
+  VRTAddBand(vrt, source->GetRasterDataType(), nullptr);
+  if (VRTAddSimpleSource(GDALGetRasterBand(vrt, 1), GDALRasterBand::ToHandle(source), 0, 0, width, height, 0, 0,
+                         w, h, "near", VRT_NODATA_UNSET) != CE_None) {
+    GDALClose(vrt);
+    return nullptr;
+  }
+  return DatasetPtr(GDALDataset::FromHandle(vrt));
+}
+
+}  // namespace terrabake::dem

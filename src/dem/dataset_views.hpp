@@ -1,0 +1,42 @@
+#pragma once
+// Internal to the dem module (it speaks GDAL types): views of a DEM file's
+// height band that every read then goes through, so that the kernels, the
+// reduced levels and the overviews all see the same samples.
+#include <gdal_priv.h>
+
+#include <memory>
+
+namespace terrabake::dem {
+
+struct GdalDatasetCloser {
+  void operator()(GDALDataset* ds) const { GDALClose(ds); }
+};
+using DatasetPtr = std::unique_ptr<GDALDataset, GdalDatasetCloser>;
+
+// Band `band` of `source` seen north-up: one band, its columns reversed
+// (flip_x) and its rows (flip_y), with `north_up_gt` as geotransform. For
+// files stored east to west or south-up.
+DatasetPtr mirroredView(DatasetPtr source, int band, bool flip_x, bool flip_y, const double* north_up_gt);
+
+// What marks where a height band has no data besides a nodata value (which
+// VoidRule judges): an alpha band of its file, of any type (GDAL's own
+// masks know only Byte and UInt16 ones, but `gdalwarp -dstalpha` writes
+// Float32 beside Float32 heights), else a mask band GDAL gives it (an
+// internal TIFF mask, one its file's bands share, a .msk file).
+struct NoDataMask {
+  int alpha_band = 0;      // of the file; 0: none
+  bool mask_band = false;  // GDALRasterBand::GetMaskBand, when no alpha band
+  bool any() const { return alpha_band != 0 || mask_band; }
+};
+NoDataMask noDataMaskOf(GDALDataset& file, int band);
+
+// Band `band` of `source` as one Float32 band that reads NaN, a void,
+// where `mask` is 0, whatever height is stored there.
+DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask);
+
+// A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
+// in-memory VRT over `level`'s band `band`, covering the same extent; null
+// when GDAL cannot make it. `level` must outlive it.
+DatasetPtr decimatedView(GDALDataset& level, int band, int factor);
+
+}  // namespace terrabake::dem
