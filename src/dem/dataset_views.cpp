@@ -103,6 +103,7 @@ MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool 
 // file.
 constexpr int kMaxMaskedBlockSide = 1024;
 
+// maskedView's: NaN where the mask band reads 0.
 class MaskedDataset final : public GDALDataset {
  public:
   MaskedDataset(DatasetPtr source, int band, NoDataMask mask);

@@ -3,7 +3,6 @@
 #include <cpl_conv.h>
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
-#include <gdal_vrt.h>
 #include <ogr_spatialref.h>
 
 #include <sys/stat.h>
