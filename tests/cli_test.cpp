@@ -362,6 +362,23 @@ TEST(Cli, InfoMergesSeveralDemsAndWritesNothing) {
   EXPECT_EQ(filesUnder(dir), (std::set<std::string>{"a.tif", "b.tif"}));
 }
 
+// An ESRI ASCII grid's .prj names its CRS without an authority; info finds
+// the EPSG code of the same CRS.
+TEST(Cli, InfoFindsTheEpsgCodeOfACrsGivenWithoutOne) {
+  const fs::path dir = caseDir();
+  writeText(dir / "grid.asc", "ncols 4\nnrows 4\nxllcorner 561360\nyllcorner 5134740\ncellsize 30\n"
+                              "1 2 3 4\n2 3 4 5\n3 4 5 6\n4 5 6 7\n");
+  writeText(dir / "grid.prj",
+            "PROJCS[\"WGS_1984_UTM_Zone_32N\",GEOGCS[\"GCS_WGS_1984\",DATUM[\"D_WGS_1984\",SPHEROID[\"WGS_1984\","
+            "6378137.0,298.257223563]],PRIMEM[\"Greenwich\",0.0],UNIT[\"Degree\",0.0174532925199433]],"
+            "PROJECTION[\"Transverse_Mercator\"],PARAMETER[\"False_Easting\",500000.0],PARAMETER[\"False_Northing\","
+            "0.0],PARAMETER[\"Central_Meridian\",9.0],PARAMETER[\"Scale_Factor\",0.9996],PARAMETER["
+            "\"Latitude_Of_Origin\",0.0],UNIT[\"Meter\",1.0]]");
+  const RunResult r = runTerrabake({"info", (dir / "grid.asc").string()});
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, "CRS        WGS 84 / UTM zone 32N (EPSG:32632)\n")) << describe(r);
+}
+
 TEST(Cli, InfoOnAMissingDemNamesThePath) {
   const fs::path dem = caseDir() / "no_such_dem.tif";
   const RunResult r = runTerrabake({"info", dem.string()});

@@ -30,17 +30,27 @@
 namespace terrabake::dem {
 namespace {
 
-// The EPSG code the CRS declares, else one GDAL finds it equivalent to.
+// The EPSG code the CRS declares, else that of the one EPSG CRS GDAL finds
+// it equivalent to (an ESRI .prj names no authority).
 std::optional<int> epsgCode(const OGRSpatialReference& srs) {
-  OGRSpatialReference identified(srs);
-  const char* authority = identified.GetAuthorityName(nullptr);
-  if (!authority || !EQUAL(authority, "EPSG")) {
-    if (identified.AutoIdentifyEPSG() != OGRERR_NONE) return std::nullopt;
-    authority = identified.GetAuthorityName(nullptr);
+  const auto epsgOf = [](const OGRSpatialReference& crs) -> std::optional<int> {
+    const char* authority = crs.GetAuthorityName(nullptr);
+    const char* code = crs.GetAuthorityCode(nullptr);
+    if (!authority || !EQUAL(authority, "EPSG") || !code) return std::nullopt;
+    return std::atoi(code);
+  };
+  if (const std::optional<int> declared = epsgOf(srs)) return declared;
+  int count = 0;
+  int* confidence = nullptr;
+  OGRSpatialReferenceH* matches = srs.FindMatches(nullptr, &count, &confidence);
+  std::optional<int> code;
+  constexpr int kEquivalent = 100;  // FindMatches' confidence for the same CRS
+  if (count > 0 && confidence[0] == kEquivalent && (count == 1 || confidence[1] < kEquivalent)) {
+    code = epsgOf(*OGRSpatialReference::FromHandle(matches[0]));
   }
-  const char* code = identified.GetAuthorityCode(nullptr);
-  if (!authority || !EQUAL(authority, "EPSG") || !code) return std::nullopt;
-  return std::atoi(code);
+  OSRFreeSRSArray(matches);
+  CPLFree(confidence);
+  return code;
 }
 
 // Metres in one of a band's units of height (GDAL's unit type): 1 for
