@@ -543,6 +543,30 @@ TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
   EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
 }
 
+// A Mars DEM: PROJ finds no way to the Earth's CRSs, and the frames would be
+// the Earth's anyway; refused by the body's name, not with PROJ's WKT.
+TEST(Inputs, ADemOfAnotherBodyIsRefusedNamingIt) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {10, 0.01, 0, 20, 0, -0.01};
+  writeDem(dir / "mars.tif", 50, 50, gt, hill);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "mars.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    OGRSpatialReference mars;
+    ASSERT_EQ(mars.SetFromUserInput("IAU_2015:49900"), OGRERR_NONE);
+    ASSERT_EQ(ds->SetSpatialRef(&mars), CE_None);
+  }
+  for (const std::vector<std::string>& args :
+       {tileArgs(dir / "mars.tif", dir / "out", "mars"), std::vector<std::string>{"info", (dir / "mars.tif").string()}}) {
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+    EXPECT_TRUE(contains(r.err, "is in a CRS of another body than the Earth (Mars (2015) - Sphere, semi-major axis "
+                                "3396190 m)"))
+        << describe(r);
+    EXPECT_FALSE(contains(r.err, "GEOGCRS")) << describe(r);
+  }
+}
+
 // Eight pixels of 1e-12 degrees: at zooms 0-3 a texel spans some 1e11 of
 // them, which the footprint mean once sized its weights by (std::bad_alloc
 // for every tile, or the whole memory). Pixels past the raster weigh

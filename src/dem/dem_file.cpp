@@ -135,6 +135,11 @@ std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta) {
   return {mirroredView(std::move(dataset), band, meta.flipX(), meta.flipY(), gt), 1};
 }
 
+// Semi-major axes of the Earth's ellipsoids and spheres lie within this of
+// WGS84's 6,378,137 m (Clarke 1880's 6,378,249 m, the 6,371,000 m sphere);
+// the Moon's is 1,737,400 m and Mars' 3,396,190 m.
+constexpr double kEarthSemiMajorSlackM = 20000;
+
 // Rasters no wider or taller than this: beyond, sizes overflow the integer
 // pixel coordinates GDAL's reads and VRTs use.
 constexpr long kMaxSidePixels = 1L << 30;
@@ -230,6 +235,15 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
   }
   m_srs = *srs;
   m_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
+  const double semi_major_m = m_srs.GetSemiMajor();
+  if (std::abs(semi_major_m - SRS_WGS84_SEMIMAJOR) > kEarthSemiMajorSlackM) {
+    const char* ellipsoid = m_srs.GetAttrValue("SPHEROID");
+    char semi_major[64];
+    std::snprintf(semi_major, sizeof semi_major, "semi-major axis %.0f m", semi_major_m);
+    throw InputError("dem: " + name + " is in a CRS of another body than the Earth (" +
+                     (ellipsoid ? std::string(ellipsoid) + ", " : std::string()) + semi_major +
+                     "); the tiles and meshes are on the Earth's WGS84 ellipsoid");
+  }
 
   if (!has_geotransform) throw InputError("dem: " + name + " has no georeferencing (geotransform)");
   if (gt[2] != 0.0 || gt[4] != 0.0) {
