@@ -57,9 +57,9 @@ constexpr int kHighNormalUnit = 0;
 
 // The first pass draws the high-res mesh's vertices as points. Each vertex
 // lies on a texel centre and no other texel centre lies in the mesh's
-// triangles, so drawing the triangles writes each texel its vertex's normal
-// (interpolated at a vertex), as the points do with half the primitives and
-// no index buffer. Measured in one run on an NVIDIA H200, tiles baked a
+// triangles, so what the triangles hold at the texel centres is their
+// vertices' normals: points write them with half the primitives and no
+// index buffer. Measured in one run on an NVIDIA H200, tiles baked a
 // second by 16 threads: 5,231-5,302 with points, 4,925-5,015 with
 // triangles; on llvmpipe, one thread, a 256-texel tile's bake took
 // 12.0-12.4 ms against 12.7-15.1 ms. Every point lies inside the viewport:
