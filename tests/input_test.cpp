@@ -515,6 +515,29 @@ TEST(Inputs, ImplausibleHeightsAreVoidsWithAWarning) {
   expectSameTiles(dir / "out" / "nan", dir / "out" / "huge");
 }
 
+// GIS exports fill with -9999 and often leave the nodata tag out; a file
+// that declares its nodata value is taken at its word.
+TEST(Inputs, AnUndeclaredFillValueIsAVoidUnlessTheFileDeclaresItsNodata) {
+  const fs::path dir = caseDir();
+  const auto in_block = [](int c, int r) { return c >= 60 && c < 80 && r >= 90 && r < 110; };
+  writeHills(dir / "nan.tif", [&](int c, int r) { return in_block(c, r) ? NAN : hill(c, r); });
+  const auto filled = [&](int c, int r) { return in_block(c, r) ? -9999.0f : hill(c, r); };
+  writeHills(dir / "fill.tif", filled);
+  writeHills(dir / "declared.tif", filled);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "declared.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(-32768), CE_None);
+  }
+  for (const std::string name : {"nan", "fill", "declared"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name));
+    ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
+    EXPECT_EQ(contains(r.err, "or -9999, a fill value (it declares no nodata): "), name == "fill") << describe(r);
+  }
+  expectSameTiles(dir / "out" / "nan", dir / "out" / "fill");
+  EXPECT_NE(tilesOf(dir / "out" / "nan"), tilesOf(dir / "out" / "declared"));
+}
+
 TEST(Inputs, ImageBandsAreWarnedAboutAndComplexBandsRefused) {
   const fs::path dir = caseDir();
   const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};

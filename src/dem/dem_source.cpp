@@ -272,8 +272,9 @@ std::vector<std::string> DemSource::implausibleReport() const {
     const VoidRule& voids = file->voids();
     char range[96];
     std::snprintf(range, sizeof range, "%.6g..%.6g", voids.min_height, voids.max_height);
+    const std::string fill = voids.fill_value_void ? ", or -9999, a fill value (it declares no nodata)" : "";
     lines.push_back("dem: '" + shortened(file->info().path) + "' holds heights that are infinite or beyond " +
-                    range + " (the plausible range in its units): " + std::to_string(samples) +
+                    range + " (the plausible range in its units)" + fill + ": " + std::to_string(samples) +
                     " samples read were treated as voids");
   }
   return lines;

@@ -12,6 +12,11 @@ namespace terrabake::dem {
 // -32768 and some products -32767; nothing on Earth lies below -11 km.
 inline constexpr double kVoidMarkerMax = -32767.0;
 
+// The fill value of GIS exports that often goes undeclared: a void where a
+// file declares no nodata value (one that does is taken at its word). A
+// depth of exactly -9999 is a far rarer thing than a missing nodata tag.
+inline constexpr float kUndeclaredFillValue = -9999.0f;
+
 // How one file's samples become heights, and which are voids: NaN,
 // infinities, the void markers, the declared nodata value (all three as
 // stored), and heights beyond the plausible range (1e30 in a Float32 file,
@@ -19,6 +24,7 @@ inline constexpr double kVoidMarkerMax = -32767.0;
 // every normal next to them).
 struct VoidRule {
   std::optional<double> nodata;  // as the file declares it
+  bool fill_value_void = false;  // kUndeclaredFillValue is a void: the file declares no nodata
   // The band's scale and offset: a stored sample s is the height
   // s * scale + offset (GDAL's convention; Int16 decimetres have 0.1).
   double scale = 1;
@@ -40,15 +46,17 @@ struct VoidRule {
   }
   bool isVoid(float sample) const {
     return !std::isfinite(sample) || sample <= kVoidMarkerMax || (nodata && sample == *nodata) ||
-           isBeyondRange(sample);
+           isUndeclaredFill(sample) || isBeyondRange(sample);
   }
-  // A void that is neither NaN, a void marker nor the declared nodata value.
+  // A void that is neither NaN, a void marker nor the declared nodata value:
+  // one the file did not say is one.
   bool isImplausible(float sample) const {
     if (std::isnan(sample)) return false;
     if (std::isinf(sample)) return true;
     if (sample <= kVoidMarkerMax || (nodata && sample == *nodata)) return false;
-    return isBeyondRange(sample);
+    return isUndeclaredFill(sample) || isBeyondRange(sample);
   }
+  bool isUndeclaredFill(float sample) const { return fill_value_void && sample == kUndeclaredFillValue; }
   bool isBeyondRange(float sample) const {
     const double h = sample * scale + offset;
     return h < min_height || h > max_height;
