@@ -700,6 +700,35 @@ TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
   EXPECT_TRUE(contains(info.out, "webmercator  7-10, 14 tiles: z7 2, z8 4, z9 4, z10 4")) << describe(info);
 }
 
+// World DEMs registered on pixel centres (ETOPO's and GMTED's grids) run
+// half a pixel past -180 and 180: they are the whole globe, in every scheme,
+// not a sliver east of the antimeridian (once one tile column in the
+// geodetic scheme and the native one).
+TEST(Inputs, AWorldDemOfPixelCentresTilesTheWholeGlobe) {
+  const fs::path dir = caseDir();
+  const auto world = [](int c, int r) { return float(2000 * std::sin(c * 0.05) * std::cos(r * 0.03)); };
+  const double edges[6] = {-180, 1, 0, 90, 0, -1};
+  writeDem(dir / "edges.tif", 360, 180, edges, world);
+  const double centres[6] = {-180.5, 1, 0, 90.5, 0, -1};
+  writeDem(dir / "centres.tif", 360, 181, centres, world);
+  for (const std::string name : {"edges", "centres"}) {
+    SCOPED_TRACE(name);
+    const RunResult info = run({"info", (dir / (name + ".tif")).string()});
+    ASSERT_EQ(info.exit_code, kExitOk) << describe(info);
+    EXPECT_TRUE(contains(info.out, "geodetic     0-0, 2 tiles: z0 2\n")) << describe(info);
+    EXPECT_TRUE(contains(info.out, "native       0-1, 3 tiles: z0 1, z1 2\n")) << describe(info);
+    // Zooms 0-1: 1 + 4 tiles in Web Mercator, 2 + 8 geodetic, 1 + 2 native.
+    for (const auto& [scheme, tiles] : std::map<std::string, int>{{"webmercator", 5}, {"geodetic", 10}, {"native", 3}}) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-1");
+      args.insert(args.end(), {"--scheme", scheme});
+      const RunResult r = run(args);
+      ASSERT_EQ(r.exit_code, kExitOk) << scheme << ": " << describe(r);
+      EXPECT_TRUE(contains(r.out + r.err, "wrote " + std::to_string(tiles) + " tiles")) << scheme << ": " << describe(r);
+      EXPECT_TRUE(contains(r.out + r.err, "(0 skipped, 0 empty, 0 failed)")) << scheme << ": " << describe(r);
+    }
+  }
+}
+
 // ---------------------------------------------------------- nothing to make
 
 TEST(Inputs, JobsThatMakeNothingSayWhyWithTheirExitCode) {

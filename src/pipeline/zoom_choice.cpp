@@ -21,24 +21,32 @@ constexpr double kSizeTolerance = 1e-9;
 std::vector<Extent> lonLatPieces(const Extent& box) {
   Extent e = box;
   if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
+  // The whole globe, however it is registered: a grid of pixel centres from
+  // -180 to 180 reaches half a pixel beyond each.
+  if (e.max_x - e.min_x >= 360) return {{-180, e.min_y, 180, e.max_y}};
   e = dem::turnedIntoRange(e);  // longitudes counted 0 to 360 are the same places
-  if (e.max_x - e.min_x >= 360 || e.max_x <= 180) {
-    return {{std::max(e.min_x, -180.0), e.min_y, std::min(e.max_x, 180.0), e.max_y}};
-  }
+  if (e.max_x <= 180) return {e};
   return {{e.min_x, e.min_y, 180, e.max_y}, {-180, e.min_y, e.max_x - 360, e.max_y}};
 }
 
 std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   const Extent lon_lat = dem.boundsIn("EPSG:4326");
   if (lon_lat.min_y >= scheme.maxLatDeg() || lon_lat.max_y <= -scheme.maxLatDeg()) return {};
+  const std::vector<Extent> lon_lat_pieces = lonLatPieces(lon_lat);
   std::vector<Extent> pieces;
-  for (const Extent& piece : lonLatPieces(lon_lat)) {
+  for (Extent piece : lon_lat_pieces) {
+    piece.min_y = std::max(piece.min_y, -scheme.maxLatDeg());
+    piece.max_y = std::min(piece.max_y, scheme.maxLatDeg());
     if (const auto area = scheme.fromLonLat(piece)) pieces.push_back(*area);
   }
-  if (pieces.size() > 1) return pieces;
-  // One piece: the DEM's extent transformed straight into the scheme's CRS.
+  // Across the antimeridian or round the whole globe, the pieces are the
+  // areas: the DEM's own extent would run past 180.
+  const bool whole_globe = lon_lat_pieces.front().max_x - lon_lat_pieces.front().min_x >= 360;
+  if (pieces.size() > 1 || (whole_globe && !pieces.empty())) return pieces;
+  // One piece: the DEM's extent transformed straight into the scheme's CRS
+  // (the native scheme's grid is the DEM's own, counted as the DEM counts).
   Extent area = dem.boundsIn(scheme.crs());
-  if (dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
+  if (scheme.kind() != SchemeKind::kNative && dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
   return {area};
 }
 
