@@ -711,15 +711,20 @@ TEST(Inputs, AWorldDemOfPixelCentresTilesTheWholeGlobe) {
   writeDem(dir / "edges.tif", 360, 180, edges, world);
   const double centres[6] = {-180.5, 1, 0, 90.5, 0, -1};
   writeDem(dir / "centres.tif", 360, 181, centres, world);
-  for (const std::string name : {"edges", "centres"}) {
+  // Counted 0 to 360: Web Mercator tiles west of 0 once read nothing.
+  const double from_zero[6] = {-0.5, 1, 0, 90.5, 0, -1};
+  writeDem(dir / "from_zero.tif", 360, 181, from_zero, [&](int c, int r) { return world((c + 180) % 360, r); });
+  for (const std::string name : {"edges", "centres", "from_zero"}) {
     SCOPED_TRACE(name);
     const RunResult info = run({"info", (dir / (name + ".tif")).string()});
     ASSERT_EQ(info.exit_code, kExitOk) << describe(info);
     EXPECT_TRUE(contains(info.out, "geodetic     0-0, 2 tiles: z0 2\n")) << describe(info);
     EXPECT_TRUE(contains(info.out, "native       0-1, 3 tiles: z0 1, z1 2\n")) << describe(info);
-    // Zooms 0-1: 1 + 4 tiles in Web Mercator, 2 + 8 geodetic, 1 + 2 native.
-    for (const auto& [scheme, tiles] : std::map<std::string, int>{{"webmercator", 5}, {"geodetic", 10}, {"native", 3}}) {
-      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-1");
+    // Zooms 0-2: 1 + 4 + 16 tiles in Web Mercator, 2 + 8 + 32 geodetic;
+    // native has 0-1 (1 + 2).
+    for (const auto& [scheme, tiles] : std::map<std::string, int>{{"webmercator", 21}, {"geodetic", 42}, {"native", 3}}) {
+      std::vector<std::string> args =
+          tileArgs(dir / (name + ".tif"), dir / scheme, name, scheme == "native" ? "0-1" : "0-2");
       args.insert(args.end(), {"--scheme", scheme});
       const RunResult r = run(args);
       ASSERT_EQ(r.exit_code, kExitOk) << scheme << ": " << describe(r);

@@ -22,6 +22,7 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
     double gt[6] = {};
     GDALGetGeoTransform(source, gt);
     m_pixels_a_turn = 360 / std::abs(gt[1]);
+    m_source_middle_px = GDALGetRasterXSize(source) / 2.0;
     if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
   }
 }
@@ -88,6 +89,12 @@ void LatticeTransformer::unwrapRows() {
     const int middle = m_nodes_x / 2;
     follow(middle, m_nodes_x, 1);
     follow(middle, -1, -1);
+    const bool off_raster = valid[middle] && (x[middle] < 0 || x[middle] > 2 * m_source_middle_px);
+    const double turns = off_raster ? std::round((m_source_middle_px - x[middle]) / turn) : 0;
+    if (turns == 0) continue;
+    for (int i = 0; i < m_nodes_x; ++i) {
+      if (valid[i]) x[i] += turns * turn;
+    }
   }
 }
 

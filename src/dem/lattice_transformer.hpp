@@ -68,8 +68,12 @@ class LatticeTransformer {
   // takes longitudes the short way round the antimeridian (a tile's apron
   // past it), a row of nodes would jump a whole turn; unwrapRows keeps each
   // row continuous from its middle, so the pixels past the DEM's edge are
-  // those beyond it (EdgeExtension's border), not the far side's.
+  // those beyond it (EdgeExtension's border), not the far side's. A row
+  // whose middle falls off the raster it then turns whole turns round to
+  // meet it: a whole-globe source counted 0 to 360 gets longitudes from -180
+  // for a tile west of 0.
   std::optional<double> m_pixels_a_turn;
+  double m_source_middle_px = 0;  // the source raster's middle column
   void unwrapRows();
   // Both CRSs geographic: the source's middle longitude.
   std::optional<double> m_source_centre_lon;
