@@ -417,6 +417,14 @@ TEST(ConfigPaths, GdalVirtualPathsAreKeptAsWritten) {
   EXPECT_EQ(job.dems, expected);
 }
 
+// yaml-cpp calls a tab indentation an "illegal map value"; the message
+// says what the file holds.
+TEST(ConfigErrors, TabIndentationIsNamed) {
+  const std::string path = writeYaml("tabs.yaml", "dem: a.tif\ntiling:\n\tzoom: 3\n");
+  EXPECT_EQ(loadMessage(path),
+            path + ":3: YAML syntax error: illegal map value (YAML indents with spaces; the file has tabs)");
+}
+
 TEST(ConfigErrors, SecondYamlDocumentIsRefused) {
   const std::string path = writeYaml("multi.yaml", "dem: a.tif\ntiling:\n  zoom: 3\n---\ndem: b.tif\n");
   EXPECT_EQ(loadMessage(path),

@@ -304,7 +304,10 @@ void readYamlText(const std::string& text, const std::string& yaml_path, const s
     }
     root = YAML::Load(text);
   } catch (const YAML::Exception& error) {
-    fail(at(context, error.mark, yaml_path), "", "YAML syntax error: " + error.msg);
+    // yaml-cpp says "illegal map value" for an indentation of tabs.
+    const bool tab_indented = text.find("\n\t") != std::string::npos || text.rfind('\t', 0) == 0;
+    fail(at(context, error.mark, yaml_path), "",
+         "YAML syntax error: " + error.msg + (tab_indented ? " (YAML indents with spaces; the file has tabs)" : ""));
   }
   if (root.IsNull()) {
     std::vector<std::string> required;
