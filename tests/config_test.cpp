@@ -50,7 +50,7 @@ std::string loadMessage(const std::string& path) {
 std::string overrideMessage(const std::string& key, const std::string& value,
                             const std::string& origin) {
   TileJob job;
-  return usageMessage([&] { applyOverride(job, key, value, origin); });
+  return usageMessage([&] { applyOverride(job, key, {value}, origin); });
 }
 
 std::string normal(const fs::path& path) { return path.lexically_normal().string(); }
@@ -199,17 +199,17 @@ TEST(ConfigDefaults, ListKeysShowsDefaultsAndRequiredKeys) {
 TEST(ConfigOverrides, NodataSurfaceTakesContinueOrCut) {
   TileJob job;
   EXPECT_EQ(job.nodata_surface, NodataSurface::kContinue);
-  applyOverride(job, "nodata.surface", "cut", "--nodata-surface");
+  applyOverride(job, "nodata.surface", {"cut"}, "--nodata-surface");
   EXPECT_EQ(job.nodata_surface, NodataSurface::kCut);
-  EXPECT_THROW(applyOverride(job, "nodata.surface", "hide", "--nodata-surface"), UsageError);
+  EXPECT_THROW(applyOverride(job, "nodata.surface", {"hide"}, "--nodata-surface"), UsageError);
 }
 
 TEST(ConfigOverrides, BooleanKeysTakeTrueOrFalse) {
   TileJob job;
-  applyOverride(job, "output.high_res_mesh", "true", "--high-res-mesh");
+  applyOverride(job, "output.high_res_mesh", {"true"}, "--high-res-mesh");
   EXPECT_TRUE(job.high_res_mesh);
   try {
-    applyOverride(job, "output.high_res_mesh", "yes please", "--high-res-mesh");
+    applyOverride(job, "output.high_res_mesh", {"yes please"}, "--high-res-mesh");
     FAIL() << "accepted a non-boolean";
   } catch (const UsageError& e) {
     EXPECT_STREQ(e.what(), "--high-res-mesh: output.high_res_mesh: expected true or false, got 'yes please'");
@@ -241,11 +241,11 @@ TEST(ConfigZoom, FileForms) {
 
 TEST(ConfigZoom, OverrideForms) {
   TileJob job;
-  applyOverride(job, "tiling.zoom", "4", "--zoom");
+  applyOverride(job, "tiling.zoom", {"4"}, "--zoom");
   EXPECT_TRUE(job.zoom_set);
   EXPECT_EQ(job.min_zoom, 4);
   EXPECT_EQ(job.max_zoom, 4);
-  applyOverride(job, "tiling.zoom", "3-14", "--zoom");
+  applyOverride(job, "tiling.zoom", {"3-14"}, "--zoom");
   EXPECT_EQ(job.min_zoom, 3);
   EXPECT_EQ(job.max_zoom, 14);
 }
@@ -475,18 +475,18 @@ TEST(ConfigErrors, DevicesAreRefusedUnread) {
 
 TEST(ConfigOverrides, EveryKeyFromText) {
   TileJob job = loadTileJob((kSourceDir / "config" / "sample.yaml").string());
-  applyOverride(job, "dem", "/data/other.tif", "--dem");
-  applyOverride(job, "output.dir", "/data/out", "--out");
-  applyOverride(job, "output.layer", "hires_v2", "--layer");
-  applyOverride(job, "output.bits", "16", "--bits");
-  applyOverride(job, "output.green", "down", "--green");
-  applyOverride(job, "tiling.scheme", "native", "--scheme");
-  applyOverride(job, "tiling.zoom", "10-11", "--zoom");
-  applyOverride(job, "tiling.tile_size", "512", "--tile-size");
-  applyOverride(job, "low_poly.grid", "33", "--low-poly-grid");
-  applyOverride(job, "bake.backend", "cpu", "--backend");
-  applyOverride(job, "bake.workers", "4", "--workers");
-  applyOverride(job, "heights.band", "2", "--band");
+  applyOverride(job, "dem", {"/data/other.tif"}, "--dem");
+  applyOverride(job, "output.dir", {"/data/out"}, "--out");
+  applyOverride(job, "output.layer", {"hires_v2"}, "--layer");
+  applyOverride(job, "output.bits", {"16"}, "--bits");
+  applyOverride(job, "output.green", {"down"}, "--green");
+  applyOverride(job, "tiling.scheme", {"native"}, "--scheme");
+  applyOverride(job, "tiling.zoom", {"10-11"}, "--zoom");
+  applyOverride(job, "tiling.tile_size", {"512"}, "--tile-size");
+  applyOverride(job, "low_poly.grid", {"33"}, "--low-poly-grid");
+  applyOverride(job, "bake.backend", {"cpu"}, "--backend");
+  applyOverride(job, "bake.workers", {"4"}, "--workers");
+  applyOverride(job, "heights.band", {"2"}, "--band");
   EXPECT_EQ(job.band, 2);
   EXPECT_EQ(job.dems, std::vector<std::string>{"/data/other.tif"});  // replaces, not appends
   EXPECT_EQ(job.output_dir, "/data/out");
@@ -505,8 +505,8 @@ TEST(ConfigOverrides, EveryKeyFromText) {
 
 TEST(ConfigOverrides, RelativePathsUseTheWorkingDirectory) {
   TileJob job;
-  applyOverride(job, "dem", "dems/../x.tif", "--dem");
-  applyOverride(job, "output.dir", "out", "--out");
+  applyOverride(job, "dem", {"dems/../x.tif"}, "--dem");
+  applyOverride(job, "output.dir", {"out"}, "--out");
   EXPECT_EQ(job.dems, std::vector<std::string>{normal(fs::current_path() / "x.tif")});
   EXPECT_EQ(job.output_dir, normal(fs::current_path() / "out"));
 }
@@ -534,8 +534,8 @@ TEST(ConfigOverrides, BadValuesNameTheFlagAndKey) {
 
 TEST(ConfigOverrides, RejectedValueLeavesTheJobAsItWas) {
   TileJob job;
-  applyOverride(job, "tiling.zoom", "5-6", "--zoom");
-  usageMessage([&] { applyOverride(job, "tiling.zoom", "9-2", "--zoom"); });
+  applyOverride(job, "tiling.zoom", {"5-6"}, "--zoom");
+  usageMessage([&] { applyOverride(job, "tiling.zoom", {"9-2"}, "--zoom"); });
   EXPECT_EQ(job.min_zoom, 5);
   EXPECT_EQ(job.max_zoom, 6);
 }

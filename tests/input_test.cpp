@@ -15,6 +15,7 @@
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <functional>
 #include <map>
 #include <memory>
@@ -289,6 +290,29 @@ TEST(Inputs, FlippedDemsGiveTheTilesOfTheNorthUpOne) {
     SCOPED_TRACE(name);
     expectSameTiles(dir / "out" / "north_up", dir / "out" / name);
   }
+}
+
+// --dem given again adds a file, as a list in the job file does: the first on top.
+TEST(Inputs, RepeatedDemFlagsMergeLikeAListInTheJobFile) {
+  const fs::path dir = caseDir();
+  constexpr int kHalf = kHillPixels / 2;
+  const double west[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "west.tif", kHalf, kHillPixels, west, hill);
+  const double east[6] = {kHillWest + kHalf * kHillPixelDeg, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "east.tif", kHalf, kHillPixels, east, [](int c, int r) { return hill(c + kHalf, r); });
+  std::vector<std::string> flags = tileArgs(dir / "west.tif", dir / "out", "flags");
+  flags.insert(flags.end(), {"--dem", (dir / "east.tif").string()});
+  const RunResult by_flags = run(flags);
+  ASSERT_EQ(by_flags.exit_code, kExitOk) << describe(by_flags);
+  writeText(dir / "job.yaml", "dem: [west.tif, east.tif]\ntiling:\n  zoom: 12\noutput:\n  dir: out\n  layer: file\n"
+                              "bake:\n  backend: cpu\n  workers: 2\n");
+  const RunResult by_file = run({"tile", "--config", (dir / "job.yaml").string()});
+  ASSERT_EQ(by_file.exit_code, kExitOk) << describe(by_file);
+  expectSameTiles(dir / "out" / "file", dir / "out" / "flags");
+  std::ifstream job(dir / "out" / "flags" / "terrabake-job.txt");
+  std::string first_line;
+  std::getline(job, first_line);
+  EXPECT_EQ(first_line, "dem: [" + (dir / "west.tif").string() + ", " + (dir / "east.tif").string() + "]");
 }
 
 // Many DEMs store heights as integers with the band's scale and offset

@@ -130,20 +130,20 @@ TEST(JobOptionKeys, ReadFromYamlAndFlags) {
     EXPECT_NE(fingerprint.find(line), std::string::npos) << line << "not in\n" << fingerprint;
   }
 
-  config::applyOverride(job, "tiling.zoom", "auto", "--zoom");
+  config::applyOverride(job, "tiling.zoom", {"auto"}, "--zoom");
   EXPECT_EQ(job.min_zoom, 0);
   EXPECT_TRUE(job.max_zoom_auto);
-  config::applyOverride(job, "tiling.zoom", "3-auto", "--zoom");
+  config::applyOverride(job, "tiling.zoom", {"3-auto"}, "--zoom");
   EXPECT_EQ(job.min_zoom, 3);
   EXPECT_TRUE(job.max_zoom_auto);
-  config::applyOverride(job, "tiling.zoom", "3-5", "--zoom");
+  config::applyOverride(job, "tiling.zoom", {"3-5"}, "--zoom");
   EXPECT_EQ(job.max_zoom, 5);
   EXPECT_FALSE(job.max_zoom_auto);
-  config::applyOverride(job, "tiling.bbox", "-10.5, 40,5,50", "--bbox");
+  config::applyOverride(job, "tiling.bbox", {"-10.5, 40,5,50"}, "--bbox");
   EXPECT_EQ(job.bbox, (std::vector<double>{-10.5, 40, 5, 50}));
-  config::applyOverride(job, "tiling.bbox", "none", "--bbox");
+  config::applyOverride(job, "tiling.bbox", {"none"}, "--bbox");
   EXPECT_TRUE(job.bbox.empty());
-  config::applyOverride(job, "heights.exaggeration", "1e1", "--exaggeration");
+  config::applyOverride(job, "heights.exaggeration", {"1e1"}, "--exaggeration");
   EXPECT_EQ(job.exaggeration, 10);
 
   const config::TileJob defaults;
@@ -158,7 +158,7 @@ TEST(JobOptionKeys, BadValuesNameTheFlagAndKey) {
   const auto message = [](const std::string& key, const std::string& value, const std::string& flag) {
     config::TileJob job;
     try {
-      config::applyOverride(job, key, value, flag);
+      config::applyOverride(job, key, {value}, flag);
     } catch (const UsageError& e) {
       return std::string(e.what());
     }

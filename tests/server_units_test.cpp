@@ -85,7 +85,7 @@ TEST(ServeConfig, ErrorsNameFileLineAndKey) {
   }
   config::ServeConfig config;
   try {
-    config::applyOverride(config, "http.bind", "a host", "--bind");
+    config::applyOverride(config, "http.bind", {"a host"}, "--bind");
     ADD_FAILURE() << "no error";
   } catch (const UsageError& e) {
     EXPECT_EQ(std::string(e.what()), "--bind: http.bind: must be an IP address or a host name, got 'a host'");
@@ -254,16 +254,16 @@ TEST(ServeConfig, LimitsAndThePublicUrl) {
   EXPECT_LE(defaults.idle_timeout_s, defaults.read_timeout_s);
   config::ServeConfig config;
   for (const char* url : {"https://tiles.example.org/", "http://127.0.0.1:8080", "https://a.example/b/c/", "http://[::1]:80/"}) {
-    EXPECT_NO_THROW(config::applyOverride(config, "server.public_url", url, "--public-url")) << url;
+    EXPECT_NO_THROW(config::applyOverride(config, "server.public_url", {url}, "--public-url")) << url;
     EXPECT_NO_THROW(config::validate(config, "test")) << url;
   }
   for (const char* url : {"tiles.example.org", "ftp://x/", "https://", "https://x/?q=1", "https://x/\"<script>",
                           "javascript:alert(1)"}) {
-    EXPECT_THROW(config::applyOverride(config, "server.public_url", url, "--public-url"), UsageError) << url;
+    EXPECT_THROW(config::applyOverride(config, "server.public_url", {url}, "--public-url"), UsageError) << url;
   }
   config = {};
-  EXPECT_THROW(config::applyOverride(config, "http.max_connections", "8", "test"), UsageError);
-  config::applyOverride(config, "http.max_connections", "20000", "test");
+  EXPECT_THROW(config::applyOverride(config, "http.max_connections", {"8"}, "test"), UsageError);
+  config::applyOverride(config, "http.max_connections", {"20000"}, "test");
   EXPECT_EQ(config.max_connections, 20000);
 }
 

@@ -118,9 +118,10 @@ Action addInfoCommand(CLI::App& app) {
   return [options, cmd]() -> int {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     config::TileJob job;
-    options->key_flags->forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
-      config::applyOverride(job, key, text, flag);
-    });
+    options->key_flags->forEachGiven(
+        [&](const std::string& key, const std::vector<std::string>& texts, const std::string& flag) {
+          config::applyOverride(job, key, texts, flag);
+        });
     dem::DemOptions dem_options;
     dem_options.band = job.band;
     const dem::DemSource dem(options->dems, dem_options);

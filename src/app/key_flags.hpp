@@ -21,16 +21,17 @@ class KeyFlags {
   // empty, just for the keys it names.
   KeyFlags(CLI::App* cmd, const std::vector<config::KeyInfo>& keys, const std::vector<std::string>& only = {});
 
-  // Calls `apply(key, text, flag)` for every flag given on the command line,
-  // in table order.
-  void forEachGiven(
-      const std::function<void(const std::string& key, const std::string& text, const std::string& flag)>& apply) const;
+  // Calls `apply(key, texts, flag)` for every flag given on the command
+  // line, in table order: one text, or one per use of a list key's flag
+  // (`--dem a.tif --dem b.tif`).
+  void forEachGiven(const std::function<void(const std::string& key, const std::vector<std::string>& texts,
+                                             const std::string& flag)>& apply) const;
 
  private:
   struct Flag {
     std::string key;
     std::string flag;
-    std::unique_ptr<std::string> text;  // CLI11 writes here; stable across moves
+    std::unique_ptr<std::vector<std::string>> texts;  // CLI11 writes here; stable across moves
   };
   CLI::App* m_cmd;
   std::vector<Flag> m_flags;
@@ -41,8 +42,8 @@ class KeyFlags {
 template <class S>
 S loadSettings(const std::string& config_path, S (*load)(const std::string&), const KeyFlags& flags) {
   S settings = config_path.empty() ? S{} : load(config_path);
-  flags.forEachGiven([&](const std::string& key, const std::string& text, const std::string& flag) {
-    config::applyOverride(settings, key, text, flag);
+  flags.forEachGiven([&](const std::string& key, const std::vector<std::string>& texts, const std::string& flag) {
+    config::applyOverride(settings, key, texts, flag);
   });
   config::validate(settings, config_path.empty() ? "command line" : config_path);
   return settings;

@@ -209,11 +209,13 @@ class KeyTable {
   }
 
   // Relative paths resolve against the working directory.
-  void applyOverride(S& settings, const std::string& key, const std::string& text,
+  void applyOverride(S& settings, const std::string& key, const std::vector<std::string>& texts,
                      const std::string& origin) const {
     for (std::size_t i = 0; i < m_keys.size(); ++i) {
       if (m_keys[i].name == key) {
-        apply(i, Value{{{text, origin}}, false, origin, std::filesystem::current_path()}, settings);
+        Value value{{}, texts.size() > 1, origin, std::filesystem::current_path()};
+        for (const std::string& text : texts) value.items.push_back({text, origin});
+        apply(i, value, settings);
         return;
       }
     }

@@ -79,9 +79,9 @@ ServeConfig parseServeConfig(const std::string& yaml_text, const std::string& ya
   return table().loadText(yaml_text, yaml_path);
 }
 
-void applyOverride(ServeConfig& config, const std::string& key, const std::string& value,
+void applyOverride(ServeConfig& config, const std::string& key, const std::vector<std::string>& values,
                    const std::string& origin) {
-  table().applyOverride(config, key, value, origin);
+  table().applyOverride(config, key, values, origin);
 }
 
 void validate(const ServeConfig& config, const std::string& origin) { table().validate(config, origin); }

@@ -37,8 +37,9 @@ ServeConfig loadServeConfig(const std::string& yaml_path);
 ServeConfig parseServeConfig(const std::string& yaml_text, const std::string& yaml_path);
 
 // Sets one key ("http.port", "tiles", ...) from command-line text, validated
-// exactly like the file; `origin` names the flag in messages.
-void applyOverride(ServeConfig& config, const std::string& key, const std::string& value,
+// exactly like the file (several values: a list); `origin` names the flag in
+// messages.
+void applyOverride(ServeConfig& config, const std::string& key, const std::vector<std::string>& values,
                    const std::string& origin);
 
 // Throws UsageError "<origin>: <key>: <problem>".

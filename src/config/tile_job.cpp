@@ -134,9 +134,9 @@ TileJob parseTileJob(const std::string& yaml_text, const std::string& yaml_path)
 
 std::string layerFingerprint(const TileJob& job) { return table().describe(job, {"output.dir", "bake.workers"}); }
 
-void applyOverride(TileJob& job, const std::string& key, const std::string& value,
+void applyOverride(TileJob& job, const std::string& key, const std::vector<std::string>& values,
                    const std::string& origin) {
-  table().applyOverride(job, key, value, origin);
+  table().applyOverride(job, key, values, origin);
 }
 
 void validate(const TileJob& job, const std::string& origin) { table().validate(job, origin); }

@@ -54,9 +54,10 @@ TileJob loadTileJob(const std::string& yaml_path);
 TileJob parseTileJob(const std::string& yaml_text, const std::string& yaml_path);
 
 // Sets one key ("output.layer", "tiling.zoom", ...) from command-line text,
-// validated exactly like the file. `origin` names the flag in messages.
-// Relative paths resolve against the working directory.
-void applyOverride(TileJob& job, const std::string& key, const std::string& value,
+// validated exactly like the file: one value, or several for a list (a flag
+// given more than once). `origin` names the flag in messages. Relative paths
+// resolve against the working directory.
+void applyOverride(TileJob& job, const std::string& key, const std::vector<std::string>& values,
                    const std::string& origin);
 
 // The keys that decide what a layer's tiles hold, as "key: value" lines: a
