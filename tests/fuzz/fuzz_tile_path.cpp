@@ -34,7 +34,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     if (route.kind != Route::Kind::kTile) return;
     fuzz::require(isLayerName(route.layer), "a tile's layer has a layer name");
     config::TileJob job;
-    config::applyOverride(job, "output.layer", route.layer, "--layer");  // throws on a name it refuses
+    config::applyOverride(job, "output.layer", {route.layer}, "--layer");  // throws on a name it refuses
     fuzz::require(path == tileUrlPath(route.layer, route.tile, route.format), "one spelling per tile");
     fuzz::require(io::formatOfExtension(io::extensionOf(route.format)) == route.format,
                   "a format's extension names it");
