@@ -116,13 +116,17 @@ std::string maskDescription(const NoDataMask& mask) {
   return mask.mask_band ? "its mask band" : "";
 }
 
-// The file opened again, north-up (through a mirror when stored flipped),
-// and the band of it that holds the heights.
-std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta) {
+// The file opened again, at GDAL overview `overview` (-1: full resolution),
+// through its mask and north-up (through a mirror when stored flipped; such
+// files are read at full resolution), and the band of it that holds the
+// heights.
+std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta, int overview = -1) {
   const std::string& path = meta.info().path;
+  const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
+  const char* options[] = {overview >= 0 ? level.c_str() : nullptr, nullptr};
   CPLErrorReset();
-  DatasetPtr dataset(GDALDataset::FromHandle(
-      GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
+  DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
+      path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, options, nullptr)));
   if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
   int band = meta.band();
   if (meta.masked()) {
@@ -468,18 +472,7 @@ struct DemFile::Impl {
       level_band = 1;
       reader.voids = meta.voids().forHeights();
     } else if (overview >= 0) {
-      const std::string option = "OVERVIEW_LEVEL=" + std::to_string(overview);
-      const char* options[] = {option.c_str(), nullptr};
-      reader.file.reset(GDALDataset::FromHandle(
-          GDALOpenEx(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY, nullptr, options, nullptr)));
-      if (!reader.file) {
-        throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
-      }
-      level_band = meta.band();
-      if (meta.masked()) {
-        reader.file = maskedView(std::move(reader.file), level_band, meta.mask());
-        level_band = 1;
-      }
+      std::tie(reader.file, level_band) = openNorthUp(meta, overview);
       level = reader.file.get();
     }
     if (decimate > 1) {

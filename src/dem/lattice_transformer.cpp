@@ -23,7 +23,7 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
     GDALGetGeoTransform(source, gt);
     m_pixels_a_turn = 360 / std::abs(gt[1]);
     m_source_middle_px = GDALGetRasterXSize(source) / 2.0;
-    if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * GDALGetRasterXSize(source) / 2.0;
+    if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * m_source_middle_px;
   }
 }
 

@@ -36,12 +36,7 @@ std::string lonLatText(const Extent& e) {
 std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme& scheme,
                                 const dem::DemSource& dem) {
   const Extent bounds = dem.boundsIn(kLonLat);
-  std::vector<Extent> cover;
-  for (Extent piece : lonLatPieces(bounds)) {
-    piece.min_y = std::max(piece.min_y, -scheme.maxLatDeg());
-    piece.max_y = std::min(piece.max_y, scheme.maxLatDeg());
-    if (piece.min_y < piece.max_y) cover.push_back(piece);
-  }
+  const std::vector<Extent> cover = lonLatPieces(bounds, scheme.maxLatDeg());
   if (cover.empty()) {
     char lat[96];
     std::snprintf(lat, sizeof lat, "lat %.8g to %.8g", bounds.min_y, bounds.max_y);

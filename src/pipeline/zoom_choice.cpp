@@ -18,8 +18,11 @@ constexpr double kSizeTolerance = 1e-9;
 
 }  // namespace
 
-std::vector<Extent> lonLatPieces(const Extent& box) {
+std::vector<Extent> lonLatPieces(const Extent& box, double max_lat_deg) {
   Extent e = box;
+  e.min_y = std::max(e.min_y, -max_lat_deg);
+  e.max_y = std::min(e.max_y, max_lat_deg);
+  if (e.min_y >= e.max_y) return {};
   if (e.min_x > e.max_x) e.max_x += 360;  // across the antimeridian
   // The whole globe, however it is registered: a grid of pixel centres from
   // -180 to 180 reaches half a pixel beyond each.
@@ -30,13 +33,10 @@ std::vector<Extent> lonLatPieces(const Extent& box) {
 }
 
 std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
-  const Extent lon_lat = dem.boundsIn("EPSG:4326");
-  if (lon_lat.min_y >= scheme.maxLatDeg() || lon_lat.max_y <= -scheme.maxLatDeg()) return {};
-  const std::vector<Extent> lon_lat_pieces = lonLatPieces(lon_lat);
+  const std::vector<Extent> lon_lat_pieces = lonLatPieces(dem.boundsIn("EPSG:4326"), scheme.maxLatDeg());
+  if (lon_lat_pieces.empty()) return {};
   std::vector<Extent> pieces;
-  for (Extent piece : lon_lat_pieces) {
-    piece.min_y = std::max(piece.min_y, -scheme.maxLatDeg());
-    piece.max_y = std::min(piece.max_y, scheme.maxLatDeg());
+  for (const Extent& piece : lon_lat_pieces) {
     if (const auto area = scheme.fromLonLat(piece)) pieces.push_back(*area);
   }
   // Across the antimeridian or round the whole globe, the pieces are the

@@ -17,10 +17,12 @@ double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w
 // The ground size of a DEM pixel at the centre of the DEM.
 double demPixelSizeM(const dem::DemSource& dem);
 
-// The DEM's lon/lat box as pieces that each lie within -180..180: two when
-// it crosses the antimeridian (GDAL gives west > east then, or a longitude
-// beyond 180 for a geographic DEM stored past it).
-std::vector<Extent> lonLatPieces(const Extent& box);
+// The DEM's lon/lat box within latitudes +-max_lat_deg (a scheme's) as
+// pieces that each lie within -180..180: two when it crosses the
+// antimeridian (GDAL gives west > east then, or a longitude beyond 180 for a
+// geographic DEM stored past it), one of 360 degrees round the whole globe,
+// none when no latitude is left.
+std::vector<Extent> lonLatPieces(const Extent& box, double max_lat_deg);
 
 // Where the DEM lies in the scheme's CRS, as a job plans it: its extent, or
 // across the antimeridian the pieces either side (the first, east of it,
