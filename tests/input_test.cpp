@@ -562,6 +562,37 @@ TEST(Inputs, AnUndeclaredFillValueIsAVoidUnlessTheFileDeclaresItsNodata) {
   EXPECT_NE(tilesOf(dir / "out" / "nan"), tilesOf(dir / "out" / "declared"));
 }
 
+// Heights stored in centimetres are all beyond the plausible range: the
+// warning says so, and names the key that reads them, at coarse zooms (read
+// from the reduced levels) as at the deepest.
+TEST(Inputs, HeightsInCentimetresAreNamedWithTheKeyThatReadsThem) {
+  const fs::path dir = caseDir();
+  // Big enough for the reduced levels of the coarse zooms.
+  constexpr int kSide = 512;
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "cm.tif", kSide, kSide, gt, [](int c, int r) { return std::round(hill(c, r) * 100); }, 4326, 1,
+           GDT_Int32);
+  writeDem(dir / "metres.tif", kSide, kSide, gt, [](int c, int r) { return std::round(hill(c, r) * 100) / 100; });
+  for (const std::string zoom : {"6", "10"}) {
+    const RunResult r = run(tileArgs(dir / "cm.tif", dir / "out", "cm" + zoom, zoom));
+    EXPECT_EQ(r.exit_code, kExitNothingMade) << describe(r);
+    EXPECT_TRUE(contains(r.err, "warning: dem: '" + (dir / "cm.tif").string() + "' holds heights")) << describe(r);
+    EXPECT_TRUE(contains(r.err, "set heights.z_scale, 0.01 for centimetres")) << describe(r);
+  }
+  std::vector<std::string> scaled = tileArgs(dir / "cm.tif", dir / "out", "scaled", "6-10");
+  scaled.insert(scaled.end(), {"--z-scale", "0.01"});
+  const RunResult r = run(scaled);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_FALSE(contains(r.err, "warning")) << describe(r);
+  ASSERT_EQ(run(tileArgs(dir / "metres.tif", dir / "out", "metres", "6-10")).exit_code, kExitOk);
+  const auto names = [](const std::map<std::string, std::string>& tiles) {
+    std::vector<std::string> keys;
+    for (const auto& entry : tiles) keys.push_back(entry.first);
+    return keys;
+  };
+  EXPECT_EQ(names(tilesOf(dir / "out" / "scaled")), names(tilesOf(dir / "out" / "metres")));
+}
+
 TEST(Inputs, ImageBandsAreWarnedAboutAndComplexBandsRefused) {
   const fs::path dir = caseDir();
   const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};

@@ -275,7 +275,8 @@ std::vector<std::string> DemSource::implausibleReport() const {
     const std::string fill = voids.fill_value_void ? ", or -9999, a fill value (it declares no nodata)" : "";
     lines.push_back("dem: '" + shortened(file->info().path) + "' holds heights that are infinite or beyond " +
                     range + " (the plausible range in its units)" + fill + ": " + std::to_string(samples) +
-                    " samples read were treated as voids");
+                    " samples read were treated as voids (heights in another unit than metres: set heights.z_scale, "
+                    "0.01 for centimetres)");
   }
   return lines;
 }

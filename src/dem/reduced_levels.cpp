@@ -64,6 +64,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
   std::vector<float> rows(std::size_t(f) * std::size_t(width));
   std::vector<double> sums(std::size_t(finest.width));
   std::vector<int> counts(std::size_t(finest.width));
+  long long implausible = 0;
   for (int block_row = 0; block_row < finest.height; ++block_row) {
     const int top = block_row * f, row_count = std::min(f, height - top);
     if (band.RasterIO(GF_Read, 0, top, width, row_count, rows.data(), width, row_count, GDT_Float32, 0, 0,
@@ -76,7 +77,10 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
       const float* row = &rows[std::size_t(r) * std::size_t(width)];
       for (int block = 0; block < finest.width; ++block) {
         for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
-          if (voids.isVoid(row[c])) continue;
+          if (voids.isVoid(row[c])) {
+            implausible += voids.isImplausible(row[c]);
+            continue;
+          }
           sums[std::size_t(block)] += voids.height(row[c]);
           ++counts[std::size_t(block)];
         }
@@ -87,6 +91,8 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
           counts[std::size_t(c)] ? float(sums[std::size_t(c)] / counts[std::size_t(c)]) : NAN;
     }
   }
+  // Zooms that read the levels alone still report what the file holds.
+  voids.count(implausible);
   levels->m_levels.push_back(std::move(finest));
   for (std::size_t k = first + 1; k < bytes.size(); ++k) {
     const Level& finer = levels->m_levels.back();

@@ -29,8 +29,8 @@ class ReducedLevels {
 
   // The levels of `band` (north-up), or nullptr when the file is too large
   // or too small to gain from them: means of the heights `voids` makes of
-  // the samples it does not call voids (NaN where a block has none).
-  // Throws InputError when GDAL cannot read the band.
+  // the samples it does not call voids (NaN where a block has none); the
+  // implausible ones are counted into `voids`. Throws InputError when GDAL cannot read the band.
   static std::shared_ptr<const ReducedLevels> build(GDALRasterBand& band, const VoidRule& voids,
                                                     const std::string& path);
 
