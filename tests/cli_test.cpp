@@ -239,7 +239,17 @@ TEST(Cli, UnknownFlagIsAUsageError) {
   const RunResult r = runTerrabake({"tile", "--zoom", "3", "--frobnicate", "--out", out.string()});
   expectOneLineError(r, kExitUsage);
   EXPECT_TRUE(contains(r.err, "--frobnicate")) << describe(r);
+  EXPECT_FALSE(contains(r.err, "did you mean")) << describe(r);
   EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
+TEST(Cli, AMisspeltFlagIsAnsweredWithTheNearestOfItsCommand) {
+  const RunResult tile = runTerrabake({"tile", "--zoom", "3", "--max-error-m", "2", "--dem", "x.tif"});
+  expectOneLineError(tile, kExitUsage);
+  EXPECT_TRUE(contains(tile.err, "--max-error-m (did you mean --max-error?)")) << describe(tile);
+  const RunResult serve = runTerrabake({"serve", "--cache_mib=3"});
+  expectOneLineError(serve, kExitUsage);
+  EXPECT_TRUE(contains(serve.err, "(did you mean --cache-mib?)")) << describe(serve);
 }
 
 TEST(Cli, NoSubcommandIsAUsageError) {

@@ -2,10 +2,37 @@
 
 #include <exception>
 #include <iostream>
+#include <string>
+#include <vector>
 
 #include "app/commands.hpp"
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/suggestion.hpp"
+
+namespace {
+
+// " (did you mean --max-error?)" for the first unknown flag given to the
+// command that was parsed, when a flag of it is within a typo; else "".
+std::string flagSuggestion(CLI::App& cli) {
+  std::vector<CLI::App*> apps = cli.get_subcommands();
+  apps.push_back(&cli);
+  for (CLI::App* app : apps) {
+    for (const std::string& arg : app->remaining()) {
+      if (arg.rfind("--", 0) != 0) continue;
+      const std::string flag = arg.substr(0, arg.find('='));
+      std::vector<std::string> names;
+      for (const CLI::Option* option : app->get_options()) {
+        for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
+      }
+      const std::string best = terrabake::nearestName(flag, {names.begin(), names.end()});
+      return best.empty() ? "" : " (did you mean " + best + "?)";
+    }
+  }
+  return "";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   using namespace terrabake;
@@ -31,6 +58,10 @@ int main(int argc, char** argv) {
     return cli.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
     return cli.exit(e);
+  } catch (const CLI::ExtrasError& e) {
+    std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << flagSuggestion(cli)
+              << " (see terrabake --help)\n";
+    return int(ExitCode::kUsage);
   } catch (const CLI::ParseError& e) {
     std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);

@@ -18,6 +18,7 @@
 
 #include "core/error.hpp"
 #include "core/layer_name.hpp"
+#include "core/suggestion.hpp"
 #include "core/types.hpp"
 
 namespace terrabake::config::key_table {
@@ -27,12 +28,9 @@ namespace fs = std::filesystem;
 
 constexpr const char* kAuto = "auto";
 constexpr const char* kNoBox = "none";
-constexpr size_t kMaxSuggestionDistance = 2;
 // A job or serve file is a page of keys; anything larger is not one (a
 // device, a log given by mistake) and is refused before it fills memory.
 constexpr std::size_t kMaxConfigBytes = std::size_t(1) << 20;
-// Names longer than any key are not compared for suggestions.
-constexpr std::size_t kMaxSuggestedNameLength = 64;
 
 std::string quoted(const std::string& text) { return "'" + shortened(text) + "'"; }
 
@@ -102,21 +100,6 @@ bool isSection(std::string_view name, const std::vector<KeySpec>& specs) {
   return std::any_of(specs.begin(), specs.end(), [&](const KeySpec& key) {
     return key.name.size() > name.size() && key.name.substr(0, name.size()) == name && key.name[name.size()] == '.';
   });
-}
-
-size_t editDistance(std::string_view a, std::string_view b) {
-  std::vector<size_t> row(b.size() + 1);
-  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
-  for (size_t i = 1; i <= a.size(); ++i) {
-    size_t diagonal = row[0];
-    row[0] = i;
-    for (size_t j = 1; j <= b.size(); ++j) {
-      const size_t above = row[j];
-      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
-      diagonal = above;
-    }
-  }
-  return row[b.size()];
 }
 
 std::string_view lastPart(std::string_view name) {
@@ -326,29 +309,21 @@ void readYamlText(const std::string& text, const std::string& yaml_path, const s
 // Nearest key or section within a small edit distance, else a key with the
 // same last part (a leaf written in the wrong section).
 std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>& specs) {
-  if (name.size() > kMaxSuggestedNameLength) return "unknown key";
-  std::string_view best;
-  size_t best_distance = kMaxSuggestionDistance + 1;
+  std::vector<std::string_view> candidates;
   for (const KeySpec& key : specs) {
-    std::vector<std::string_view> candidates = {key.name};
+    candidates.push_back(key.name);
     for (size_t dot = key.name.find('.'); dot != std::string_view::npos; dot = key.name.find('.', dot + 1)) {
       candidates.push_back(key.name.substr(0, dot));
     }
-    for (const std::string_view candidate : candidates) {
-      const size_t distance = editDistance(name, candidate);
-      if (distance > 0 && distance < best_distance) {
-        best = candidate;
-        best_distance = distance;
-      }
-    }
   }
+  std::string best = nearestName(name, candidates);
   if (best.empty()) {
     for (const KeySpec& key : specs) {
       if (lastPart(key.name) == lastPart(name) && key.name != name) best = key.name;
     }
   }
   if (best.empty()) return "unknown key";
-  return "unknown key (did you mean '" + std::string(best) + "'?)";
+  return "unknown key (did you mean '" + best + "'?)";
 }
 
 const Text& single(const KeySpec& key, const Value& value) {
