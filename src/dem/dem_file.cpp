@@ -384,8 +384,7 @@ std::shared_ptr<const ReducedLevels> FileMeta::makeReducedLevels() const {
   if (m_reduced_tried) return m_reduced;
   m_reduced_tried = true;
   const auto start = std::chrono::steady_clock::now();
-  const auto [dataset, band] = openNorthUp(*this);
-  m_reduced = ReducedLevels::build(*dataset->GetRasterBand(band), m_voids, m_info.path);
+  m_reduced = ReducedLevels::build([this] { return openNorthUp(*this); }, m_voids, m_info.path);
   if (m_reduced) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     char text[200];

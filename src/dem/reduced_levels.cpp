@@ -1,8 +1,12 @@
 #include "dem/reduced_levels.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdio>
+#include <exception>
+#include <string>
+#include <thread>
 
 #include "core/error.hpp"
 #include "dem/gdal_util.hpp"
@@ -13,6 +17,13 @@ namespace {
 // Levels stop halving once they are about a tile across: a coarser one
 // would save no reading.
 constexpr int kMinLevelSide = 256;
+
+// Threads that read the file for the levels: past this, a file's reads
+// gain little from more.
+constexpr int kMaxBuildThreads = 16;
+// A thread's band of the file in memory at most: a tile row of a tiled
+// TIFF up to 64 Ki pixels wide.
+constexpr double kMaxBandBytes = 64.0 * (1 << 20);
 
 int reduced(int size, int factor) { return (size + factor - 1) / factor; }
 
@@ -39,9 +50,10 @@ std::vector<float> halved(const std::vector<float>& finer, int width, int height
 
 }  // namespace
 
-std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, const VoidRule& voids,
+std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open_band, const VoidRule& voids,
                                                           const std::string& path) {
-  const int width = band.GetXSize(), height = band.GetYSize();
+  const auto [first_handle, first_band] = open_band();
+  const int width = first_handle->GetRasterXSize(), height = first_handle->GetRasterYSize();
   if (double(width) * double(height) > kMaxSourcePixels) return nullptr;
   // Halvings k = 1.. while a level stays at least kMinLevelSide across; the
   // finest kept is the first from which all the coarser ones fit kMaxBytes.
@@ -59,38 +71,74 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(GDALRasterBand& band, 
   finest.width = reduced(width, finest.factor);
   finest.height = reduced(height, finest.factor);
   finest.heights.resize(std::size_t(finest.width) * std::size_t(finest.height));
-  // One row of blocks at a time: the file's rows under it, then each block's mean.
+  // Bands of block rows go to threads in turn, each thread with a handle of
+  // its own: the job's workers wait for the levels, so the build has the
+  // cores. A band spans the file's own blocks (a tile row of a tiled TIFF),
+  // so each block is read once, and is then dropped from GDAL's cache,
+  // which would otherwise fill with the whole file.
   const int f = finest.factor;
-  std::vector<float> rows(std::size_t(f) * std::size_t(width));
-  std::vector<double> sums(std::size_t(finest.width));
-  std::vector<int> counts(std::size_t(finest.width));
-  long long implausible = 0;
-  for (int block_row = 0; block_row < finest.height; ++block_row) {
-    const int top = block_row * f, row_count = std::min(f, height - top);
-    if (band.RasterIO(GF_Read, 0, top, width, row_count, rows.data(), width, row_count, GDT_Float32, 0, 0,
-                      nullptr) != CE_None) {
-      throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
-    }
-    std::fill(sums.begin(), sums.end(), 0.0);
-    std::fill(counts.begin(), counts.end(), 0);
-    for (int r = 0; r < row_count; ++r) {
-      const float* row = &rows[std::size_t(r) * std::size_t(width)];
-      for (int block = 0; block < finest.width; ++block) {
-        for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
-          if (voids.isVoid(row[c])) {
-            implausible += voids.isImplausible(row[c]);
-            continue;
+  int block_height = 1, unused_width = 1;
+  first_handle->GetRasterBand(first_band)->GetBlockSize(&unused_width, &block_height);
+  int band_rows = f * std::max(1, (block_height + f - 1) / f);
+  if (double(band_rows) * width * sizeof(float) > kMaxBandBytes) band_rows = f;
+  const int band_count = (height + band_rows - 1) / band_rows;
+  std::atomic<int> next_band{0};
+  std::atomic<long long> implausible{0};
+  std::atomic<bool> failed{false};
+  std::string failure;
+  const auto buildBands = [&](GDALRasterBand& band) {
+    std::vector<float> rows(std::size_t(band_rows) * std::size_t(width));
+    std::vector<double> sums(std::size_t(finest.width));
+    std::vector<int> counts(std::size_t(finest.width));
+    long long own_implausible = 0;
+    for (int index = next_band++; index < band_count && !failed; index = next_band++) {
+      const int band_top = index * band_rows, band_height = std::min(band_rows, height - band_top);
+      if (band.RasterIO(GF_Read, 0, band_top, width, band_height, rows.data(), width, band_height, GDT_Float32, 0,
+                        0, nullptr) != CE_None) {
+        if (!failed.exchange(true)) failure = lastGdalError();
+        break;
+      }
+      band.FlushCache();
+      for (int top = 0; top < band_height; top += f) {
+        const int block_row = (band_top + top) / f, row_count = std::min(f, band_height - top);
+        std::fill(sums.begin(), sums.end(), 0.0);
+        std::fill(counts.begin(), counts.end(), 0);
+        for (int r = top; r < top + row_count; ++r) {
+          const float* row = &rows[std::size_t(r) * std::size_t(width)];
+          for (int block = 0; block < finest.width; ++block) {
+            for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
+              if (voids.isVoid(row[c])) {
+                own_implausible += voids.isImplausible(row[c]);
+                continue;
+              }
+              sums[std::size_t(block)] += voids.height(row[c]);
+              ++counts[std::size_t(block)];
+            }
           }
-          sums[std::size_t(block)] += voids.height(row[c]);
-          ++counts[std::size_t(block)];
+        }
+        for (int c = 0; c < finest.width; ++c) {
+          finest.heights[std::size_t(block_row) * std::size_t(finest.width) + std::size_t(c)] =
+              counts[std::size_t(c)] ? float(sums[std::size_t(c)] / counts[std::size_t(c)]) : NAN;
         }
       }
     }
-    for (int c = 0; c < finest.width; ++c) {
-      finest.heights[std::size_t(block_row) * std::size_t(finest.width) + std::size_t(c)] =
-          counts[std::size_t(c)] ? float(sums[std::size_t(c)] / counts[std::size_t(c)]) : NAN;
-    }
+    implausible += own_implausible;
+  };
+  const int thread_count = std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(kMaxBuildThreads, band_count));
+  std::vector<std::thread> threads;
+  for (int t = 1; t < thread_count; ++t) {
+    threads.emplace_back([&] {
+      try {
+        const auto [handle, band] = open_band();
+        buildBands(*handle->GetRasterBand(band));
+      } catch (const std::exception& e) {
+        if (!failed.exchange(true)) failure = e.what();
+      }
+    });
   }
+  buildBands(*first_handle->GetRasterBand(first_band));
+  for (std::thread& thread : threads) thread.join();
+  if (failed) throw InputError("dem: cannot read '" + shortened(path) + "' (" + failure + ")");
   // Zooms that read the levels alone still report what the file holds.
   voids.count(implausible);
   levels->m_levels.push_back(std::move(finest));

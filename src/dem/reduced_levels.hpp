@@ -11,9 +11,12 @@
 // whatever the file's size; coarser ones go on halving down to a tile's size.
 #include <gdal_priv.h>
 
+#include <functional>
 #include <memory>
+#include <utility>
 #include <vector>
 
+#include "dem/dataset_views.hpp"
 #include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
@@ -23,17 +26,22 @@ class ReducedLevels {
   // Every level together, in memory, shared by the job's readers.
   static constexpr std::size_t kMaxBytes = std::size_t(128) << 20;
   // Files above this many pixels are not reduced (building reads the whole
-  // file once: about two seconds for 16384 x 16384 here); their coarse zooms
+  // file once: about half a second for 16384 x 16384 on two cores); their coarse zooms
   // read decimated instead.
   static constexpr double kMaxSourcePixels = double(1L << 28);
 
-  // The levels of `band` (north-up), or nullptr when the file is too large
-  // or too small to gain from them: means of the heights `voids` makes of
-  // the samples it does not call voids (NaN where a block has none); the
-  // implausible ones are counted into `voids`. Throws InputError when GDAL cannot read the band.
-  static std::shared_ptr<const ReducedLevels> build(GDALRasterBand& band, const VoidRule& voids,
-                                                    const std::string& path);
+  // A handle of the file (north-up) and its band of heights, for one
+  // thread: a GDAL handle is read by one thread at a time.
+  using BandOpener = std::function<std::pair<DatasetPtr, int>()>;
 
+  // The levels of the file `open_band` opens, or nullptr when it is too
+  // large or too small to gain from them: means of the heights `voids`
+  // makes of the samples it does not call voids (NaN where a block has
+  // none); the implausible ones are counted into `voids`. Reads with up to
+  // a thread per core, each on a handle of its own. Throws InputError when
+  // GDAL cannot read the file.
+  static std::shared_ptr<const ReducedLevels> build(const BandOpener& open_band, const VoidRule& voids,
+                                                    const std::string& path);
   std::size_t count() const { return m_levels.size(); }
   int widthOf(std::size_t level) const { return m_levels[level].width; }
 
