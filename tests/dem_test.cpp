@@ -18,6 +18,7 @@
 #include "core/floor.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
+#include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
 #include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
@@ -667,6 +668,14 @@ namespace ts = test_support;
 // mean of any block of a plane is the plane at the block's centroid, so
 // float rounding is all that may differ.
 constexpr double kPlaneMeanToleranceM = 1e-3;
+
+// GDAL's default, 5% of the machine's memory, would let a deep zoom of a
+// large file hold gigabytes of blocks on a big server.
+TEST(Gdal, TheBlockCacheIsBoundedWhateverTheMachinesMemory) {
+  ASSERT_EQ(CPLGetConfigOption("GDAL_CACHEMAX", nullptr), nullptr) << "the test needs GDAL_CACHEMAX unset";
+  dem::ensureGdalReady();
+  EXPECT_EQ(GDALGetCacheMax64(), GIntBig(256) << 20);
+}
 
 TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
   GDALAllRegister();

@@ -17,6 +17,9 @@ void CPL_STDCALL routeGdalMessage(CPLErr level, CPLErrorNum, const char* message
   if (level == CE_Warning) log::debug(std::string("gdal: ") + message);
 }
 
+// Enough for the blocks of a few tile windows per worker.
+constexpr GIntBig kGdalBlockCacheBytes = GIntBig(256) << 20;
+
 }  // namespace
 
 void ensureGdalReady() {
@@ -31,6 +34,12 @@ void ensureGdalReady() {
     if (!CPLGetConfigOption("GDAL_DISABLE_READDIR_ON_OPEN", nullptr)) {
       CPLSetConfigOption("GDAL_DISABLE_READDIR_ON_OPEN", "TRUE");
     }
+    // GDAL's block cache grows to 5% of the machine's memory by default,
+    // and a deep zoom of a large file reads every block of it once: a
+    // 16384² GeoTIFF's zoom 14 peaked at 1.5 GiB, not faster than with a
+    // 16 MiB cache (each worker reads through its own handles, so blocks
+    // are hardly reused). GDAL_CACHEMAX in the environment wins.
+    if (!CPLGetConfigOption("GDAL_CACHEMAX", nullptr)) GDALSetCacheMax64(kGdalBlockCacheBytes);
   });
 }
 
