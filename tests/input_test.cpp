@@ -789,6 +789,34 @@ TEST(Inputs, AWorldDemOfPixelCentresTilesTheWholeGlobe) {
   }
 }
 
+// A whole-globe DEM reads on across the antimeridian and across the poles
+// as anywhere else, so where its columns start changes nothing: counted
+// from -180 or from 0, it makes the same bytes. (Both once read a border of
+// two pixels across the antimeridian and invented the rows past a pole: the
+// geodetic tiles at the poles differed by up to 223 steps.)
+TEST(Inputs, AWholeGlobeDemMakesTheSameTilesWhereverItsColumnsStart) {
+  const fs::path dir = caseDir();
+  // Smooth round the globe: whole waves along each row, none at the poles.
+  const auto world = [](int c, int r) {
+    const double lon = (c + 0.5) * M_PI / 180, colat = (r + 0.5) * M_PI / 180;
+    return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
+  };
+  const double from_minus_180[6] = {-180, 1, 0, 90, 0, -1};
+  writeDem(dir / "minus180.tif", 360, 180, from_minus_180, world);
+  const double from_zero[6] = {0, 1, 0, 90, 0, -1};
+  writeDem(dir / "zero.tif", 360, 180, from_zero, [&](int c, int r) { return world((c + 180) % 360, r); });
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    SCOPED_TRACE(scheme);
+    for (const std::string name : {"minus180", "zero"}) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-2");
+      args.insert(args.end(), {"--scheme", scheme});
+      const RunResult r = run(args);
+      ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+    }
+    expectSameTiles(dir / scheme / "minus180", dir / scheme / "zero");
+  }
+}
+
 // ---------------------------------------------------------- nothing to make
 
 TEST(Inputs, JobsThatMakeNothingSayWhyWithTheirExitCode) {

@@ -23,6 +23,30 @@ namespace {
 // DemSource::openDatasetLimit().
 std::atomic<int> g_open_handles{0};
 
+// Rows of a lon/lat grid whose centres lie past the north pole and past the
+// south pole; none when the pole is not on a row boundary (only grids of
+// tiles and their aprons reach past a pole, and theirs is).
+struct PastThePoles {
+  int north = 0, south = 0;
+};
+
+PastThePoles pastThePoles(const GridSpec& grid) {
+  constexpr double kOnABoundary = 1e-6;  // of a cell
+  const double bottom = grid.origin_y - grid.height * grid.cell_h;
+  if ((grid.origin_y <= 90 && bottom >= -90) || !isLonLatCrs(grid.crs)) return {};
+  const auto rowsBeyond = [&](double span) {
+    if (span <= 0) return 0;
+    const double rows = span / grid.cell_h;
+    return std::abs(rows - std::round(rows)) < kOnABoundary ? int(std::min(std::round(rows), double(grid.height))) : -1;
+  };
+  const int north = rowsBeyond(grid.origin_y - 90), south = rowsBeyond(-90 - bottom);
+  if (north < 0 || south < 0 || north + south > grid.height) return {};
+  return {north, south};
+}
+
+// The longitude opposite `lon` across a pole, kept within [-180, 180).
+double acrossThePole(double lon) { return lon >= 0 ? lon - 180 : lon + 180; }
+
 bool exists(const std::string& path) {
   VSIStatBufL status;
   return VSIStatExL(path.c_str(), &status, VSI_STAT_EXISTS_FLAG) == 0;
@@ -220,6 +244,37 @@ DemFile& DemSource::open(std::size_t index) const {
 }
 
 Raster<float> DemSource::read(const GridSpec& grid, const ReadPlan& plan) const {
+  const PastThePoles past = pastThePoles(grid);
+  if (past.north == 0 && past.south == 0) return readOnEarth(grid, plan);
+  // Rows past a pole are the rows this side of it on the opposite meridian
+  // (90 + x is 90 - x there): read there, so that a tile's apron past the
+  // pole holds the terrain across it, as its positions do.
+  Raster<float> heights(grid.width, grid.height, NAN);
+  const auto copyRows = [&](const GridSpec& part, int first_row, bool mirrored) {
+    if (part.height <= 0) return;
+    const Raster<float> read_part = readOnEarth(part, plan);
+    for (int r = 0; r < part.height; ++r) {
+      const int row = mirrored ? first_row + part.height - 1 - r : first_row + r;
+      std::copy_n(&read_part.data[std::size_t(r) * std::size_t(grid.width)], grid.width,
+                  &heights.data[std::size_t(row) * std::size_t(grid.width)]);
+    }
+  };
+  GridSpec north = grid, middle = grid, south = grid;
+  north.height = past.north;
+  north.origin_x = acrossThePole(grid.origin_x);
+  north.origin_y = 90;
+  middle.height = grid.height - past.north - past.south;
+  middle.origin_y = grid.origin_y - past.north * grid.cell_h;
+  south.height = past.south;
+  south.origin_x = acrossThePole(grid.origin_x);
+  south.origin_y = -90 + past.south * grid.cell_h;
+  copyRows(north, 0, true);
+  copyRows(middle, past.north, false);
+  copyRows(south, grid.height - past.south, true);
+  return heights;
+}
+
+Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan) const {
   Raster<float> heights(grid.width, grid.height, NAN);
   const auto& files = m_shared->files;
   for (std::size_t i = 0; i < files.size(); ++i) {

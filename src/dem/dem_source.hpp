@@ -97,7 +97,9 @@ class DemSource {
   // Heights on `grid`, NaN where no valid sample of any file reaches. Void
   // samples are the declared nodata value, NaN, infinities, the void markers
   // -32768 and -32767 (SRTM), declared or not, and heights beyond the
-  // options' plausible range. Files whose extent the grid misses are not opened.
+  // options' plausible range. Files whose extent the grid misses are not
+  // opened. The rows of a lon/lat grid past a pole read the terrain across
+  // it, on the opposite meridian.
   Raster<float> read(const GridSpec& grid, const ReadPlan& plan) const;
 
   // Closes every file this reader holds open (they reopen when read again).
@@ -117,6 +119,8 @@ class DemSource {
  private:
   struct Shared;
   DemSource() = default;
+  // read() on a grid within the poles.
+  Raster<float> readOnEarth(const GridSpec& grid, const ReadPlan& plan) const;
   DemFile& open(std::size_t index) const;
   void closeLeastRecent() const;
   void recount(DemFile& file, int before) const;

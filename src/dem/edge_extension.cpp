@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <optional>
 
 namespace terrabake::dem {
@@ -52,11 +53,20 @@ std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
 
 GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   const int width = file.GetRasterXSize(), height = file.GetRasterYSize();
-  VRTDatasetH vrt = VRTCreate(width + 2 * kPixels, height + 2 * kPixels);
-  if (!vrt) return nullptr;
   double gt[6];
   file.GetGeoTransform(gt);
-  gt[0] -= kPixels * gt[1];
+  // Round the whole globe the pixels past one edge are those inside the
+  // other: a whole turn either side holds them, so that every read near the
+  // antimeridian (a tile's apron, a hole fill's margin, a coarse texel's
+  // footprint) finds the heights across it, as one anywhere else does.
+  const OGRSpatialReference* srs = file.GetSpatialRef();
+  const bool whole_globe = srs && srs->IsGeographic() &&
+                           std::abs(width * std::abs(gt[1]) - 360) <= kWholeGlobeSlack * std::abs(gt[1]) &&
+                           3.0 * width <= double(std::numeric_limits<int>::max());
+  const int border_x = whole_globe ? width : kPixels;
+  VRTDatasetH vrt = VRTCreate(width + 2 * border_x, height + 2 * kPixels);
+  if (!vrt) return nullptr;
+  gt[0] -= border_x * gt[1];
   gt[3] -= kPixels * gt[5];
   GDALSetGeoTransform(vrt, gt);
   GDALSetProjection(vrt, file.GetProjectionRef());
@@ -65,24 +75,12 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   // Where no source reaches, a VRT reads its nodata value: NaN, a void.
   GDALSetRasterNoDataValue(band, NAN);
   GDALRasterBandH source = GDALRasterBand::ToHandle(file.GetRasterBand(band_index));
-  if (VRTAddSimpleSource(band, source, 0, 0, width, height, kPixels, kPixels, width, height, nullptr,
-                         VRT_NODATA_UNSET) != CE_None) {
-    GDALClose(vrt);
-    return nullptr;
-  }
-  // Round the whole globe the pixels past one edge are those inside the
-  // other: the border there holds them, so that tiles either side of the
-  // antimeridian read the same heights across it.
-  const OGRSpatialReference* srs = file.GetSpatialRef();
-  const bool whole_globe = srs && srs->IsGeographic() && width >= kPixels &&
-                           std::abs(width * std::abs(gt[1]) - 360) <= kWholeGlobeSlack * std::abs(gt[1]);
-  if (whole_globe &&
-      (VRTAddSimpleSource(band, source, width - kPixels, 0, kPixels, height, 0, kPixels, kPixels, height, nullptr,
-                          VRT_NODATA_UNSET) != CE_None ||
-       VRTAddSimpleSource(band, source, 0, 0, kPixels, height, kPixels + width, kPixels, kPixels, height, nullptr,
-                          VRT_NODATA_UNSET) != CE_None)) {
-    GDALClose(vrt);
-    return nullptr;
+  for (int turn = whole_globe ? -1 : 0; turn <= (whole_globe ? 1 : 0); ++turn) {
+    if (VRTAddSimpleSource(band, source, 0, 0, width, height, border_x + turn * width, kPixels, width, height,
+                           nullptr, VRT_NODATA_UNSET) != CE_None) {
+      GDALClose(vrt);
+      return nullptr;
+    }
   }
   return GDALDataset::FromHandle(vrt);
 }

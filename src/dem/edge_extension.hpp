@@ -44,9 +44,9 @@ class EdgeExtension {
   // `file` (band `band`, as Float32) inside a border of kPixels void pixels, as a
   // new in-memory VRT over it that the caller closes: beyond the file's edge
   // a read then finds pixels that extendIntoVoids can fill. Where a
-  // geographic `file` spans the whole globe, its east and west borders
-  // hold the pixels across the antimeridian instead. `file` must outlive it.
-  // Returns nullptr when GDAL cannot make it.
+  // geographic `file` spans the whole globe, its east and west borders are
+  // a whole turn of it each instead. `file` must outlive it. Returns nullptr
+  // when GDAL cannot make it.
   static GDALDataset* withVoidBorder(GDALDataset& file, int band = 1);
 };
 
