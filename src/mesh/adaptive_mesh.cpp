@@ -160,7 +160,7 @@ class GreedyMesher {
     const double apron = m_samples.apron;
     for (const Vertex& v : m_vertices) {
       const VertexFrame frame =
-          frameAtSampleCoordinate(m_samples.position, apron + v.at.x - 0.5, apron + v.at.y - 0.5, kFrameStepSamples);
+          frameAtSampleCoordinate(m_samples, apron + v.at.x - 0.5, apron + v.at.y - 0.5, kFrameStepSamples);
       out.position.emplace_back(v.position);
       out.normal.emplace_back(frame.normal);
       out.tangent.emplace_back(frame.tangent);

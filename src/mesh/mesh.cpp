@@ -44,28 +44,23 @@ VertexFrame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv) {
 
 namespace {
 
-// Share of the difference down a column below which the difference along a
-// row counts as vanished: at a pole of a geographic grid, where a whole row
-// of samples is one point (rounding leaves about 1e-16 of it), not next to
-// one (a texel from the pole at zoom 20 still leaves about 1e-6).
-constexpr double kVanishedShare = 1e-9;
-
-bool vanishes(const glm::dvec3& du, const glm::dvec3& dv) {
-  return glm::length(du) <= kVanishedShare * glm::length(dv);
+// Whether sample-row coordinate s_row is one of the grid's poles. Vertices
+// sit on half texels, so a pole vertex meets it to rounding.
+bool onPole(const SampleGrid& samples, double s_row) {
+  constexpr double kOnPoleSamples = 1e-9;
+  return std::any_of(samples.pole_rows.begin(), samples.pole_rows.end(),
+                     [&](double pole) { return std::abs(s_row - pole) < kOnPoleSamples; });
 }
 
 }  // namespace
 
-VertexFrame frameAtSampleCoordinate(const Raster<glm::dvec3>& grid, double s_col, double s_row, double step) {
-  glm::dvec3 du = interpolatePosition(grid, s_col + step, s_row) - interpolatePosition(grid, s_col - step, s_row);
+VertexFrame frameAtSampleCoordinate(const SampleGrid& samples, double s_col, double s_row, double step) {
+  const Raster<glm::dvec3>& grid = samples.position;
+  // On a pole the row is one point, and the difference along it only the
+  // heights either side of the pole: east is taken a step inwards.
+  const double row = onPole(samples, s_row) ? s_row + (s_row < grid.height / 2.0 ? step : -step) : s_row;
+  const glm::dvec3 du = interpolatePosition(grid, s_col + step, row) - interpolatePosition(grid, s_col - step, row);
   const glm::dvec3 dv = interpolatePosition(grid, s_col, s_row + step) - interpolatePosition(grid, s_col, s_row - step);
-  if (vanishes(du, dv)) {
-    // On a pole: the frame's limit along the vertex's own meridian, from the
-    // row a step towards the grid's middle (east at that longitude).
-    const double inward = s_row < grid.height / 2.0 ? step : -step;
-    du = interpolatePosition(grid, s_col + step, s_row + inward) -
-         interpolatePosition(grid, s_col - step, s_row + inward);
-  }
   return frameFromDifferences(du, dv);
 }
 
@@ -211,12 +206,10 @@ TriangleMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
     for (int c = 0; c < grid; ++c) {
       // Differences reach one cell beyond the tile, so edge vertices get the
       // same frame as the neighbouring tile computes for them.
-      glm::dvec3 du = positionAt(c + 1, r) - positionAt(c - 1, r);
+      // On a pole, east a row inwards, as in frameAtSampleCoordinate.
+      const int along = onPole(samples, sampleCoord(r)) ? r + (r < grid / 2 ? 1 : -1) : r;
+      const glm::dvec3 du = positionAt(c + 1, along) - positionAt(c - 1, along);
       const glm::dvec3 dv = positionAt(c, r + 1) - positionAt(c, r - 1);
-      if (vanishes(du, dv)) {  // on a pole, as in frameAtSampleCoordinate
-        const int inward = r < grid / 2 ? 1 : -1;
-        du = positionAt(c + 1, r + inward) - positionAt(c - 1, r + inward);
-      }
       const VertexFrame frame = frameFromDifferences(du, dv);
       mesh.position.emplace_back(positionAt(c, r));
       mesh.normal.emplace_back(frame.normal);

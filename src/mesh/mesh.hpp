@@ -24,6 +24,10 @@ struct SampleGrid {
   // empty when every sample is the DEM's. Normals at DEM samples are made
   // from DEM samples only.
   Raster<std::uint8_t> from_dem;
+  // Sample-row coordinates of the poles the grid reaches (a lon/lat tile's
+  // edge at 90 degrees): a whole row of the surface is one point there, so
+  // a vertex on one takes its frame along its own meridian.
+  std::vector<double> pole_rows;
 };
 
 // One vertex per texel, on its centre, as a row-major grid (row 0 north):

@@ -5,6 +5,7 @@
 #include <glm/vec4.hpp>
 
 #include "core/types.hpp"
+#include "mesh/mesh.hpp"
 
 namespace terrabake::mesh {
 
@@ -24,7 +25,9 @@ struct VertexFrame {
 VertexFrame frameFromDifferences(const glm::dvec3& du, const glm::dvec3& dv);
 
 // The frame at sample coordinate (s_col, s_row), from the interpolated
-// surface `step` samples either side.
-VertexFrame frameAtSampleCoordinate(const Raster<glm::dvec3>& grid, double s_col, double s_row, double step);
+// surface `step` samples either side. On a pole (s_row one of the grid's
+// pole rows) the difference along the row is taken a step towards the
+// grid's middle instead: the frame's limit along the vertex's own meridian.
+VertexFrame frameAtSampleCoordinate(const SampleGrid& samples, double s_col, double s_row, double step);
 
 }  // namespace terrabake::mesh

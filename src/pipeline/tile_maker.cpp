@@ -204,6 +204,13 @@ struct TileMaker::Impl {
     samples.tile_size = scheme.tileSize();
     samples.apron = settings.apron;
     samples.position = Raster<glm::dvec3>(grid.width, grid.height);
+    if (dem::isLonLatCrs(grid.crs)) {
+      for (const double pole_lat : {90.0, -90.0}) {
+        // Sample r's centre lies r + 0.5 cells below the grid's north edge.
+        const double row = (grid.origin_y - pole_lat) / grid.cell_h - 0.5;
+        if (row >= 0 && row <= grid.height - 1) samples.pole_rows.push_back(row);
+      }
+    }
     if (scheme.kind() == SchemeKind::kNative) {
       const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(grid);
       for (std::size_t k = 0; k < lon_lat.size(); ++k) {
