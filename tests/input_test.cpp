@@ -699,6 +699,45 @@ TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
   }
 }
 
+// Tiles of one raster given as a list (SRTM's 1-degree files, sharing their
+// edge rows and columns as those do) make the bytes of the one file they
+// were cut from: a kernel near a seam reads the next file's samples, not an
+// extrapolation past each file's edge (which once put seams up to 13 steps
+// deep along the files' edges).
+TEST(Inputs, TilesOfOneRasterGivenAsAListMakeTheTilesOfTheWholeFile) {
+  const fs::path dir = caseDir();
+  constexpr int kSide = 401, kHalf = 200;
+  constexpr double kNoData = -32768;
+  const auto declareNoData = [](const fs::path& path) {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(kNoData), CE_None);
+  };
+  const double whole_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "whole.tif", kSide, kSide, whole_gt, hill, 4326, 1, GDT_Int16);
+  declareNoData(dir / "whole.tif");
+  std::vector<std::string> args = tileArgs(dir / "whole.tif", dir / "out", "whole");
+  ASSERT_EQ(run(args).exit_code, kExitOk);
+  std::vector<std::string> pieces = {"tile"};
+  for (int row = 0; row < 2; ++row) {
+    for (int col = 0; col < 2; ++col) {
+      const fs::path piece = dir / ("piece" + std::to_string(row) + std::to_string(col) + ".tif");
+      const double gt[6] = {kHillWest + col * kHalf * kHillPixelDeg, kHillPixelDeg, 0,
+                            kHillNorth - row * kHalf * kHillPixelDeg, 0, -kHillPixelDeg};
+      writeDem(piece, kHalf + 1, kHalf + 1, gt, [&](int c, int r) { return hill(c + col * kHalf, r + row * kHalf); },
+               4326, 1, GDT_Int16);
+      declareNoData(piece);
+      pieces.insert(pieces.end(), {"--dem", piece.string()});
+    }
+  }
+  args = tileArgs(dir / "unused.tif", dir / "out", "pieces");
+  args.erase(args.begin(), args.begin() + 3);  // "tile", "--dem", the path
+  args.insert(args.begin(), pieces.begin(), pieces.end());
+  const RunResult r = run(args);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  expectSameTiles(dir / "out" / "whole", dir / "out" / "pieces");
+}
+
 // Longitudes counted 0 to 360: the same hills at 190 E and at 170 W make the
 // same tiles, and the job plans no tile beyond them (it once planned 456
 // empty ones at zoom 12, from a piece of the box running west > east, and

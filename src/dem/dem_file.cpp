@@ -121,13 +121,15 @@ std::string maskDescription(const NoDataMask& mask) {
 // files are read at full resolution), and the band of it that holds the
 // heights.
 std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta, int overview = -1) {
-  const std::string& path = meta.info().path;
+  const std::string& path = meta.openPath();
   const std::string level = "OVERVIEW_LEVEL=" + std::to_string(overview);
   const char* options[] = {overview >= 0 ? level.c_str() : nullptr, nullptr};
   CPLErrorReset();
   DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
       path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, options, nullptr)));
-  if (!dataset) throw InputError("dem: cannot reopen '" + shortened(path) + "' (" + lastGdalError() + ")");
+  if (!dataset) {
+    throw InputError("dem: cannot reopen '" + shortened(meta.info().path) + "' (" + lastGdalError() + ")");
+  }
   int band = meta.band();
   if (meta.masked()) {
     dataset = maskedView(std::move(dataset), band, meta.mask());
@@ -193,9 +195,10 @@ struct LevelReader {
   VoidRule voids;        // the file's, or forHeights() for a reduced level
 };
 
-FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
+FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std::string& name_in_messages)
+    : m_open_path(path) {
   ensureGdalReady();
-  const std::string name = "'" + shortened(path) + "'";
+  const std::string name = "'" + shortened(name_in_messages.empty() ? path : name_in_messages) + "'";
   const bool is_file = isReadableFile(path);
   CPLErrorReset();
   DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
@@ -290,7 +293,7 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options) {
     }
   }
 
-  m_info.path = path;
+  m_info.path = name_in_messages.empty() ? path : name_in_messages;
   m_info.band = m_band;
   m_info.band_count = band_count;
   int has_nodata = 0;

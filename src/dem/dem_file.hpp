@@ -26,9 +26,13 @@ class FileMeta {
   // Throws InputError naming the file: missing, not a regular file, not a
   // raster, no such band, complex samples, no CRS, rotated, too large,
   // latitudes beyond the poles.
-  FileMeta(const std::string& path, const DemOptions& options);
+  // `name`, when given, stands for the path in messages and in info()
+  // (a mosaic of several files opened through an in-memory VRT).
+  FileMeta(const std::string& path, const DemOptions& options, const std::string& name = "");
 
   const DemInfo& info() const { return m_info; }
+  // What GDAL opens: the path, even where info().path is a name for it.
+  const std::string& openPath() const { return m_open_path; }
   const OGRSpatialReference& srs() const { return m_srs; }
   const std::string& srsWkt() const { return m_info.grid.crs; }
   int band() const { return m_band; }
@@ -65,6 +69,7 @@ class FileMeta {
 
  private:
   DemInfo m_info;
+  std::string m_open_path;
   OGRSpatialReference m_srs;
   int m_band = 1;
   NoDataMask m_mask;

@@ -1,6 +1,7 @@
 #include "dem/dem_source.hpp"
 
 #include <cpl_vsi.h>
+#include <gdal_utils.h>
 #include <glob.h>
 #include <sys/resource.h>
 
@@ -127,12 +128,81 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
   return window;
 }
 
+// Whether `files` are tiles of one raster: the same CRS, pixel size and
+// pixel grid, sample type, declared nodata value, scale and offset, each
+// north-up without a mask, together within a turn of longitude. Their seams are then no edge: read as one
+// mosaic, a kernel near one reaches into the next file's samples, as it
+// would inside one file, instead of extrapolating past each file's edge.
+bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files, int band) {
+  constexpr double kSameSize = 1e-9;       // relative, of a pixel
+  constexpr double kOnTheGridPx = 1e-6;    // of a pixel
+  const FileMeta& first = *files.front();
+  const GridSpec& g = first.info().grid;
+  if (files.size() < 2 || !first.info().nodata) return false;
+  GDALDataType type = GDT_Unknown;
+  for (const auto& file : files) {
+    const DemInfo& info = file->info();
+    const GridSpec& f = info.grid;
+    const bool same_nodata =
+        info.nodata && (*info.nodata == *first.info().nodata ||
+                        (std::isnan(*info.nodata) && std::isnan(*first.info().nodata)));
+    const double dx = (f.origin_x - g.origin_x) / g.cell_w, dy = (g.origin_y - f.origin_y) / g.cell_h;
+    if (!same_nodata || file->masked() || file->flipX() || file->flipY() || !file->srs().IsSame(&first.srs()) ||
+        std::abs(f.cell_w - g.cell_w) > kSameSize * g.cell_w || std::abs(f.cell_h - g.cell_h) > kSameSize * g.cell_h ||
+        std::abs(dx - std::round(dx)) > kOnTheGridPx || std::abs(dy - std::round(dy)) > kOnTheGridPx ||
+        info.scale != first.info().scale || info.offset != first.info().offset) {
+      return false;
+    }
+    DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(file->openPath().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
+                                                          nullptr, nullptr, nullptr)));
+    if (!dataset) return false;
+    const GDALDataType file_type = dataset->GetRasterBand(band)->GetRasterDataType();
+    if (type != GDT_Unknown && file_type != type) return false;
+    type = file_type;
+  }
+  const GridSpec all = mergedGrid(files);
+  return !first.srs().IsGeographic() || all.width * all.cell_w <= 360 + all.cell_w;
+}
+
+// An in-memory VRT of `files` as one raster of their band `band`, the
+// first file on top where they overlap, their nodata where none reaches;
+// its path, or empty when GDAL cannot make it.
+std::string mosaicOf(const std::vector<std::shared_ptr<const FileMeta>>& files, int band) {
+  static std::atomic<int> count{0};
+  const std::string path = "/vsimem/terrabake/mosaic_" + std::to_string(count++) + ".vrt";
+  char nodata[64];
+  std::snprintf(nodata, sizeof nodata, "%.17g", *files.front()->info().nodata);
+  const std::string band_text = std::to_string(band);
+  const char* argv[] = {"-b", band_text.c_str(), "-srcnodata", nodata, "-vrtnodata", nodata, nullptr};
+  GDALBuildVRTOptions* options = GDALBuildVRTOptionsNew(const_cast<char**>(argv), nullptr);
+  // A VRT draws its sources in order, the last on top.
+  std::vector<const char*> names;
+  for (auto it = files.rbegin(); it != files.rend(); ++it) names.push_back((*it)->openPath().c_str());
+  int usage_error = 0;
+  GDALDatasetH vrt = GDALBuildVRT(path.c_str(), int(names.size()), nullptr, names.data(), options, &usage_error);
+  GDALBuildVRTOptionsFree(options);
+  if (!vrt) return "";
+  GDALClose(vrt);
+  return path;
+}
+
 }  // namespace
 
 struct DemSource::Shared {
-  std::vector<std::shared_ptr<const FileMeta>> files;
+  std::vector<std::shared_ptr<const FileMeta>> files;  // as given
+  // What reads read: the files, or one mosaic of them (tilesOfOneRaster).
+  std::vector<std::shared_ptr<const FileMeta>> read_files;
+  std::string mosaic_path;  // in memory, removed with the source
   DemInfo info;
+
+  Shared() = default;
+  Shared(const Shared&) = delete;
+  Shared& operator=(const Shared&) = delete;
+  ~Shared() {
+    if (!mosaic_path.empty()) VSIUnlink(mosaic_path.c_str());
+  }
 };
+
 
 int DemSource::openDatasetLimit() {
   rlimit limit{};
@@ -150,12 +220,26 @@ DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& op
   auto shared = std::make_shared<Shared>();
   for (const std::string& path : expanded) shared->files.push_back(std::make_shared<const FileMeta>(path, options));
   shared->info = shared->files.front()->info();
+  shared->read_files = shared->files;
   if (shared->files.size() > 1) {
     for (std::size_t i = 1; i < shared->files.size(); ++i) shared->info.path += ", " + shared->files[i]->info().path;
     shared->info.grid = mergedGrid(shared->files);
+    if (tilesOfOneRaster(shared->files, options.band)) {
+      shared->mosaic_path = mosaicOf(shared->files, options.band);
+      DemOptions mosaic_options = options;
+      mosaic_options.band = 1;
+      try {
+        if (!shared->mosaic_path.empty()) {
+          shared->read_files = {
+              std::make_shared<const FileMeta>(shared->mosaic_path, mosaic_options, shared->info.path)};
+        }
+      } catch (const InputError&) {
+        // Too large for one raster: each file is read on its own.
+      }
+    }
   }
   m_shared = std::move(shared);
-  m_open.resize(m_shared->files.size());
+  m_open.resize(m_shared->read_files.size());
 }
 
 DemSource::~DemSource() { g_open_handles -= m_counted_handles; }
@@ -178,7 +262,7 @@ DemSource& DemSource::operator=(DemSource&& other) noexcept {
 DemSource DemSource::reader() const {
   DemSource copy;
   copy.m_shared = m_shared;
-  copy.m_open.resize(m_shared->files.size());
+  copy.m_open.resize(m_shared->read_files.size());
   return copy;
 }
 
@@ -198,7 +282,7 @@ ReadPlan DemSource::planFor(const GridSpec& representative) const {
   // One transformation per distinct file CRS: a glob of tiles shares one.
   const OGRSpatialReference source = spatialReference(representative.crs);
   std::map<std::string, std::unique_ptr<OGRCoordinateTransformation>> transforms;
-  for (const auto& file : m_shared->files) {
+  for (const auto& file : m_shared->read_files) {
     auto& ct = transforms[file->srsWkt()];
     if (!ct) ct.reset(OGRCreateCoordinateTransformation(&source, &file->srs()));
     if (!ct) {
@@ -207,7 +291,7 @@ ReadPlan DemSource::planFor(const GridSpec& representative) const {
     }
     // Reduced levels for one file only: a mosaic's files are many, and a
     // job may reach a few of them.
-    plan.files.push_back(file->planFor(representative, *ct, m_shared->files.size() == 1));
+    plan.files.push_back(file->planFor(representative, *ct, m_shared->read_files.size() == 1));
   }
   return plan;
 }
@@ -237,7 +321,7 @@ DemFile& DemSource::open(std::size_t index) const {
   // recently read files; a reader with none open may still open one.
   static const int limit = openDatasetLimit();
   while (!m_recent.empty() && g_open_handles.load() + 1 > limit) closeLeastRecent();
-  m_open[index] = std::make_unique<DemFile>(m_shared->files[index]);
+  m_open[index] = std::make_unique<DemFile>(m_shared->read_files[index]);
   m_recent.push_front(index);
   recount(*m_open[index], 0);
   return *m_open[index];
@@ -276,7 +360,7 @@ Raster<float> DemSource::read(const GridSpec& grid, const ReadPlan& plan) const 
 
 Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan) const {
   Raster<float> heights(grid.width, grid.height, NAN);
-  const auto& files = m_shared->files;
+  const auto& files = m_shared->read_files;
   for (std::size_t i = 0; i < files.size(); ++i) {
     const CellWindow window = reachOf(*files[i], grid);
     if (window.empty()) continue;  // never opened
@@ -321,7 +405,7 @@ std::vector<std::string> DemSource::warnings() const {
 
 std::vector<std::string> DemSource::implausibleReport() const {
   std::vector<std::string> lines;
-  for (const auto& file : m_shared->files) {
+  for (const auto& file : m_shared->read_files) {
     const long long samples = file->implausibleSamples();
     if (samples == 0) continue;
     const VoidRule& voids = file->voids();
