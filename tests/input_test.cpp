@@ -548,17 +548,21 @@ TEST(Inputs, AnUndeclaredFillValueIsAVoidUnlessTheFileDeclaresItsNodata) {
   const auto filled = [&](int c, int r) { return in_block(c, r) ? -9999.0f : hill(c, r); };
   writeHills(dir / "fill.tif", filled);
   writeHills(dir / "declared.tif", filled);
-  {
-    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "declared.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+  // NaN as the nodata value says no more than Float32 itself does.
+  writeHills(dir / "nan_declared.tif", filled);
+  for (const auto& [name, nodata] : {std::pair<std::string, double>{"declared", -32768}, {"nan_declared", NAN}}) {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / (name + ".tif")).c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
     ASSERT_NE(ds, nullptr);
-    ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(-32768), CE_None);
+    ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(nodata), CE_None);
   }
-  for (const std::string name : {"nan", "fill", "declared"}) {
+  for (const std::string name : {"nan", "fill", "declared", "nan_declared"}) {
     const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name));
     ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
     EXPECT_EQ(contains(r.err, "or -9999, a fill value (it declares no nodata): "), name == "fill") << describe(r);
+    EXPECT_EQ(contains(r.err, "or -9999, a fill value (its nodata is NaN): "), name == "nan_declared") << describe(r);
   }
   expectSameTiles(dir / "out" / "nan", dir / "out" / "fill");
+  expectSameTiles(dir / "out" / "nan", dir / "out" / "nan_declared");
   EXPECT_NE(tilesOf(dir / "out" / "nan"), tilesOf(dir / "out" / "declared"));
 }
 
@@ -708,34 +712,37 @@ TEST(Inputs, TilesOfOneRasterGivenAsAListMakeTheTilesOfTheWholeFile) {
   const fs::path dir = caseDir();
   constexpr int kSide = 401, kHalf = 200;
   constexpr double kNoData = -32768;
-  const auto declareNoData = [](const fs::path& path) {
-    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
-    ASSERT_NE(ds, nullptr);
-    ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(kNoData), CE_None);
-  };
-  const double whole_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
-  writeDem(dir / "whole.tif", kSide, kSide, whole_gt, hill, 4326, 1, GDT_Int16);
-  declareNoData(dir / "whole.tif");
-  std::vector<std::string> args = tileArgs(dir / "whole.tif", dir / "out", "whole");
-  ASSERT_EQ(run(args).exit_code, kExitOk);
-  std::vector<std::string> pieces = {"tile"};
-  for (int row = 0; row < 2; ++row) {
-    for (int col = 0; col < 2; ++col) {
-      const fs::path piece = dir / ("piece" + std::to_string(row) + std::to_string(col) + ".tif");
-      const double gt[6] = {kHillWest + col * kHalf * kHillPixelDeg, kHillPixelDeg, 0,
-                            kHillNorth - row * kHalf * kHillPixelDeg, 0, -kHillPixelDeg};
-      writeDem(piece, kHalf + 1, kHalf + 1, gt, [&](int c, int r) { return hill(c + col * kHalf, r + row * kHalf); },
-               4326, 1, GDT_Int16);
-      declareNoData(piece);
-      pieces.insert(pieces.end(), {"--dem", piece.string()});
+  // Int16 declaring a nodata value, as SRTM; Float32 declaring none.
+  for (const GDALDataType type : {GDT_Int16, GDT_Float32}) {
+    const std::string kind = GDALGetDataTypeName(type);
+    SCOPED_TRACE(kind);
+    const auto declareNoData = [&](const fs::path& path) {
+      if (type != GDT_Int16) return;
+      std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+      ASSERT_NE(ds, nullptr);
+      ASSERT_EQ(ds->GetRasterBand(1)->SetNoDataValue(kNoData), CE_None);
+    };
+    const double whole_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+    writeDem(dir / (kind + "_whole.tif"), kSide, kSide, whole_gt, hill, 4326, 1, type);
+    declareNoData(dir / (kind + "_whole.tif"));
+    ASSERT_EQ(run(tileArgs(dir / (kind + "_whole.tif"), dir / "out", kind + "_whole")).exit_code, kExitOk);
+    std::vector<std::string> args = tileArgs(dir / "unused.tif", dir / "out", kind + "_pieces");
+    args.erase(args.begin() + 1, args.begin() + 3);  // "--dem", the path
+    for (int row = 0; row < 2; ++row) {
+      for (int col = 0; col < 2; ++col) {
+        const fs::path piece = dir / (kind + "_piece" + std::to_string(row) + std::to_string(col) + ".tif");
+        const double gt[6] = {kHillWest + col * kHalf * kHillPixelDeg, kHillPixelDeg, 0,
+                              kHillNorth - row * kHalf * kHillPixelDeg, 0, -kHillPixelDeg};
+        writeDem(piece, kHalf + 1, kHalf + 1, gt,
+                 [&](int c, int r) { return hill(c + col * kHalf, r + row * kHalf); }, 4326, 1, type);
+        declareNoData(piece);
+        args.insert(args.end(), {"--dem", piece.string()});
+      }
     }
+    const RunResult r = run(args);
+    ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+    expectSameTiles(dir / "out" / (kind + "_whole"), dir / "out" / (kind + "_pieces"));
   }
-  args = tileArgs(dir / "unused.tif", dir / "out", "pieces");
-  args.erase(args.begin(), args.begin() + 3);  // "tile", "--dem", the path
-  args.insert(args.begin(), pieces.begin(), pieces.end());
-  const RunResult r = run(args);
-  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
-  expectSameTiles(dir / "out" / "whole", dir / "out" / "pieces");
 }
 
 // Longitudes counted 0 to 360: the same hills at 190 E and at 170 W make the

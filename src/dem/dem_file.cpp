@@ -340,7 +340,8 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
                          colourName(interp) + " channel (" + m_info.data_type + "); it is read as heights");
   }
   m_voids.nodata = m_info.nodata;
-  m_voids.fill_value_void = !m_info.nodata;
+  // NaN as nodata says no more than Float32 does: -9999 may still be the fill.
+  m_voids.fill_value_void = !m_info.nodata || std::isnan(*m_info.nodata);
   m_voids.scale = band->GetScale();
   m_voids.offset = band->GetOffset();
   if (!std::isfinite(m_voids.scale) || m_voids.scale == 0 || !std::isfinite(m_voids.offset)) {

@@ -129,8 +129,9 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
 }
 
 // Whether `files` are tiles of one raster: the same CRS, pixel size and
-// pixel grid, sample type, declared nodata value, scale and offset, each
-// north-up without a mask, together within a turn of longitude. Their seams are then no edge: read as one
+// pixel grid, sample type, declared nodata value (or none, in floating
+// point), scale and offset, each north-up without a mask, together within
+// a turn of longitude. Their seams are then no edge: read as one
 // mosaic, a kernel near one reaches into the next file's samples, as it
 // would inside one file, instead of extrapolating past each file's edge.
 bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files, int band) {
@@ -138,14 +139,15 @@ bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files,
   constexpr double kOnTheGridPx = 1e-6;    // of a pixel
   const FileMeta& first = *files.front();
   const GridSpec& g = first.info().grid;
-  if (files.size() < 2 || !first.info().nodata) return false;
+  if (files.size() < 2) return false;
+  const auto sameNodata = [](const std::optional<double>& a, const std::optional<double>& b) {
+    return (!a && !b) || (a && b && (*a == *b || (std::isnan(*a) && std::isnan(*b))));
+  };
   GDALDataType type = GDT_Unknown;
   for (const auto& file : files) {
     const DemInfo& info = file->info();
     const GridSpec& f = info.grid;
-    const bool same_nodata =
-        info.nodata && (*info.nodata == *first.info().nodata ||
-                        (std::isnan(*info.nodata) && std::isnan(*first.info().nodata)));
+    const bool same_nodata = sameNodata(info.nodata, first.info().nodata);
     const double dx = (f.origin_x - g.origin_x) / g.cell_w, dy = (g.origin_y - f.origin_y) / g.cell_h;
     if (!same_nodata || file->masked() || file->flipX() || file->flipY() || !file->srs().IsSame(&first.srs()) ||
         std::abs(f.cell_w - g.cell_w) > kSameSize * g.cell_w || std::abs(f.cell_h - g.cell_h) > kSameSize * g.cell_h ||
@@ -160,18 +162,21 @@ bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files,
     if (type != GDT_Unknown && file_type != type) return false;
     type = file_type;
   }
+  // Without a nodata value only NaN can mark where no file reaches.
+  if (!first.info().nodata && !GDALDataTypeIsFloating(type)) return false;
   const GridSpec all = mergedGrid(files);
   return !first.srs().IsGeographic() || all.width * all.cell_w <= 360 + all.cell_w;
 }
 
 // An in-memory VRT of `files` as one raster of their band `band`, the
-// first file on top where they overlap, their nodata where none reaches;
-// its path, or empty when GDAL cannot make it.
+// first file on top where they overlap, their nodata (or NaN) where none
+// reaches; its path, or empty when GDAL cannot make it.
 std::string mosaicOf(const std::vector<std::shared_ptr<const FileMeta>>& files, int band) {
   static std::atomic<int> count{0};
   const std::string path = "/vsimem/terrabake/mosaic_" + std::to_string(count++) + ".vrt";
   char nodata[64];
-  std::snprintf(nodata, sizeof nodata, "%.17g", *files.front()->info().nodata);
+  const std::optional<double>& declared = files.front()->info().nodata;
+  std::snprintf(nodata, sizeof nodata, "%.17g", declared ? *declared : double(NAN));
   const std::string band_text = std::to_string(band);
   const char* argv[] = {"-b", band_text.c_str(), "-srcnodata", nodata, "-vrtnodata", nodata, nullptr};
   GDALBuildVRTOptions* options = GDALBuildVRTOptionsNew(const_cast<char**>(argv), nullptr);
@@ -411,7 +416,9 @@ std::vector<std::string> DemSource::implausibleReport() const {
     const VoidRule& voids = file->voids();
     char range[96];
     std::snprintf(range, sizeof range, "%.6g..%.6g", voids.min_height, voids.max_height);
-    const std::string fill = voids.fill_value_void ? ", or -9999, a fill value (it declares no nodata)" : "";
+    const std::string fill = !voids.fill_value_void ? ""
+                             : voids.nodata      ? ", or -9999, a fill value (its nodata is NaN)"
+                                                 : ", or -9999, a fill value (it declares no nodata)";
     lines.push_back("dem: '" + shortened(file->info().path) + "' holds heights that are infinite or beyond " +
                     range + " (the plausible range in its units)" + fill + ": " + std::to_string(samples) +
                     " samples read were treated as voids (heights in another unit than metres: set heights.z_scale, "

@@ -13,8 +13,9 @@ namespace terrabake::dem {
 inline constexpr double kVoidMarkerMax = -32767.0;
 
 // The fill value of GIS exports that often goes undeclared: a void where a
-// file declares no nodata value (one that does is taken at its word). A
-// depth of exactly -9999 is a far rarer thing than a missing nodata tag.
+// file declares no nodata value, or NaN (one that declares a number is taken
+// at its word). A depth of exactly -9999 is a far rarer thing than a missing
+// nodata tag.
 inline constexpr float kUndeclaredFillValue = -9999.0f;
 
 // How one file's samples become heights, and which are voids: NaN,
@@ -24,7 +25,7 @@ inline constexpr float kUndeclaredFillValue = -9999.0f;
 // every normal next to them).
 struct VoidRule {
   std::optional<double> nodata;  // as the file declares it
-  bool fill_value_void = false;  // kUndeclaredFillValue is a void: the file declares no nodata
+  bool fill_value_void = false;  // kUndeclaredFillValue is a void: the file declares no nodata, or NaN
   // The band's scale and offset: a stored sample s is the height
   // s * scale + offset (GDAL's convention; Int16 decimetres have 0.1).
   double scale = 1;
