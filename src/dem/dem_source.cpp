@@ -134,36 +134,30 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
 // a turn of longitude. Their seams are then no edge: read as one
 // mosaic, a kernel near one reaches into the next file's samples, as it
 // would inside one file, instead of extrapolating past each file's edge.
-bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files, int band) {
-  constexpr double kSameSize = 1e-9;       // relative, of a pixel
-  constexpr double kOnTheGridPx = 1e-6;    // of a pixel
-  const FileMeta& first = *files.front();
-  const GridSpec& g = first.info().grid;
+bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files) {
+  constexpr double kSameSize = 1e-9;     // relative, of a pixel
+  constexpr double kOnTheGridPx = 1e-6;  // of a pixel
   if (files.size() < 2) return false;
+  const FileMeta& first = *files.front();
+  const DemInfo& one = first.info();
+  const GridSpec& g = one.grid;
   const auto sameNodata = [](const std::optional<double>& a, const std::optional<double>& b) {
     return (!a && !b) || (a && b && (*a == *b || (std::isnan(*a) && std::isnan(*b))));
   };
-  GDALDataType type = GDT_Unknown;
   for (const auto& file : files) {
     const DemInfo& info = file->info();
     const GridSpec& f = info.grid;
-    const bool same_nodata = sameNodata(info.nodata, first.info().nodata);
     const double dx = (f.origin_x - g.origin_x) / g.cell_w, dy = (g.origin_y - f.origin_y) / g.cell_h;
-    if (!same_nodata || file->masked() || file->flipX() || file->flipY() || !file->srs().IsSame(&first.srs()) ||
-        std::abs(f.cell_w - g.cell_w) > kSameSize * g.cell_w || std::abs(f.cell_h - g.cell_h) > kSameSize * g.cell_h ||
-        std::abs(dx - std::round(dx)) > kOnTheGridPx || std::abs(dy - std::round(dy)) > kOnTheGridPx ||
-        info.scale != first.info().scale || info.offset != first.info().offset) {
+    if (!sameNodata(info.nodata, one.nodata) || info.data_type != one.data_type || info.scale != one.scale ||
+        info.offset != one.offset || file->masked() || file->flipX() || file->flipY() ||
+        !file->srs().IsSame(&first.srs()) || std::abs(f.cell_w - g.cell_w) > kSameSize * g.cell_w ||
+        std::abs(f.cell_h - g.cell_h) > kSameSize * g.cell_h || std::abs(dx - std::round(dx)) > kOnTheGridPx ||
+        std::abs(dy - std::round(dy)) > kOnTheGridPx) {
       return false;
     }
-    DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(file->openPath().c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY,
-                                                          nullptr, nullptr, nullptr)));
-    if (!dataset) return false;
-    const GDALDataType file_type = dataset->GetRasterBand(band)->GetRasterDataType();
-    if (type != GDT_Unknown && file_type != type) return false;
-    type = file_type;
   }
   // Without a nodata value only NaN can mark where no file reaches.
-  if (!first.info().nodata && !GDALDataTypeIsFloating(type)) return false;
+  if (!one.nodata && !GDALDataTypeIsFloating(GDALGetDataTypeByName(one.data_type.c_str()))) return false;
   const GridSpec all = mergedGrid(files);
   return !first.srs().IsGeographic() || all.width * all.cell_w <= 360 + all.cell_w;
 }
@@ -208,7 +202,6 @@ struct DemSource::Shared {
   }
 };
 
-
 int DemSource::openDatasetLimit() {
   rlimit limit{};
   long files = 1024;
@@ -229,7 +222,7 @@ DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& op
   if (shared->files.size() > 1) {
     for (std::size_t i = 1; i < shared->files.size(); ++i) shared->info.path += ", " + shared->files[i]->info().path;
     shared->info.grid = mergedGrid(shared->files);
-    if (tilesOfOneRaster(shared->files, options.band)) {
+    if (tilesOfOneRaster(shared->files)) {
       shared->mosaic_path = mosaicOf(shared->files, options.band);
       DemOptions mosaic_options = options;
       mosaic_options.band = 1;
