@@ -418,10 +418,10 @@ TEST(Cli, BadBboxNamesTheFlag) {
   writeDem(dem, true);
   const fs::path out = dir / "out";
   std::vector<std::string> args = smallRunArgs(dem, out);
-  args.insert(args.end(), {"--bbox", "15,60,14,61"});
+  args.insert(args.end(), {"--bbox", "14,61,15,60"});
   const RunResult r = runTerrabake(args);
   expectOneLineError(r, kExitUsage);
-  EXPECT_TRUE(contains(r.err, "--bbox: tiling.bbox: west 15 must be less than east 14")) << describe(r);
+  EXPECT_TRUE(contains(r.err, "--bbox: tiling.bbox: south 61 must be less than north 60")) << describe(r);
   EXPECT_EQ(filesUnder(out), std::set<std::string>{});
 }
 

@@ -220,6 +220,28 @@ TEST(Inputs, WorldDemTilesAHundredMetreBoxAtZoom16Quickly) {
   EXPECT_EQ(tilesOf(dir / "out" / "world").size(), 2u) << "one tile: .png and .glb\n" << describe(r);
 }
 
+// A box across the antimeridian (west above east) makes the tiles of both
+// sides, the bytes a box on each side makes, and its tilejson bounds run
+// west > east as a DEM across it does.
+TEST(Inputs, ABoxAcrossTheAntimeridianMakesTheTilesOfBothSides) {
+  const fs::path dir = caseDir();
+  const auto runBox = [&](const std::string& layer, const std::string& box) {
+    std::vector<std::string> args = tileArgs(worldDem(), dir / "out", layer, "10");
+    args.insert(args.end(), {"--bbox", box});
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+    return tilesOf(dir / "out" / layer);
+  };
+  const auto across = runBox("across", "179.8,-0.2,-179.8,0.2");
+  auto sides = runBox("east", "179.8,-0.2,180,0.2");
+  for (const auto& tile : runBox("west", "-180,-0.2,-179.8,0.2")) sides.insert(tile);
+  EXPECT_EQ(across.size(), 2u * 4) << "two tile columns a side of the equator, each side";
+  EXPECT_EQ(across, sides);
+  std::ifstream tilejson(dir / "out" / "across" / "tilejson.json");
+  const std::string text((std::istreambuf_iterator<char>(tilejson)), std::istreambuf_iterator<char>());
+  EXPECT_TRUE(contains(text, "\"bounds\": [\n    179.8,\n    -0.2,\n    -179.8,")) << text;
+}
+
 TEST(Inputs, WorldDemAtZoom16WithoutABoxIsRefusedAtOnceWithItsTileCount) {
   const fs::path dir = caseDir();
   const fs::path dem = worldDem();

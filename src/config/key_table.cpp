@@ -504,10 +504,8 @@ std::string boxProblem(const std::vector<double>& box) {
   const double west = box[0], south = box[1], east = box[2], north = box[3];
   if (west < -180 || east > 180) return "longitudes must be between -180 and 180, got " + boxText(box);
   if (south < -90 || north > 90) return "latitudes must be between -90 and 90, got " + boxText(box);
-  if (west >= east) {
-    return "west " + numberText(west) + " must be less than east " + numberText(east) +
-           " (a box may not cross the antimeridian)";
-  }
+  // West above east: a box across the antimeridian.
+  if (west == east) return "west and east must differ, got " + boxText(box);
   if (south >= north) return "south " + numberText(south) + " must be less than north " + numberText(north);
   return {};
 }

@@ -46,9 +46,15 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
   }
   if (job.bbox.empty()) return cover;
   const Extent box{job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]};
+  // West above east: the box runs across the antimeridian, in a piece each side.
+  const std::vector<Extent> box_pieces =
+      box.min_x < box.max_x ? std::vector<Extent>{box}
+                            : std::vector<Extent>{{box.min_x, box.min_y, 180, box.max_y}, {-180, box.min_y, box.max_x, box.max_y}};
   std::vector<Extent> inside;
   for (const Extent& piece : cover) {
-    if (box.intersects(piece)) inside.push_back(intersection(piece, box));
+    for (const Extent& box_piece : box_pieces) {
+      if (box_piece.intersects(piece)) inside.push_back(intersection(piece, box_piece));
+    }
   }
   if (inside.empty()) {
     Extent all = cover.front();
@@ -186,7 +192,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   const std::vector<Extent> lon_lat = lonLatCover(job, *plan.scheme, *dem);
   // lonLatCover found the DEM within the scheme's latitudes: it has an area.
   const std::vector<Extent> dem_areas = demAreas(*plan.scheme, *dem);
-  const bool across = dem_areas.size() > 1;
+  const bool across = dem_areas.size() > 1 || lon_lat.size() > 1;
   const Extent dem_area = dem_areas.front();
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
