@@ -745,7 +745,7 @@ TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
 }
 
 // Coarse zooms of one file without overviews read its reduced levels; a
-// mosaic of files reads full resolution. Averaging blocks first widens the
+// list of files of several rasters reads full resolution. Averaging blocks first widens the
 // footprint's kernel by up to a block, which on the analytic hills moves
 // heights by up to 1.3 % of a texel's size (0.45 % on average; 2.1 m at
 // 300 m texels): a slope changes by well under a degree.
@@ -757,7 +757,11 @@ TEST(DemSource, CoarseZoomsOfOneFileWithoutOverviewsReadReducedLevels) {
     ts::writeUtmDem(p, 15.3, 60.0, 30.0, 1024, 1024);
   });
   const dem::DemSource reduced({path.string()});
-  const dem::DemSource full({path.string(), path.string()});  // a mosaic: never reduced
+  // With a file of another raster (far away, in another CRS): never reduced.
+  const auto elsewhere = test::sharedFixture("elsewhere_epsg4326_4.tif", [](const auto& p) {
+    ts::writeFloatDem(p, 4326, {0, 0.01, 0, 0.04, 0, -0.01}, 4, 4, [](double, double) { return 100.0; });
+  });
+  const dem::DemSource full({path.string(), elsewhere.string()});
   const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 64);
   // Texels of about 2.5, 5 and 10 DEM pixels.
   for (int zoom : {12, 11, 10}) {
