@@ -124,19 +124,26 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
     }
     implausible += own_implausible;
   };
-  const int thread_count = std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(kMaxBuildThreads, band_count));
+  // Every thread, this one too, stops at the first failure; it is the one reported.
+  const auto guarded = [&](const auto& work) {
+    try {
+      work();
+    } catch (const std::exception& e) {
+      if (!failed.exchange(true)) failure = e.what();
+    }
+  };
+  const int thread_count =
+      std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(kMaxBuildThreads, band_count));
   std::vector<std::thread> threads;
   for (int t = 1; t < thread_count; ++t) {
     threads.emplace_back([&] {
-      try {
+      guarded([&] {
         const auto [handle, band] = open_band();
         buildBands(*handle->GetRasterBand(band));
-      } catch (const std::exception& e) {
-        if (!failed.exchange(true)) failure = e.what();
-      }
+      });
     });
   }
-  buildBands(*first_handle->GetRasterBand(first_band));
+  guarded([&] { buildBands(*first_handle->GetRasterBand(first_band)); });
   for (std::thread& thread : threads) thread.join();
   if (failed) throw InputError("dem: cannot read '" + shortened(path) + "' (" + failure + ")");
   // Zooms that read the levels alone still report what the file holds.
