@@ -52,8 +52,9 @@ std::vector<float> halved(const std::vector<float>& finer, int width, int height
 
 std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open_band, const VoidRule& voids,
                                                           const std::string& path) {
-  const auto [first_handle, first_band] = open_band();
-  const int width = first_handle->GetRasterXSize(), height = first_handle->GetRasterYSize();
+  const std::pair<DatasetPtr, int> first_handle = open_band();
+  GDALRasterBand& first_band = *first_handle.first->GetRasterBand(first_handle.second);
+  const int width = first_band.GetXSize(), height = first_band.GetYSize();
   if (double(width) * double(height) > kMaxSourcePixels) return nullptr;
   // Halvings k = 1.. while a level stays at least kMinLevelSide across; the
   // finest kept is the first from which all the coarser ones fit kMaxBytes.
@@ -78,7 +79,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
   // which would otherwise fill with the whole file.
   const int f = finest.factor;
   int block_height = 1, unused_width = 1;
-  first_handle->GetRasterBand(first_band)->GetBlockSize(&unused_width, &block_height);
+  first_band.GetBlockSize(&unused_width, &block_height);
   int band_rows = f * std::max(1, (block_height + f - 1) / f);
   if (double(band_rows) * width * sizeof(float) > kMaxBandBytes) band_rows = f;
   const int band_count = (height + band_rows - 1) / band_rows;
@@ -143,7 +144,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
       });
     });
   }
-  guarded([&] { buildBands(*first_handle->GetRasterBand(first_band)); });
+  guarded([&] { buildBands(first_band); });
   for (std::thread& thread : threads) thread.join();
   if (failed) throw InputError("dem: cannot read '" + shortened(path) + "' (" + failure + ")");
   // Zooms that read the levels alone still report what the file holds.
