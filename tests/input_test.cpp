@@ -885,6 +885,33 @@ TEST(Inputs, AWholeGlobeDemMakesTheSameTilesWhereverItsColumnsStart) {
   }
 }
 
+// A world DEM of pixel centres from -180 to 180 (ETOPO1's grid-registered
+// files, GMT's gridline grids) repeats a column at the antimeridian: it is
+// the whole globe too, read across the antimeridian as one without the
+// repeat. (It was once read only to its edges there: the tiles either side
+// of the antimeridian differed from those of the same world 360 columns wide.)
+TEST(Inputs, AWorldDemRepeatingItsFirstColumnAt180ReadsAcrossTheAntimeridian) {
+  const fs::path dir = caseDir();
+  // Smooth round the globe, one turn every 360 columns.
+  const auto world = [](int c, int r) {
+    const double lon = c * M_PI / 180, colat = r * M_PI / 180;
+    return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
+  };
+  const double centres[6] = {-180.5, 1, 0, 90.5, 0, -1};
+  writeDem(dir / "repeated.tif", 361, 181, centres, world);
+  writeDem(dir / "once.tif", 360, 181, centres, world);
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    SCOPED_TRACE(scheme);
+    for (const std::string name : {"repeated", "once"}) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-2");
+      args.insert(args.end(), {"--scheme", scheme});
+      const RunResult r = run(args);
+      ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+    }
+    expectSameTiles(dir / scheme / "repeated", dir / scheme / "once");
+  }
+}
+
 // ---------------------------------------------------------- nothing to make
 
 TEST(Inputs, JobsThatMakeNothingSayWhyWithTheirExitCode) {

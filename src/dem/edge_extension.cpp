@@ -49,6 +49,23 @@ std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
   return float(sum / count);
 }
 
+// The columns of one turn round the globe of a `file` that spans it (its
+// width, or its width less the repeated column), else 0.
+int pixelsInATurn(GDALDataset& file) {
+  const int width = file.GetRasterXSize();
+  double gt[6];
+  const OGRSpatialReference* srs = file.GetSpatialRef();
+  if (!srs || !srs->IsGeographic() || file.GetGeoTransform(gt) != CE_None || gt[1] == 0 ||
+      3.0 * width > double(std::numeric_limits<int>::max())) {
+    return 0;
+  }
+  const double cell = std::abs(gt[1]);
+  for (const int turn_px : {width, width - 1}) {
+    if (turn_px > 0 && std::abs(turn_px * cell - 360) <= EdgeExtension::kWholeGlobeSlack * cell) return turn_px;
+  }
+  return 0;
+}
+
 }  // namespace
 
 GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
@@ -59,12 +76,10 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   // other: a whole turn either side holds them, so that every read near the
   // antimeridian (a tile's apron, a hole fill's margin, a coarse texel's
   // footprint) finds the heights across it, as one anywhere else does.
-  const OGRSpatialReference* srs = file.GetSpatialRef();
-  const bool whole_globe = srs && srs->IsGeographic() &&
-                           std::abs(width * std::abs(gt[1]) - 360) <= kWholeGlobeSlack * std::abs(gt[1]) &&
-                           3.0 * width <= double(std::numeric_limits<int>::max());
-  const int border_x = whole_globe ? width : kPixels;
-  VRTDatasetH vrt = VRTCreate(width + 2 * border_x, height + 2 * kPixels);
+  const int turn_px = pixelsInATurn(file);
+  const int border_x = turn_px ? turn_px : kPixels;
+  const int own_width = turn_px ? turn_px : width;  // a repeated last column is left out
+  VRTDatasetH vrt = VRTCreate(own_width + 2 * border_x, height + 2 * kPixels);
   if (!vrt) return nullptr;
   gt[0] -= border_x * gt[1];
   gt[3] -= kPixels * gt[5];
@@ -75,9 +90,9 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   // Where no source reaches, a VRT reads its nodata value: NaN, a void.
   GDALSetRasterNoDataValue(band, NAN);
   GDALRasterBandH source = GDALRasterBand::ToHandle(file.GetRasterBand(band_index));
-  for (int turn = whole_globe ? -1 : 0; turn <= (whole_globe ? 1 : 0); ++turn) {
-    if (VRTAddSimpleSource(band, source, 0, 0, width, height, border_x + turn * width, kPixels, width, height,
-                           nullptr, VRT_NODATA_UNSET) != CE_None) {
+  for (int turn = turn_px ? -1 : 0; turn <= (turn_px ? 1 : 0); ++turn) {
+    if (VRTAddSimpleSource(band, source, 0, 0, own_width, height, border_x + turn * own_width, kPixels, own_width,
+                           height, nullptr, VRT_NODATA_UNSET) != CE_None) {
       GDALClose(vrt);
       return nullptr;
     }

@@ -36,17 +36,17 @@ class EdgeExtension {
   static constexpr int kSourceExtra = kPixels + 3;
 
   // A geographic raster within this share of a pixel of 360 degrees wide
-  // spans the whole globe, its last pixel next to its first. (A grid of
-  // pixel centres from -180 to 180, one pixel over, repeats a column: it
-  // keeps the void border.)
+  // spans the whole globe, its last pixel next to its first; so does one a
+  // pixel wider, a grid of pixel centres from -180 to 180 whose last column
+  // repeats its first.
   static constexpr double kWholeGlobeSlack = 1e-6;
 
   // `file` (band `band`, as Float32) inside a border of kPixels void pixels, as a
   // new in-memory VRT over it that the caller closes: beyond the file's edge
   // a read then finds pixels that extendIntoVoids can fill. Where a
   // geographic `file` spans the whole globe, its east and west borders are
-  // a whole turn of it each instead. `file` must outlive it. Returns nullptr
-  // when GDAL cannot make it.
+  // a whole turn of it each instead (without a repeated last column). `file`
+  // must outlive it. Returns nullptr when GDAL cannot make it.
   static GDALDataset* withVoidBorder(GDALDataset& file, int band = 1);
 };
 
