@@ -1,4 +1,4 @@
-// Runs that stop and start again (crash and resume, shards): a run killed
+// Runs that stop and start again (crash, full disk and resume, shards): a run killed
 // with SIGKILL halfway and resumed leaves exactly the layer an uninterrupted
 // run writes, no partial file ever sits under a final name, and three shards
 // together write the single run's layer with no tile twice.
@@ -27,6 +27,8 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr auto kRunLimit = std::chrono::minutes(5);
+// The documented exit code of an unwritable output (README "Exit codes").
+constexpr int kExitInput = 3;
 // The crash comes once this many meshes exist: well into the run (about a
 // fifth of its tiles), never at its end.
 constexpr std::size_t kMeshesBeforeCrash = 12;
@@ -111,6 +113,69 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
 }
 
 // What the sqlite3 tool prints for `sql` on `file`, read-only.
+// Quotes `text` for sh.
+std::string shellQuoted(const std::string& text) {
+  std::string quoted = "'";
+  for (const char c : text) quoted += c == '\'' ? std::string("'\\''") : std::string(1, c);
+  return quoted + "'";
+}
+
+std::string joined(const std::vector<std::string>& words) {
+  std::string line;
+  for (const std::string& word : words) line += (line.empty() ? "" : " ") + shellQuoted(word);
+  return line;
+}
+
+// A disk that fills during a run: the layer goes to a tmpfs a third the
+// size of the layer, in a mount namespace of the test's own (unshare -rm,
+// no privileges needed where user namespaces are allowed).
+TEST(Resume, AFullDiskStopsTheRunAtItsFirstTileAndResumesToTheUninterruptedLayer) {
+  if (std::system("unshare -rm true >/dev/null 2>&1") != 0) {
+    GTEST_SKIP() << "needs a mount namespace (unshare -rm) to fill a small tmpfs";
+  }
+  const fs::path whole_dir = freshDir("before_full"), work = freshDir("full");
+  test::ChildProcess whole(jobArgs(whole_dir));
+  ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
+  const auto expected = test::snapshot(whole_dir / "layer");
+  const int tiles = summaryCount(whole.out(), "wrote");
+  std::size_t pages = 0;  // what tmpfs counts: whole pages per file
+  for (const auto& [path, bytes] : expected) pages += (bytes.size() + 4095) / 4096;
+
+  const fs::path disk = work / "disk", kept = work / "kept";
+  fs::create_directories(disk);
+  std::vector<std::string> resume_args = jobArgs(disk);
+  resume_args.push_back("--resume");
+  const std::string exe = shellQuoted(TERRABAKE_EXE), at = shellQuoted(work.string());
+  const std::string script =
+      "mount -t tmpfs -o size=" + std::to_string(pages / 3 * 4096) + " none " + shellQuoted(disk.string()) +
+      " || exit 1; " + exe + " " + joined(jobArgs(disk)) + " >" + at + "/full.out 2>" + at + "/full.err; echo $? >" +
+      at + "/full.code; mount -o remount,size=" + std::to_string(pages * 3 * 4096) + " " +
+      shellQuoted(disk.string()) + " || exit 1; " + exe + " " + joined(resume_args) + " >" + at +
+      "/resumed.out 2>" + at + "/resumed.err; echo $? >" + at + "/resumed.code; cp -a " +
+      shellQuoted((disk / "layer").string()) + " " + shellQuoted(kept.string());
+  ASSERT_EQ(std::system(("unshare -rm sh -c " + shellQuoted(script)).c_str()), 0);
+
+  // One error, for the tile the disk refused first, and the run ends there
+  // (it once went on to fail every tile after it, one error line each).
+  const std::string full_err = test::readBytes(work / "full.err");
+  EXPECT_EQ(std::stoi(test::readBytes(work / "full.code")), kExitInput) << full_err;
+  EXPECT_NE(full_err.find("No space left on device; the run stopped there; the "), std::string::npos) << full_err;
+  EXPECT_NE(full_err.find("make room and run it again with --resume"), std::string::npos) << full_err;
+  std::size_t errors = 0;
+  for (std::size_t at_error = full_err.find("error:"); at_error != std::string::npos;
+       at_error = full_err.find("error:", at_error + 1)) {
+    ++errors;
+  }
+  EXPECT_EQ(errors, 1u) << full_err;
+
+  // Room made, --resume makes the rest: the layer an uninterrupted run writes.
+  const std::string resumed_out = test::readBytes(work / "resumed.out");
+  EXPECT_EQ(std::stoi(test::readBytes(work / "resumed.code")), 0) << test::readBytes(work / "resumed.err");
+  EXPECT_GT(summaryCount(resumed_out, "skipped"), 0) << resumed_out;
+  EXPECT_EQ(summaryCount(resumed_out, "skipped") + summaryCount(resumed_out, "wrote"), tiles) << resumed_out;
+  EXPECT_TRUE(test::snapshot(kept) == expected) << "the resumed layer differs from an uninterrupted run";
+}
+
 std::string sqlite(const fs::path& file, const std::string& sql) {
   const std::string command = "sqlite3 -readonly '" + file.string() + "' \"" + sql + "\"";
   std::unique_ptr<FILE, int (*)(FILE*)> pipe(::popen(command.c_str(), "r"), ::pclose);

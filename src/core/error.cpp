@@ -1,6 +1,8 @@
 #include "core/error.hpp"
 
 #include <algorithm>
+#include <cerrno>
+#include <system_error>
 
 namespace terrabake {
 
@@ -11,9 +13,11 @@ std::string oneLine(std::string text) {
   return text;
 }
 
-}  // namespace terrabake
-
-namespace terrabake {
+void throwIoError(const std::string& what, const std::string& path, int error) {
+  const std::string message = what + " '" + path + "': " + std::generic_category().message(error);
+  if (error == ENOSPC || error == EDQUOT || error == EROFS) throw OutputStorageError(message);
+  throw InputError(message);
+}
 
 std::string shortened(const std::string& text, std::size_t max_bytes) {
   if (text.size() <= max_bytes) return text;

@@ -40,6 +40,16 @@ struct InputError : Error {
   explicit InputError(const std::string& message) : Error(ExitCode::kInput, message) {}
 };
 
+// A write the output's storage refuses, and will refuse for every tile after
+// it: no space left, over quota, read-only. A run stops at the first.
+struct OutputStorageError : InputError {
+  explicit OutputStorageError(const std::string& message) : InputError(message) {}
+};
+
+// Throws OutputStorageError for an errno value of that kind (ENOSPC, EDQUOT,
+// EROFS), else InputError: "<what> '<path>': <the error's description>".
+[[noreturn]] void throwIoError(const std::string& what, const std::string& path, int error);
+
 // A job that cannot make any tile, for a reason that is not an error of the
 // command line or of the files (all its DEM samples are voids, the DEM lies
 // beyond the scheme's latitudes, the bbox misses the DEM): main() logs the

@@ -52,9 +52,7 @@ const std::string& writerTag() {
   return tag;
 }
 
-[[noreturn]] void throwWriteError(const std::string& path, int error) {
-  throw InputError("cannot write '" + path + "': " + std::generic_category().message(error));
-}
+[[noreturn]] void throwWriteError(const std::string& path, int error) { throwIoError("cannot write", path, error); }
 
 void writeAll(int fd, const std::vector<std::uint8_t>& bytes) {
   std::size_t done = 0;

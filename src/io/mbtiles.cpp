@@ -77,7 +77,11 @@ struct MbtilesFile::Impl {
   [[noreturn]] void fail(const std::string& what) const {
     const std::string reason = db ? sqlite3_errmsg(db) : "out of memory";
     if (db && sqlite3_errcode(db) == SQLITE_NOTADB) notOurs(reason);
-    throw InputError("'" + path + "': " + what + ": " + reason);
+    const std::string message = "'" + path + "': " + what + ": " + reason;
+    if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_errcode(db) == SQLITE_READONLY)) {
+      throw OutputStorageError(message);
+    }
+    throw InputError(message);
   }
 
   void exec(const std::string& sql, const std::string& what) {

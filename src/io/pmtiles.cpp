@@ -11,7 +11,6 @@
 #include <cstring>
 #include <functional>
 #include <stdexcept>
-#include <system_error>
 
 #include <nlohmann/json.hpp>
 
@@ -67,16 +66,12 @@ std::uint64_t getLe(std::string_view bytes, std::size_t at, int count) {
 std::uint32_t position(double degrees) { return std::uint32_t(std::int32_t(std::lround(degrees * kPositionScale))); }
 double degreesOf(std::uint64_t stored) { return double(std::int32_t(std::uint32_t(stored))) / kPositionScale; }
 
-[[noreturn]] void throwIo(const std::string& what, const std::string& path, int error) {
-  throw InputError(what + " '" + path + "': " + std::generic_category().message(error));
-}
-
 void writeAll(int fd, const char* data, std::size_t size, const std::string& path) {
   while (size > 0) {
     const ssize_t n = ::write(fd, data, size);
     if (n < 0) {
       if (errno == EINTR) continue;
-      throwIo("cannot write", path, errno);
+      throwIoError("cannot write", path, errno);
     }
     data += n;
     size -= std::size_t(n);
@@ -90,7 +85,7 @@ std::string preadAll(int fd, std::uint64_t offset, std::uint64_t length, const s
     const ssize_t n = ::pread(fd, bytes.data() + done, bytes.size() - done, off_t(offset + done));
     if (n < 0) {
       if (errno == EINTR) continue;
-      throwIo("cannot read", path, errno);
+      throwIoError("cannot read", path, errno);
     }
     if (n == 0) throw InputError("cannot read '" + path + "': it ends before byte " + std::to_string(offset + length));
     done += std::size_t(n);
@@ -386,8 +381,8 @@ void PmtilesWriter::finish(const std::string& tilejson, const std::string& job) 
       }
     }
     writeAll(archive.fd, chunk.data(), chunk.size(), archive.path);
-    if (::close(archive.fd) != 0) throwIo("cannot write", archive.path, errno);
-    if (::rename(archive.path.c_str(), m_path.c_str()) != 0) throwIo("cannot write", m_path, errno);
+    if (::close(archive.fd) != 0) throwIoError("cannot write", archive.path, errno);
+    if (::rename(archive.path.c_str(), m_path.c_str()) != 0) throwIoError("cannot write", m_path, errno);
   } catch (...) {
     ::close(archive.fd);  // EBADF when closed already: harmless
     ::unlink(archive.path.c_str());
@@ -397,12 +392,12 @@ void PmtilesWriter::finish(const std::string& tilejson, const std::string& job) 
 
 PmtilesReader::PmtilesReader(const std::string& path) : m_path(path) {
   m_fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-  if (m_fd < 0) throwIo("cannot open", path, errno);
+  if (m_fd < 0) throwIoError("cannot open", path, errno);
   struct stat status {};
   if (::fstat(m_fd, &status) != 0) {
     const int error = errno;
     ::close(m_fd);
-    throwIo("cannot read", path, error);
+    throwIoError("cannot read", path, error);
   }
   m_size = std::uint64_t(status.st_size);
   try {

@@ -6,6 +6,7 @@
 #include <exception>
 #include <filesystem>
 #include <mutex>
+#include <optional>
 #include <thread>
 
 #include <unistd.h>
@@ -94,6 +95,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
+  std::optional<std::string> storage_refused;  // the first tile the output's storage refused, and why
   std::once_flag renderer_logged;
   std::mutex times_mutex;
   StageTimes times;  // of every worker, summed when each ends
@@ -129,6 +131,12 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         } else {
           ++empty;
         }
+      } catch (const OutputStorageError& e) {
+        // Every tile after it would fail the same way: stop the run here.
+        std::lock_guard<std::mutex> lock(fatal_mutex);
+        if (!storage_refused) storage_refused = "tile " + tile.str() + ": " + oneLine(e.what());
+        next = count;
+        break;
       } catch (const std::exception& e) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));
         ++failed;
@@ -146,6 +154,19 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   for (auto& t : threads) t.join();
   progress.finish();
   if (fatal) std::rethrow_exception(fatal);
+  if (storage_refused) {
+    try {
+      sink->close();  // itself refused, perhaps: what it says comes before the reason
+    } catch (const std::exception& e) {
+      log::warning(oneLine(e.what()));
+    }
+    // A PMTiles archive is written whole at the end: the run left none.
+    const std::string kept = job.format == OutputFormat::kPmtiles
+                                 ? "make room and run the job again"
+                                 : "the " + std::to_string(written) +
+                                       " tiles written are whole: make room and run it again with --resume";
+    throw OutputStorageError(*storage_refused + "; the run stopped there; " + kept);
+  }
   if (times.tiles > 0) log::info("time per tile, in the workers: " + times.perTile());
 
   summary.written = written;
