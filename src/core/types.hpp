@@ -49,6 +49,8 @@ struct GridSpec {
   int height = 0;
   double centreX(double col) const { return origin_x + (col + 0.5) * cell_w; }
   double centreY(double row) const { return origin_y - (row + 0.5) * cell_h; }
+  // Rows from the north edge down to `y` (row r's centre is at r + 0.5).
+  double rowsDownTo(double y) const { return (origin_y - y) / cell_h; }
 };
 
 // Row-major 2D array, row 0 first (north for rasters, top for images).

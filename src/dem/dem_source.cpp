@@ -35,12 +35,11 @@ PastThePoles pastThePoles(const GridSpec& grid) {
   constexpr double kOnABoundary = 1e-6;  // of a cell
   const double bottom = grid.origin_y - grid.height * grid.cell_h;
   if ((grid.origin_y <= 90 && bottom >= -90) || !isLonLatCrs(grid.crs)) return {};
-  const auto rowsBeyond = [&](double span) {
-    if (span <= 0) return 0;
-    const double rows = span / grid.cell_h;
+  const auto rowsBeyond = [&](double rows) {
+    if (rows <= 0) return 0;
     return std::abs(rows - std::round(rows)) < kOnABoundary ? int(std::min(std::round(rows), double(grid.height))) : -1;
   };
-  const int north = rowsBeyond(grid.origin_y - 90), south = rowsBeyond(-90 - bottom);
+  const int north = rowsBeyond(grid.rowsDownTo(90)), south = rowsBeyond(grid.height - grid.rowsDownTo(-90));
   if (north < 0 || south < 0 || north + south > grid.height) return {};
   return {north, south};
 }

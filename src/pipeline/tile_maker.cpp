@@ -206,8 +206,7 @@ struct TileMaker::Impl {
     samples.position = Raster<glm::dvec3>(grid.width, grid.height);
     if (dem::isLonLatCrs(grid.crs)) {
       for (const double pole_lat : {90.0, -90.0}) {
-        // Sample r's centre lies r + 0.5 cells below the grid's north edge.
-        const double row = (grid.origin_y - pole_lat) / grid.cell_h - 0.5;
+        const double row = grid.rowsDownTo(pole_lat) - 0.5;  // in samples, centre to centre
         if (row >= 0 && row <= grid.height - 1) samples.pole_rows.push_back(row);
       }
     }
