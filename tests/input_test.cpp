@@ -857,6 +857,28 @@ TEST(Inputs, AWorldDemOfPixelCentresTilesTheWholeGlobe) {
   }
 }
 
+// Heights smooth round the globe, at a longitude counted from -180 and a
+// colatitude: whole waves along each parallel, none at the poles.
+float broadWorldHeight(double lon_from_west_deg, double colat_deg) {
+  const double lon = lon_from_west_deg * M_PI / 180, colat = colat_deg * M_PI / 180;
+  return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
+}
+
+// Expects DEMs `a` and `b` (.tif files in `dir`) to make the same bytes at
+// zooms 0-2 in the Web Mercator and geodetic schemes.
+void expectSameWorldTiles(const fs::path& dir, const std::string& a, const std::string& b) {
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    SCOPED_TRACE(scheme);
+    for (const std::string& name : {a, b}) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-2");
+      args.insert(args.end(), {"--scheme", scheme});
+      const RunResult r = run(args);
+      ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+    }
+    expectSameTiles(dir / scheme / a, dir / scheme / b);
+  }
+}
+
 // A whole-globe DEM reads on across the antimeridian and across the poles
 // as anywhere else, so where its columns start changes nothing: counted
 // from -180 or from 0, it makes the same bytes. (Both once read a border of
@@ -864,25 +886,12 @@ TEST(Inputs, AWorldDemOfPixelCentresTilesTheWholeGlobe) {
 // geodetic tiles at the poles differed by up to 223 steps.)
 TEST(Inputs, AWholeGlobeDemMakesTheSameTilesWhereverItsColumnsStart) {
   const fs::path dir = caseDir();
-  // Smooth round the globe: whole waves along each row, none at the poles.
-  const auto world = [](int c, int r) {
-    const double lon = (c + 0.5) * M_PI / 180, colat = (r + 0.5) * M_PI / 180;
-    return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
-  };
+  const auto world = [](int c, int r) { return broadWorldHeight(c + 0.5, r + 0.5); };
   const double from_minus_180[6] = {-180, 1, 0, 90, 0, -1};
   writeDem(dir / "minus180.tif", 360, 180, from_minus_180, world);
   const double from_zero[6] = {0, 1, 0, 90, 0, -1};
   writeDem(dir / "zero.tif", 360, 180, from_zero, [&](int c, int r) { return world((c + 180) % 360, r); });
-  for (const std::string scheme : {"webmercator", "geodetic"}) {
-    SCOPED_TRACE(scheme);
-    for (const std::string name : {"minus180", "zero"}) {
-      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-2");
-      args.insert(args.end(), {"--scheme", scheme});
-      const RunResult r = run(args);
-      ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
-    }
-    expectSameTiles(dir / scheme / "minus180", dir / scheme / "zero");
-  }
+  expectSameWorldTiles(dir, "minus180", "zero");
 }
 
 // A world DEM of pixel centres from -180 to 180 (ETOPO1's grid-registered
@@ -892,24 +901,11 @@ TEST(Inputs, AWholeGlobeDemMakesTheSameTilesWhereverItsColumnsStart) {
 // of the antimeridian differed from those of the same world 360 columns wide.)
 TEST(Inputs, AWorldDemRepeatingItsFirstColumnAt180ReadsAcrossTheAntimeridian) {
   const fs::path dir = caseDir();
-  // Smooth round the globe, one turn every 360 columns.
-  const auto world = [](int c, int r) {
-    const double lon = c * M_PI / 180, colat = r * M_PI / 180;
-    return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
-  };
+  const auto world = [](int c, int r) { return broadWorldHeight(c, r); };  // column 360 is column 0
   const double centres[6] = {-180.5, 1, 0, 90.5, 0, -1};
   writeDem(dir / "repeated.tif", 361, 181, centres, world);
   writeDem(dir / "once.tif", 360, 181, centres, world);
-  for (const std::string scheme : {"webmercator", "geodetic"}) {
-    SCOPED_TRACE(scheme);
-    for (const std::string name : {"repeated", "once"}) {
-      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "0-2");
-      args.insert(args.end(), {"--scheme", scheme});
-      const RunResult r = run(args);
-      ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
-    }
-    expectSameTiles(dir / scheme / "repeated", dir / scheme / "once");
-  }
+  expectSameWorldTiles(dir, "repeated", "once");
 }
 
 // ---------------------------------------------------------- nothing to make
