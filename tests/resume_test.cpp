@@ -1,7 +1,8 @@
-// Runs that stop and start again (crash, full disk and resume, shards): a run killed
-// with SIGKILL halfway and resumed leaves exactly the layer an uninterrupted
-// run writes, no partial file ever sits under a final name, and three shards
-// together write the single run's layer with no tile twice.
+// Runs that stop and start again (crash, full disk and resume, shards): a
+// run killed with SIGKILL halfway, or stopped by a full disk, and resumed
+// leaves exactly the layer an uninterrupted run writes, no partial file ever
+// sits under a final name, and three shards together write the single run's
+// layer with no tile twice.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -112,7 +113,6 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
   EXPECT_TRUE(test::snapshot(crash_dir / "layer") == expected) << "the resumed layer differs from an uninterrupted run";
 }
 
-// What the sqlite3 tool prints for `sql` on `file`, read-only.
 // Quotes `text` for sh.
 std::string shellQuoted(const std::string& text) {
   std::string quoted = "'";
@@ -120,6 +120,7 @@ std::string shellQuoted(const std::string& text) {
   return quoted + "'";
 }
 
+// `words` as one sh command line, each quoted.
 std::string joined(const std::vector<std::string>& words) {
   std::string line;
   for (const std::string& word : words) line += (line.empty() ? "" : " ") + shellQuoted(word);
@@ -176,6 +177,7 @@ TEST(Resume, AFullDiskStopsTheRunAtItsFirstTileAndResumesToTheUninterruptedLayer
   EXPECT_TRUE(test::snapshot(kept) == expected) << "the resumed layer differs from an uninterrupted run";
 }
 
+// What the sqlite3 tool prints for `sql` on `file`, read-only.
 std::string sqlite(const fs::path& file, const std::string& sql) {
   const std::string command = "sqlite3 -readonly '" + file.string() + "' \"" + sql + "\"";
   std::unique_ptr<FILE, int (*)(FILE*)> pipe(::popen(command.c_str(), "r"), ::pclose);
