@@ -7,8 +7,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <fstream>
-#include <iterator>
 #include <map>
 #include <vector>
 
@@ -321,10 +319,7 @@ TEST(DemEdgeCut, DrawsNothingWhereTheDemHasNoSample) {
     }
   }
   EXPECT_GT(dropped, 1000);
-  const std::string tilejson = [&] {
-    std::ifstream in(test::layerDir(job) / "tilejson.json");
-    return std::string(std::istreambuf_iterator<char>(in), {});
-  }();
+  const std::string tilejson = test::readBytes(test::layerDir(job) / "tilejson.json");
   EXPECT_NE(tilejson.find("\"nodata_surface\": \"cut\""), std::string::npos);
   EXPECT_NE(tilejson.find("\"alpha\": true"), std::string::npos);
 }

@@ -237,8 +237,7 @@ TEST(Inputs, ABoxAcrossTheAntimeridianMakesTheTilesOfBothSides) {
   for (const auto& tile : runBox("west", "-180,-0.2,-179.8,0.2")) sides.insert(tile);
   EXPECT_EQ(across.size(), 2u * 4) << "two tile columns a side of the equator, each side";
   EXPECT_EQ(across, sides);
-  std::ifstream tilejson(dir / "out" / "across" / "tilejson.json");
-  const std::string text((std::istreambuf_iterator<char>(tilejson)), std::istreambuf_iterator<char>());
+  const std::string text = test::readBytes(dir / "out" / "across" / "tilejson.json");
   EXPECT_TRUE(contains(text, "\"bounds\": [\n    179.8,\n    -0.2,\n    -179.8,")) << text;
 }
 

@@ -10,7 +10,6 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
-#include <iterator>
 #include <map>
 #include <set>
 
@@ -77,9 +76,7 @@ std::map<std::string, std::string> filesOf(const fs::path& layer, const std::str
   std::map<std::string, std::string> files;
   for (const auto& entry : fs::recursive_directory_iterator(layer)) {
     if (!entry.is_regular_file() || entry.path().extension() != extension) continue;
-    std::ifstream in(entry.path(), std::ios::binary);
-    files[fs::relative(entry.path(), layer).string()] =
-        std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+    files[fs::relative(entry.path(), layer).string()] = test::readBytes(entry.path());
   }
   return files;
 }

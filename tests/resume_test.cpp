@@ -256,8 +256,10 @@ TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {
 // Two different jobs started at the same moment into one new layer, each
 // with every write of the job record slowed down (slow_job_record.cpp) so
 // that their claims overlap: the claim is atomic, so exactly one of them gets
-// the layer and the other is refused, however their steps interleave.
-constexpr int kRaceTries = 20;
+// the layer and the other is refused, however their steps interleave. The
+// slowed writes make every try overlap, so a few tries cover the orders in
+// which the two reach the record (each try is a whole run, 2-5 s).
+constexpr int kRaceTries = 6;
 
 // Sets LD_PRELOAD for the children started in its lifetime. Under
 // AddressSanitizer (the `asan` preset) a child refuses to start when its ASan

@@ -5,7 +5,6 @@
 #include <cstring>
 #include <fstream>
 #include <glm/geometric.hpp>
-#include <iterator>
 #include <limits>
 #include <stdexcept>
 
@@ -35,9 +34,11 @@ uint32_t readU32(const uint8_t* p) {
 }
 
 std::vector<uint8_t> readFile(const std::filesystem::path& path) {
-  std::ifstream in(path, std::ios::binary);
+  std::ifstream in(path, std::ios::binary | std::ios::ate);
   if (!in) throw std::runtime_error("cannot open " + path.string());
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  std::vector<uint8_t> bytes(std::size_t(in.tellg()));
+  in.seekg(0).read(reinterpret_cast<char*>(bytes.data()), std::streamsize(bytes.size()));
+  return bytes;
 }
 
 int componentCount(const std::string& type) {
