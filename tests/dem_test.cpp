@@ -677,6 +677,19 @@ TEST(Gdal, TheBlockCacheIsBoundedWhateverTheMachinesMemory) {
   EXPECT_EQ(GDALGetCacheMax64(), GIntBig(256) << 20);
 }
 
+// Each block the cache takes in is fresh memory: a run holds it to what its
+// workers read at once, and never past the bound above.
+TEST(Gdal, TheBlockCacheIsSizedForTheWorkersWithinItsBounds) {
+  ASSERT_EQ(CPLGetConfigOption("GDAL_CACHEMAX", nullptr), nullptr) << "the test needs GDAL_CACHEMAX unset";
+  constexpr GIntBig kMiB = GIntBig(1) << 20;
+  const std::vector<std::pair<int, GIntBig>> workers_to_cache = {
+      {1, 32 * kMiB}, {2, 32 * kMiB}, {5, 80 * kMiB}, {16, 256 * kMiB}, {64, 256 * kMiB}};
+  for (const auto& [workers, cache] : workers_to_cache) {
+    dem::DemSource::shareBlockCacheAmong(workers);
+    EXPECT_EQ(GDALGetCacheMax64(), cache) << workers << " workers";
+  }
+}
+
 TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
   GDALAllRegister();
   constexpr int kWidth = 1100, kHeight = 1030;  // two levels: 550 and 275 wide

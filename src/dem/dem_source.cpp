@@ -210,6 +210,8 @@ int DemSource::openDatasetLimit() {
   return int(std::clamp((files - 128) / 2, 8L, 4096L));
 }
 
+void DemSource::shareBlockCacheAmong(int readers) { sizeBlockCacheFor(readers); }
+
 DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& options) {
   ensureGdalReady();
   const std::vector<std::string> expanded = expandGlobs(paths);

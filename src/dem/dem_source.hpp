@@ -116,6 +116,10 @@ class DemSource {
   // from the open-file limit (RLIMIT_NOFILE), leaving room for the rest.
   static int openDatasetLimit();
 
+  // Sizes GDAL's block cache, shared by every reader of the process, for
+  // this many readers reading at once.
+  static void shareBlockCacheAmong(int readers);
+
  private:
   struct Shared;
   DemSource() = default;

@@ -3,6 +3,7 @@
 #include <cpl_conv.h>
 #include <gdal.h>
 
+#include <algorithm>
 #include <mutex>
 
 #include "core/error.hpp"
@@ -17,8 +18,15 @@ void CPL_STDCALL routeGdalMessage(CPLErr level, CPLErrorNum, const char* message
   if (level == CE_Warning) log::debug(std::string("gdal: ") + message);
 }
 
-// Enough for the blocks of a few tile windows per worker.
-constexpr GIntBig kGdalBlockCacheBytes = GIntBig(256) << 20;
+// GDAL's block cache. Each reader reads through handles of its own, so the
+// cache holds every reader's blocks apart, and each block it takes in is
+// fresh memory the system must map: a smaller cache reuses that memory. A
+// few tile windows per reader is enough.
+constexpr GIntBig kBlockCacheBytesPerReader = GIntBig(16) << 20;
+constexpr GIntBig kMinBlockCacheBytes = GIntBig(32) << 20;
+constexpr GIntBig kMaxBlockCacheBytes = GIntBig(256) << 20;
+
+bool blockCacheSetByUser() { return CPLGetConfigOption("GDAL_CACHEMAX", nullptr) != nullptr; }
 
 }  // namespace
 
@@ -37,10 +45,17 @@ void ensureGdalReady() {
     // GDAL's block cache grows to 5% of the machine's memory by default,
     // and a deep zoom of a large file reads every block of it once: a
     // 16384² GeoTIFF's zoom 14 peaked at 1.5 GiB, not faster than with a
-    // 16 MiB cache (each worker reads through its own handles, so blocks
-    // are hardly reused). GDAL_CACHEMAX in the environment wins.
-    if (!CPLGetConfigOption("GDAL_CACHEMAX", nullptr)) GDALSetCacheMax64(kGdalBlockCacheBytes);
+    // 16 MiB cache (blocks are hardly reused). GDAL_CACHEMAX in the
+    // environment wins.
+    if (!blockCacheSetByUser()) GDALSetCacheMax64(kMaxBlockCacheBytes);
   });
+}
+
+void sizeBlockCacheFor(int readers) {
+  ensureGdalReady();
+  if (blockCacheSetByUser()) return;
+  GDALSetCacheMax64(std::clamp(GIntBig(std::max(readers, 1)) * kBlockCacheBytesPerReader, kMinBlockCacheBytes,
+                               kMaxBlockCacheBytes));
 }
 
 std::string lastGdalError() {

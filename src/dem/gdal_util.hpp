@@ -11,6 +11,11 @@ namespace terrabake::dem {
 // before any GDAL use; later calls do nothing.
 void ensureGdalReady();
 
+// Holds GDAL's block cache to what `readers` reading at once need (16 MiB
+// each, 32 MiB to 256 MiB in all; 256 MiB until called). GDAL_CACHEMAX in
+// the environment wins.
+void sizeBlockCacheFor(int readers);
+
 // GDAL's last error message on one line, or a placeholder when it has none.
 std::string lastGdalError();
 

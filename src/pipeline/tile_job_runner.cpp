@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "dem/dem_source.hpp"
 #include "gl/baker_factory.hpp"
 #include "pipeline/progress.hpp"
 #include "pipeline/tile_maker.hpp"
@@ -88,6 +89,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const std::size_t count = std::size_t(mine);
 
   const int workers = int(std::max<std::uint64_t>(1, std::min<std::uint64_t>(std::uint64_t(plan->workers), mine)));
+  dem::DemSource::shareBlockCacheAmong(workers);
   if (gl::fitSoftwareRasteriserTo(workers)) {
     log::debug("LP_NUM_THREADS=0: the " + std::to_string(workers) + " workers fill the cores, so llvmpipe rasterises on them");
   }
