@@ -54,8 +54,7 @@ void ensureGdalReady() {
 void sizeBlockCacheFor(int readers) {
   ensureGdalReady();
   if (blockCacheSetByUser()) return;
-  GDALSetCacheMax64(std::clamp(GIntBig(std::max(readers, 1)) * kBlockCacheBytesPerReader, kMinBlockCacheBytes,
-                               kMaxBlockCacheBytes));
+  GDALSetCacheMax64(std::clamp(GIntBig(readers) * kBlockCacheBytesPerReader, kMinBlockCacheBytes, kMaxBlockCacheBytes));
 }
 
 std::string lastGdalError() {
