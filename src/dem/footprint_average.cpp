@@ -262,6 +262,30 @@ struct FootprintSums {
   }
 };
 
+// RowSums for many texels or columns, an array per quantity.
+struct SumArrays {
+  std::vector<double> height, valid, data;
+
+  explicit SumArrays(std::size_t count) : height(count), valid(count), data(count) {}
+  void set(std::size_t k, const RowSums& sums) {
+    height[k] = sums.height, valid[k] = sums.valid, data[k] = sums.data;
+  }
+  // Entries [first, first + n) of these gain `share` times the n of `row`.
+  void addScaled(std::size_t first, const SumArrays& row, double share) {
+    double* __restrict h = &height[first];
+    double* __restrict v = &valid[first];
+    double* __restrict d = &data[first];
+    const double* __restrict rh = row.height.data();
+    const double* __restrict rv = row.valid.data();
+    const double* __restrict rd = row.data.data();
+    for (std::size_t c = 0; c < row.height.size(); ++c) {
+      h[c] += share * rh[c];
+      v[c] += share * rv[c];
+      d[c] += share * rd[c];
+    }
+  }
+};
+
 // The pixels footprints reach, within the raster: [col0, col1] x [row0, row1].
 struct PixelReach {
   long col0 = 0, col1 = -1, row0 = 0, row1 = -1;
@@ -386,31 +410,36 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   for (std::size_t c = 0; c < columns.size(); ++c) spanWeights(columns[c], reach.col0, reach.col1, column_weights[c]);
   for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], reach.row0, reach.row1, row_weights[r]);
   const std::size_t width = columns.size();
-  std::vector<FootprintSums> sums(width * rows.size());
-  std::vector<RowSums> along_row(width);
+  // One array per quantity, for every texel and for each column's sums along
+  // the current DEM row, so that adding a row's sums to a row of texels is a
+  // loop the compiler vectorises. A column off the raster adds zeros.
+  SumArrays sums(width * rows.size()), along_row(width);
   const auto add = [&](const SourceWindow& strip, long top, long bottom) {
     for (long y = top; y <= bottom; ++y) {
       for (std::size_t c = 0; c < width; ++c) {
         const Span& x = columns[c];
-        along_row[c] = RowSums{};
-        if (reach.offAlongX(x)) continue;
-        const long x_from = std::max(x.first, strip.col0), x_to = std::min(x.last, strip.col0 + strip.width - 1);
-        for (long at = x_from, i = long(strip.indexOf(x_from, y)); at <= x_to; ++at, ++i) {
-          along_row[c].addPixel(strip, std::size_t(i), column_weights[c].at(at));
+        RowSums along;
+        if (!reach.offAlongX(x)) {
+          const long x_from = std::max(x.first, strip.col0), x_to = std::min(x.last, strip.col0 + strip.width - 1);
+          for (long at = x_from, i = long(strip.indexOf(x_from, y)); at <= x_to; ++at, ++i) {
+            along.addPixel(strip, std::size_t(i), column_weights[c].at(at));
+          }
         }
+        along_row.set(c, along);
       }
       for (std::size_t r = 0; r < rows.size(); ++r) {
         if (y < rows[r].first || y > rows[r].last) continue;
-        const double share = row_weights[r].at(y);
-        for (std::size_t c = 0; c < width; ++c) {
-          if (!reach.offAlongX(columns[c])) sums[r * width + c].addRow(along_row[c], share);
-        }
+        sums.addScaled(r * width, along_row, row_weights[r].at(y));
       }
     }
   };
   if (!forEachStrip(band, reach, voids, add)) return std::nullopt;
   for (std::size_t r = 0; r < rows.size(); ++r) {
-    for (std::size_t c = 0; c < width; ++c) heights.data[r * width + c] = meanOver(sums[r * width + c], columns[c], rows[r]);
+    for (std::size_t c = 0; c < width; ++c) {
+      const std::size_t k = r * width + c;
+      const FootprintSums texel{sums.height[k], sums.valid[k], sums.data[k]};
+      heights.data[k] = meanOver(texel, columns[c], rows[r]);
+    }
   }
   return heights;
 }
