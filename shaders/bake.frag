@@ -3,8 +3,10 @@
 // on its centre (drawn as a point, see src/gl/gl_baker.cpp). The work per
 // texel is left to the second pass.
 in vec3 v_normal;
-out vec4 o_normal;  // alpha 1 marks a texel a high-res vertex covers
+out vec2 o_normal;  // octahedron-encoded; texels no vertex covers keep the clear colour, no normal
+
+vec2 octahedronEncoded(vec3 n);  // octahedron.frag
 
 void main() {
-  o_normal = vec4(v_normal, 1.0);
+  o_normal = octahedronEncoded(v_normal);
 }

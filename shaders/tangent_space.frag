@@ -6,25 +6,24 @@ in vec3 v_normal;
 in vec3 v_tangent;
 in vec3 v_bitangent;
 
-// The normal, octahedron-encoded: two floats hold a unit vector to float
-// rounding, and the read back, the slowest part of a bake on a hardware GPU
-// after the first pass, moves two thirds of the bytes of RGB.
+// The normal, octahedron-encoded: the read back, the slowest part of a bake
+// on a hardware GPU after the first pass, moves two thirds of the bytes of
+// RGB.
 out vec2 o_normal;
 
-uniform sampler2D u_high_normal;
+uniform sampler2D u_high_normal;  // the first pass's, octahedron-encoded
 
-// Outside the octahedron's square: a texel no high-res triangle covers.
+// octahedron.frag
+vec2 octahedronEncoded(vec3 n);
+vec3 octahedronDecoded(vec2 p);
+bool holdsNoNormal(vec2 p);
+
+// Outside the octahedron's square: a texel no high-res vertex covers.
 const float kNoNormal = 2.0;
 
-vec2 octahedronEncoded(vec3 n) {
-  vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
-  if (n.z < 0.0) p = (1.0 - abs(p.yx)) * vec2(p.x >= 0.0 ? 1.0 : -1.0, p.y >= 0.0 ? 1.0 : -1.0);
-  return p;
-}
-
 void main() {
-  vec4 high = texelFetch(u_high_normal, ivec2(gl_FragCoord.xy), 0);
-  if (high.a == 0.0) {
+  vec2 high = texelFetch(u_high_normal, ivec2(gl_FragCoord.xy), 0).xy;
+  if (holdsNoNormal(high)) {
     o_normal = vec2(kNoNormal);
     return;
   }
@@ -34,7 +33,7 @@ void main() {
   // the adjugate's (B x N, N x T, T x B) over the determinant; normalising a
   // column scales its row by the column's length, and the final normalize
   // drops the determinant but for its sign, and v's length.
-  vec3 t = v_tangent, b = v_bitangent, n = v_normal, v = high.xyz;
+  vec3 t = v_tangent, b = v_bitangent, n = v_normal, v = octahedronDecoded(high);
   vec3 bn = cross(b, n), nt = cross(n, t), tb = cross(t, b);
   float handedness = dot(t, bn) < 0.0 ? -1.0 : 1.0;
   vec3 x = handedness * vec3(length(t) * dot(bn, v), length(b) * dot(nt, v), length(n) * dot(tb, v));

@@ -16,8 +16,8 @@ namespace {
 
 // Tiles the shared GPU context keeps in flight. On an NVIDIA H200, 16
 // threads baking, 16 in flight made 5,647-5,731 tiles/s and 8 made
-// 5,425-5,495 (runs taking turns); each slot holds an RGBA32F and an RG32F
-// target and its read back, 2 MiB at 256 texels.
+// 5,425-5,495 (runs taking turns); each slot holds two RG32F targets and a
+// read back, 1.5 MiB at 256 texels.
 constexpr int kGpuTilesInFlight = 16;
 
 // The process's one service on the hardware GPU: made for the first worker
