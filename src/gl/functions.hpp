@@ -49,6 +49,7 @@ namespace terrabake::gl {
   X(PFNGLUSEPROGRAMPROC, UseProgram)                                \
   X(PFNGLGETUNIFORMLOCATIONPROC, GetUniformLocation)                \
   X(PFNGLUNIFORM1IPROC, Uniform1i)                                  \
+  X(PFNGLUNIFORM2IPROC, Uniform2i)                                  \
   X(PFNGLGENVERTEXARRAYSPROC, GenVertexArrays)                      \
   X(PFNGLDELETEVERTEXARRAYSPROC, DeleteVertexArrays)                \
   X(PFNGLBINDVERTEXARRAYPROC, BindVertexArray)                      \

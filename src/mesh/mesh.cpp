@@ -180,15 +180,6 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   return mesh;
 }
 
-std::vector<glm::vec2> highResUvs(int cols, int rows) {
-  std::vector<glm::vec2> uv;
-  uv.reserve(std::size_t(cols) * std::size_t(rows));
-  for (int j = 0; j < rows; ++j) {
-    for (int i = 0; i < cols; ++i) uv.emplace_back(float((i + 0.5) / cols), float((j + 0.5) / rows));
-  }
-  return uv;
-}
-
 TriangleMesh buildLowPolyMesh(const SampleGrid& samples, int grid) {
   const int s = samples.tile_size;
   const int a = samples.apron;

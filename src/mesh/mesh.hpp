@@ -34,10 +34,11 @@ struct SampleGrid {
 // vertex (i, j) is sample (apron + i, apron + j). Each grid cell is split
 // along its north-west to south-east diagonal into the triangles (NW, SW, SE)
 // and (NW, SE, NE), counter-clockwise seen from above. A bake needs only
-// where each vertex lies in UV space, which the grid alone fixes
-// (highResUvs), and its normal: the positions stay in the SampleGrid the
-// mesh is built from. No texel centre but a vertex's own lies inside the
-// triangles, so a bake writes each texel its vertex's normal.
+// where each vertex lies in UV space, which the grid alone fixes (vertex
+// (i, j) on the centre of texel (i, j)), and its normal: the positions stay
+// in the SampleGrid the mesh is built from. No texel centre but a vertex's
+// own lies inside the triangles, so a bake writes each texel its vertex's
+// normal.
 struct HighResMesh {
   int cols = 0;
   int rows = 0;
@@ -74,11 +75,6 @@ struct TrianglePoint {
 // Indices of a row-major grid of cols x rows vertices, split as above, the
 // cells row by row.
 std::vector<std::uint32_t> gridIndices(int cols, int rows);
-
-// The UV of each vertex of a HighResMesh of cols x rows vertices: vertex
-// (i, j) lies at the centre of texel (i, j), row-major like the mesh. The
-// same for every tile of a size.
-std::vector<glm::vec2> highResUvs(int cols, int rows);
 
 // Samples each side of the tile needed for a mesh of `grid` vertices a side:
 // the contract's three at least (docs/CONTRACT.md §3), of which the
