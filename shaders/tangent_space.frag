@@ -13,7 +13,7 @@ out vec2 o_normal;
 
 uniform sampler2D u_high_normal;  // the first pass's, octahedron-encoded
 
-// octahedron.frag
+// octahedron.glsl
 vec2 octahedronEncoded(vec3 n);
 vec3 octahedronDecoded(vec2 p);
 bool holdsNoNormal(vec2 p);

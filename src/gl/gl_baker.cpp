@@ -32,12 +32,13 @@ GLuint compileShader(const Functions& gl, GLenum type, const char* source) {
   return shader;
 }
 
-// A program of one vertex shader and a fragment stage whose functions the
-// octahedron shader completes.
+// A program of a vertex and a fragment shader, each linked with the
+// octahedron functions.
 GLuint linkProgram(const Functions& gl, const char* vertex_source, const char* fragment_source) {
   const GLuint stages[] = {compileShader(gl, GL_VERTEX_SHADER, vertex_source),
+                           compileShader(gl, GL_VERTEX_SHADER, shaders::kOctahedron),
                            compileShader(gl, GL_FRAGMENT_SHADER, fragment_source),
-                           compileShader(gl, GL_FRAGMENT_SHADER, shaders::kOctahedronFragment)};
+                           compileShader(gl, GL_FRAGMENT_SHADER, shaders::kOctahedron)};
   const GLuint program = gl.CreateProgram();
   for (GLuint shader : stages) gl.AttachShader(program, shader);
   gl.LinkProgram(program);
@@ -99,7 +100,7 @@ constexpr std::chrono::seconds kGpuStallLimit{60};
 // Vertex data goes to GL straight from the meshes' arrays.
 static_assert(sizeof(glm::vec3) == 3 * sizeof(float) && sizeof(glm::vec2) == 2 * sizeof(float));
 
-// The inverse of octahedron.frag's octahedronEncoded, a lane per texel;
+// The inverse of octahedron.glsl's octahedronEncoded, a lane per texel;
 // (0, 0, 0) where it wrote kNoNormal, a texel without a normal.
 void decodeOctahedra(const glm::vec2* encoded, std::size_t count, glm::vec3* normals) {
   const Floats zero{}, one = zero + 1;

@@ -5,5 +5,5 @@ extern const char* const kBakeVertex;
 extern const char* const kBakeFragment;
 extern const char* const kTangentSpaceVertex;
 extern const char* const kTangentSpaceFragment;
-extern const char* const kOctahedronFragment;  // functions both fragment stages link
+extern const char* const kOctahedron;  // functions both stages of both passes link
 }  // namespace terrabake::gl::shaders

@@ -1,8 +1,9 @@
 #version 330 core
 // A unit vector in two floats: the octahedron's faces unfolded onto the square
 // [-1, 1]^2, which keeps a normal to float rounding in two thirds of the
-// bytes of three. Linked into both passes: the first writes the high-res
-// normals this way, the second reads them and writes its result this way.
+// bytes of three. Linked into the vertex and fragment stages of both passes:
+// the first writes the high-res normals this way, the second reads them and
+// writes its result this way.
 
 vec2 octahedronEncoded(vec3 n) {
   vec2 p = n.xy / (abs(n.x) + abs(n.y) + abs(n.z));
