@@ -1,6 +1,13 @@
 #pragma once
-// An OpenGL 3.3+ core context that renders offscreen. Backends differ only in
-// how the context is made; everything draws into framebuffer objects.
+// An OpenGL 3.3+ compatibility-profile context that renders offscreen.
+// Backends differ only in how the context is made; everything draws into
+// framebuffer objects. Compatibility, not core: there points are plain points,
+// not point sprites, and llvmpipe bins a plain point as a rectangle instead of
+// a four-edged polygon. The first pass draws a point per texel (see
+// gl_baker.cpp); in a batch run on llvmpipe (463 tiles, 2 workers) the bake
+// stage took 6.7-6.9 ms a tile against 11.4-11.8 ms in a core context, with
+// the same bytes. The shaders are GLSL 3.30 core and use nothing else of the
+// profile.
 #include <memory>
 #include <string>
 

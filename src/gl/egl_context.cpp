@@ -106,10 +106,10 @@ class EglContext : public Context {
     }
     const EGLint context_attribs[] = {EGL_CONTEXT_MAJOR_VERSION, 3,
                                       EGL_CONTEXT_MINOR_VERSION, 3,
-                                      EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_CORE_PROFILE_BIT,
+                                      EGL_CONTEXT_OPENGL_PROFILE_MASK, EGL_CONTEXT_OPENGL_COMPATIBILITY_PROFILE_BIT,
                                       EGL_NONE};
     m_context = m_api.createContext(m_display, config, EGL_NO_CONTEXT, context_attribs);
-    if (m_context == EGL_NO_CONTEXT) fail(m_api, "create an OpenGL 3.3 core context");
+    if (m_context == EGL_NO_CONTEXT) fail(m_api, "create an OpenGL 3.3 compatibility context");
   }
 
   ~EglContext() override {

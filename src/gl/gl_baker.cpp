@@ -73,7 +73,9 @@ constexpr float kNoNormal = 2.0f;
 // slow clipping pipeline (see docs/performance.md). The vertex stage places
 // each vertex by its index in the grid, so a tile uploads its normals alone:
 // in a batch run on llvmpipe (463 tiles, 2 workers) the bake stage took
-// 10.0-11.2 ms a tile against 11.1-11.8 ms reading a UV buffer.
+// 10.0-11.2 ms a tile against 11.1-11.8 ms reading a UV buffer. The
+// contexts are compatibility-profile ones, where points are not sprites
+// (see context.hpp).
 
 // A buffer object whose storage is made again only when the data outgrows
 // it: re-specifying storage for every tile makes a software renderer map and

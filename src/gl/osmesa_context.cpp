@@ -13,12 +13,12 @@ class OsMesaContext : public Context {
   OsMesaContext() {
     const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA,
                            OSMESA_DEPTH_BITS, 0,
-                           OSMESA_PROFILE, OSMESA_CORE_PROFILE,
+                           OSMESA_PROFILE, OSMESA_COMPAT_PROFILE,
                            OSMESA_CONTEXT_MAJOR_VERSION, 3,
                            OSMESA_CONTEXT_MINOR_VERSION, 3,
                            0};
     m_context = OSMesaCreateContextAttribs(attribs, nullptr);
-    if (!m_context) throw InputError("gl: OSMesa could not create an OpenGL 3.3 core context");
+    if (!m_context) throw InputError("gl: OSMesa could not create an OpenGL 3.3 compatibility context");
   }
   ~OsMesaContext() override { OSMesaDestroyContext(m_context); }
 
