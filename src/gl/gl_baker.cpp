@@ -4,6 +4,7 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstring>
 #include <initializer_list>
 #include <stdexcept>
 #include <utility>
@@ -76,6 +77,15 @@ constexpr float kNoNormal = 2.0f;
 // 10.0-11.2 ms a tile against 11.1-11.8 ms reading a UV buffer. The
 // contexts are compatibility-profile ones, where points are not sprites
 // (see context.hpp).
+
+// llvmpipe bins a whole scene of primitives before it rasterises any, and a
+// point takes on the order of 150 bytes of binned data, so on llvmpipe the
+// first pass is flushed after every this many points: the scene is still in
+// the cache when it is rasterised. In a batch run (463 tiles, 2 workers) the
+// bake stage took 5.2-5.6 ms a tile against 7.3-8.0 ms in one scene, with
+// scenes of 1,024 to 8,192 points alike; the texels are the same. A
+// hardware GPU draws the pass in one go: each flush is a submission.
+constexpr GLsizei kLlvmpipeScenePoints = 8192;
 
 // A buffer object whose storage is made again only when the data outgrows
 // it: re-specifying storage for every tile makes a software renderer map and
@@ -155,6 +165,7 @@ struct GlBaker::Impl {
   std::unique_ptr<Context> context;
   Functions gl;
   std::string description;
+  GLsizei points_per_scene = 0;  // first-pass points between flushes; 0: one draw
   GLuint bake_program = 0, tangent_space_program = 0;
   GLint grid_uniform = -1;  // bake.vert's u_grid
   std::vector<Slot> slots;
@@ -167,6 +178,7 @@ struct GlBaker::Impl {
     const auto* renderer = reinterpret_cast<const char*>(gl.GetString(GL_RENDERER));
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");
     description = std::string("OpenGL ") + version + " (" + renderer + ") via " + context->apiName();
+    if (std::strstr(renderer, "llvmpipe")) points_per_scene = kLlvmpipeScenePoints;
 
     bake_program = linkProgram(gl, shaders::kBakeVertex, shaders::kBakeFragment);
     tangent_space_program = linkProgram(gl, shaders::kTangentSpaceVertex, shaders::kTangentSpaceFragment);
@@ -299,7 +311,7 @@ struct GlBaker::Impl {
     gl.UseProgram(bake_program);
     gl.Uniform2i(grid_uniform, high.cols, high.rows);
     gl.BindVertexArray(slot.high_vao);
-    gl.DrawArrays(GL_POINTS, 0, GLsizei(high.cols) * GLsizei(high.rows));
+    drawPoints(GLsizei(high.cols) * GLsizei(high.rows));
 
     // Pass 2: the low-poly mesh, writing that normal in its frame at every
     // texel it covers (all of them; cleared so none keeps an earlier tile).
@@ -320,6 +332,19 @@ struct GlBaker::Impl {
     slot.done = gl.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
     gl.Flush();  // start the GPU on it now, not when the next tile is collected
     checkError("bake");
+  }
+
+  // The first pass's draw, a scene at a time where that pays (see
+  // kLlvmpipeScenePoints).
+  void drawPoints(GLsizei count) {
+    if (points_per_scene == 0) {
+      gl.DrawArrays(GL_POINTS, 0, count);
+      return;
+    }
+    for (GLsizei first = 0; first < count; first += points_per_scene) {
+      gl.DrawArrays(GL_POINTS, first, std::min(points_per_scene, count - first));
+      gl.Flush();
+    }
   }
 
   // Waits for the slot's tile and maps its read back; on failure frees the
