@@ -61,8 +61,9 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
 }
 
 // Measured on 2 cores, OSMesa, 2 workers, the 463-tile pyramid of
-// tests/benchmarks/pyramid_bench.py, runs taking turns: 12.4-14.2 s against
-// 13.0-14.7 s with llvmpipe's 2 threads (4-5% each pair), the same bytes.
+// tests/benchmarks/pyramid_bench.py, runs taking turns: 4.0-4.9 s against
+// 5.2-5.4 s with one llvmpipe thread and 5.4-5.6 s with 2, the same bytes
+// (12.4-14.2 s against 13.0-14.7 s with 2 when llvmpipe's bake was slower).
 bool fitSoftwareRasteriserTo(int workers) {
   const unsigned cores = std::thread::hardware_concurrency();
   if (cores == 0 || unsigned(workers) < cores || std::getenv("LP_NUM_THREADS")) return false;

@@ -4,9 +4,11 @@
 #include <array>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <initializer_list>
 #include <stdexcept>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -79,12 +81,16 @@ constexpr float kNoNormal = 2.0f;
 // (see context.hpp).
 
 // llvmpipe bins a whole scene of primitives before it rasterises any, and a
-// point takes on the order of 150 bytes of binned data, so on llvmpipe the
-// first pass is flushed after every this many points: the scene is still in
-// the cache when it is rasterised. In a batch run (463 tiles, 2 workers) the
-// bake stage took 5.2-5.6 ms a tile against 7.3-8.0 ms in one scene, with
-// scenes of 1,024 to 8,192 points alike; the texels are the same. A
-// hardware GPU draws the pass in one go: each flush is a submission.
+// point takes on the order of a hundred bytes of binned data. Where it
+// rasterises on the drawing thread (LP_NUM_THREADS=0, as the workers of a
+// batch run have it: see baker_factory.hpp) the first pass is flushed after
+// every this many points, so each scene is still in the cache when it is
+// rasterised. In a batch run (463 tiles, 2 workers) the bake stage took
+// 5.2-5.6 ms a tile against 7.3-8.0 ms in one scene, with scenes of 1,024 to
+// 8,192 points alike; the texels are the same. With rasterising threads of
+// its own (one worker, 2 cores) it gained nothing within the machine's swing,
+// and a hardware GPU draws the pass in one go: there each flush is a
+// submission.
 constexpr GLsizei kLlvmpipeScenePoints = 8192;
 
 // A buffer object whose storage is made again only when the data outgrows
@@ -178,7 +184,10 @@ struct GlBaker::Impl {
     const auto* renderer = reinterpret_cast<const char*>(gl.GetString(GL_RENDERER));
     if (!version || !renderer) throw InputError("gl: " + context->apiName() + " context is not usable");
     description = std::string("OpenGL ") + version + " (" + renderer + ") via " + context->apiName();
-    if (std::strstr(renderer, "llvmpipe")) points_per_scene = kLlvmpipeScenePoints;
+    const char* rasteriser_threads = std::getenv("LP_NUM_THREADS");
+    if (std::strstr(renderer, "llvmpipe") && rasteriser_threads && std::string(rasteriser_threads) == "0") {
+      points_per_scene = kLlvmpipeScenePoints;
+    }
 
     bake_program = linkProgram(gl, shaders::kBakeVertex, shaders::kBakeFragment);
     tangent_space_program = linkProgram(gl, shaders::kTangentSpaceVertex, shaders::kTangentSpaceFragment);
