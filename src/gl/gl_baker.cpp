@@ -86,7 +86,7 @@ constexpr float kNoNormal = 2.0f;
 // batch run have it: see baker_factory.hpp) the first pass is flushed after
 // every this many points, so each scene is still in the cache when it is
 // rasterised. In a batch run (463 tiles, 2 workers) the bake stage took
-// 5.2-5.6 ms a tile against 7.3-8.0 ms in one scene, with scenes of 1,024 to
+// 5.2-5.8 ms a tile against 7.3-8.0 ms in one scene, with scenes of 1,024 to
 // 8,192 points alike; the texels are the same. With rasterising threads of
 // its own (one worker, 2 cores) it gained nothing within the machine's swing,
 // and a hardware GPU draws the pass in one go: there each flush is a
