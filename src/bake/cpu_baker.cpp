@@ -43,45 +43,66 @@ std::vector<VertexFrame> vertexFrames(const mesh::TriangleMesh& low) {
 NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   checkOneVertexPerTexel(high, size);
   const std::vector<VertexFrame> corners = vertexFrames(low);
-  const std::vector<mesh::TrianglePoint> points = mesh::texelTriangles(low, size);
+  const mesh::TexelCoverage coverage = mesh::texelCoverage(low, size);
   NormalMap map;
   map.size = size;
-  map.texels.resize(points.size());
-  // Blocks of texels: each texel's interpolated frame and high-res normal go
-  // into one small array per component, which the arithmetic then takes
-  // a lane per texel.
-  constexpr std::size_t kBlock = 64;
-  static_assert(kBlock % kFloatLanes == 0);
+  map.texels.resize(std::size_t(size) * std::size_t(size));
+  // A row at a time, one array per component: the interpolated frame (each
+  // run of texels under one triangle is affine along the row, so a lane per
+  // texel makes it) and the high-res normal; the arithmetic then takes a
+  // lane per texel too. A run's last lanes may write up to a vector past
+  // the row.
   enum Component { kNx, kNy, kNz, kTx, kTy, kTz, kBx, kBy, kBz, kVx, kVy, kVz, kComponents };
-  alignas(sizeof(Floats)) float in[kComponents][kBlock];
-  alignas(sizeof(Floats)) float out[3][kBlock];
-  int column = 0, row = 0;  // of texel first + k
-  for (std::size_t first = 0; first < points.size(); first += kBlock) {
-    const std::size_t count = std::min(kBlock, points.size() - first);
-    for (std::size_t k = 0; k < kBlock; ++k) {
-      glm::vec3 n(1, 0, 0), t(0, 1, 0), b(0, 0, 1), v(0, 0, 1);  // past the last texel: any frame will do
-      if (k < count) {
-        const mesh::TrianglePoint& point = points[first + k];
-        n = t = b = glm::vec3(0);
-        for (int c = 0; c < 3; ++c) {
-          const VertexFrame& corner = corners[point.vertex[c]];
-          const float weight = float(point.weight[c]);
-          n += corner.n * weight, t += corner.t * weight, b += corner.b * weight;
-        }
-        v = highResNormal(high, column, row);
-        if (++column == size) column = 0, ++row;
-      }
+  const std::size_t lanes_in_row = (std::size_t(size) + kFloatLanes - 1) / kFloatLanes * kFloatLanes;
+  const std::size_t stride = lanes_in_row + kFloatLanes;
+  std::vector<float> in(kComponents * stride);
+  // Lanes past the row's end take any frame that keeps the arithmetic finite.
+  for (Component c : {kNx, kTy, kBz, kVz}) std::fill_n(&in[c * stride], stride, 1.0f);
+  const auto component = [&](int c) { return &in[std::size_t(c) * stride]; };
+  const auto load = [](const float* from) {
+    Floats value;
+    std::memcpy(&value, from, sizeof value);
+    return value;
+  };
+  const Floats lane_numbers = laneNumbers<Floats>();
+  for (int j = 0; j < size; ++j) {
+    const std::size_t row = std::size_t(j) * std::size_t(size);
+    for (int first = 0; first < size;) {
+      const std::uint32_t owner = coverage.owner[row + std::size_t(first)];
+      int end = first + 1;
+      while (end < size && coverage.owner[row + std::size_t(end)] == owner) ++end;
+      // The frame at the run's first texel and its change per texel along
+      // the row, from the weights there.
+      const mesh::TexelTriangle& triangle = coverage.triangles[owner];
+      const mesh::TrianglePoint start = triangle.at(first, j);
+      const double per_texel[3] = {-triangle.w1_per.x - triangle.w2_per.x, triangle.w1_per.x, triangle.w2_per.x};
       for (int axis = 0; axis < 3; ++axis) {
-        in[kNx + axis][k] = n[axis], in[kTx + axis][k] = t[axis], in[kBx + axis][k] = b[axis];
-        in[kVx + axis][k] = v[axis];
+        double value[3] = {0, 0, 0}, step[3] = {0, 0, 0};  // n, t, b
+        for (int k = 0; k < 3; ++k) {
+          const VertexFrame& corner = corners[triangle.vertex[k]];
+          const double of_corner[3] = {corner.n[axis], corner.t[axis], corner.b[axis]};
+          for (int q = 0; q < 3; ++q) {
+            value[q] += of_corner[q] * start.weight[k];
+            step[q] += of_corner[q] * per_texel[k];
+          }
+        }
+        for (int q = 0; q < 3; ++q) {
+          float* to = component(kNx + 3 * q + axis) + first;
+          const Floats base = Floats{} + float(value[q]), per = Floats{} + float(step[q]);
+          for (int i = 0; i < end - first; i += kFloatLanes) {
+            const Floats along = base + per * (lane_numbers + float(i));
+            std::memcpy(to + i, &along, sizeof along);
+          }
+        }
       }
+      first = end;
     }
-    for (std::size_t k = 0; k < kBlock; k += kFloatLanes) {
-      const auto lanes = [&](Component c) {
-        Floats value;
-        std::memcpy(&value, &in[c][k], sizeof value);
-        return value;
-      };
+    for (int i = 0; i < size; ++i) {
+      const glm::vec3& v = highResNormal(high, i, j);
+      component(kVx)[i] = v.x, component(kVy)[i] = v.y, component(kVz)[i] = v.z;
+    }
+    for (std::size_t i = 0; i < lanes_in_row; i += kFloatLanes) {
+      const auto lanes = [&](Component c) { return load(component(c) + i); };
       const Floats nx = lanes(kNx), ny = lanes(kNy), nz = lanes(kNz), tx = lanes(kTx), ty = lanes(kTy),
                    tz = lanes(kTz), bx = lanes(kBx), by = lanes(kBy), bz = lanes(kBz), vx = lanes(kVx),
                    vy = lanes(kVy), vz = lanes(kVz);
@@ -98,10 +119,10 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
       const Floats y = sign * squareRoot(bx * bx + by * by + bz * bz) * (nt_x * vx + nt_y * vy + nt_z * vz);
       const Floats z = sign * squareRoot(nx * nx + ny * ny + nz * nz) * (tb_x * vx + tb_y * vy + tb_z * vz);
       const Floats inverse_length = 1 / squareRoot(x * x + y * y + z * z);
-      const Floats unit[3] = {x * inverse_length, y * inverse_length, z * inverse_length};
-      for (int axis = 0; axis < 3; ++axis) std::memcpy(&out[axis][k], &unit[axis], sizeof unit[axis]);
+      const Floats unit_x = x * inverse_length, unit_y = y * inverse_length, unit_z = z * inverse_length;
+      const std::size_t count = std::min<std::size_t>(kFloatLanes, std::size_t(size) - std::min<std::size_t>(i, size));
+      for (std::size_t k = 0; k < count; ++k) map.texels[row + i + k] = glm::vec3(unit_x[k], unit_y[k], unit_z[k]);
     }
-    for (std::size_t k = 0; k < count; ++k) map.texels[first + k] = glm::vec3(out[0][k], out[1][k], out[2][k]);
   }
   return map;
 }

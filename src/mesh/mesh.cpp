@@ -312,44 +312,62 @@ TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv) {
 
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return frameAt(mesh, triangleAt(mesh, uv)); }
 
-// Of the triangles whose edges come within kTexelOnEdge of a texel centre,
-// the one it lies deepest inside: a centre just outside a thin triangle
-// would otherwise take weights extrapolated far across it.
-std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
-  std::vector<TrianglePoint> points(std::size_t(size) * std::size_t(size));
-  std::vector<double> depth(points.size(), -std::numeric_limits<double>::infinity());
+TrianglePoint TexelTriangle::at(int i, int j) const {
+  const double from_a_x = i + 0.5 - a.x, from_a_y = j + 0.5 - a.y;
+  TrianglePoint point{{vertex[0], vertex[1], vertex[2]}, {}};
+  point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
+  point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
+  point.weight[0] = 1 - point.weight[1] - point.weight[2];
+  return point;
+}
+
+TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
+  constexpr std::uint32_t kNoTriangle = ~std::uint32_t(0);
+  TexelCoverage coverage;
+  coverage.owner.assign(std::size_t(size) * std::size_t(size), kNoTriangle);
+  std::vector<double> depth(coverage.owner.size(), -std::numeric_limits<double>::infinity());
   for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
     const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
     const glm::dvec2 a = glm::dvec2(mesh.uv[v[0]]) * double(size), b = glm::dvec2(mesh.uv[v[1]]) * double(size),
                      c = glm::dvec2(mesh.uv[v[2]]) * double(size);
-    // barycentric() as affine functions of the texel centre, so that a
-    // texel costs multiply-adds, not divisions. A triangle of no area
-    // covers no texel (its weights would be NaN, which never wins).
+    // A triangle of no area covers no texel (its weights would be NaN).
     const double area = (b.x - a.x) * (c.y - a.y) - (b.y - a.y) * (c.x - a.x);
     if (area == 0) continue;
-    const glm::dvec2 w1_per = glm::dvec2(c.y - a.y, a.x - c.x) / area, w2_per = glm::dvec2(a.y - b.y, b.x - a.x) / area;
+    const TexelTriangle triangle{{v[0], v[1], v[2]},
+                                 a,
+                                 glm::dvec2(c.y - a.y, a.x - c.x) / area,
+                                 glm::dvec2(a.y - b.y, b.x - a.x) / area};
+    const auto index = std::uint32_t(coverage.triangles.size());
+    coverage.triangles.push_back(triangle);
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
-      const double from_a_y = j + 0.5 - a.y;
+      const std::size_t row = std::size_t(j) * std::size_t(size);
       for (int i = first; i <= last; ++i) {
-        const double from_a_x = i + 0.5 - a.x;
-        TrianglePoint point{{v[0], v[1], v[2]}, {}};
-        point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
-        point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
-        point.weight[0] = 1 - point.weight[1] - point.weight[2];
+        const TrianglePoint point = triangle.at(i, j);
         const double inside = std::min({point.weight[0], point.weight[1], point.weight[2]});
-        const std::size_t texel = std::size_t(j) * std::size_t(size) + std::size_t(i);
-        if (inside > depth[texel]) {
-          depth[texel] = inside;
-          points[texel] = point;
+        if (inside > depth[row + std::size_t(i)]) {
+          depth[row + std::size_t(i)] = inside;
+          coverage.owner[row + std::size_t(i)] = index;
         }
       }
     });
   }
-  const auto hole = std::find(depth.begin(), depth.end(), -std::numeric_limits<double>::infinity());
-  if (hole != depth.end()) {
-    const auto texel = std::size_t(hole - depth.begin());
+  const auto hole = std::find(coverage.owner.begin(), coverage.owner.end(), kNoTriangle);
+  if (hole != coverage.owner.end()) {
+    const auto texel = std::size_t(hole - coverage.owner.begin());
     throw std::invalid_argument("texel (" + std::to_string(texel % std::size_t(size)) + ", " +
                                 std::to_string(texel / std::size_t(size)) + ") is under no low-poly triangle");
+  }
+  return coverage;
+}
+
+std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size) {
+  const TexelCoverage coverage = texelCoverage(mesh, size);
+  std::vector<TrianglePoint> points;
+  points.reserve(coverage.owner.size());
+  for (int j = 0; j < size; ++j) {
+    for (int i = 0; i < size; ++i) {
+      points.push_back(coverage.triangles[coverage.owner[std::size_t(j) * std::size_t(size) + std::size_t(i)]].at(i, j));
+    }
   }
   return points;
 }

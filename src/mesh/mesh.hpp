@@ -107,10 +107,32 @@ TangentFrame frameAt(const TriangleMesh& mesh, const TrianglePoint& point);
 TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv);
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv);
 
+// A triangle of a mesh in the texel coordinates of a size x size tile
+// (u * size, v * size), its barycentric weights as affine functions of the
+// point, so that a texel costs multiply-adds, not divisions.
+struct TexelTriangle {
+  std::uint32_t vertex[3];
+  glm::dvec2 a;               // vertex[0]
+  glm::dvec2 w1_per, w2_per;  // weights 1 and 2 per texel along x and y
+
+  // The weights at texel (i, j)'s centre.
+  TrianglePoint at(int i, int j) const;
+};
+
+// Which triangle each texel centre of a size x size tile lies under, the
+// mesh rasterised in UV space, so any low-poly mesh whose UVs cover [0, 1]
+// serves. Of the triangles whose edges come within a thousandth of a texel
+// of a centre, the one it lies deepest inside: a centre just outside a thin
+// triangle would otherwise take weights extrapolated far across it. Throws
+// std::invalid_argument naming a texel no triangle covers.
+struct TexelCoverage {
+  std::vector<TexelTriangle> triangles;  // the mesh's, but those of no area
+  std::vector<std::uint32_t> owner;      // per texel, row by row: into triangles
+};
+TexelCoverage texelCoverage(const TriangleMesh& mesh, int size);
+
 // The triangle under each texel centre of a size x size tile, row by row,
-// with the centre's weights in it: the mesh is rasterised in UV space, so any
-// low-poly mesh whose UVs cover [0, 1] serves. Throws std::invalid_argument
-// naming a texel no triangle covers.
+// with the centre's weights in it (texelCoverage()).
 std::vector<TrianglePoint> texelTriangles(const TriangleMesh& mesh, int size);
 
 // The frame at each texel centre, from texelTriangles().
