@@ -1,8 +1,8 @@
 // Tiles in flight give what one tile at a time gives: GlBaker's submit,
 // mapResult and releaseResult, and the service that many workers share on a
-// hardware GPU. These
-// run on whatever context the machine has (OSMesa here), since the service
-// does not depend on the renderer.
+// hardware GPU. These run on the hardware GPU where EGL reaches one (what
+// the service is for), else on OSMesa: the service does not depend on the
+// renderer.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "core/error.hpp"
+#include "gl/context.hpp"
 #include "gl/gl_baker.hpp"
 #include "gl/gpu_bake_service.hpp"
 #include "gl_test_support.hpp"
@@ -49,9 +50,13 @@ bool identical(const bake::NormalMap& a, const bake::NormalMap& b) {
   return true;
 }
 
-#define TERRABAKE_CONTEXT_OR_SKIP(var)                                   \
-  auto var = test::madeOrNull([] { return gl::createOsMesaContext(); }); \
-  if (!var) GTEST_SKIP() << "no OSMesa context on this machine"
+std::unique_ptr<gl::Context> makeContext() {
+  return gl::hasHardwareEglDevice() ? gl::createEglContext(gl::EglPlatform::kDevice) : gl::createOsMesaContext();
+}
+
+#define TERRABAKE_CONTEXT_OR_SKIP(var)      \
+  auto var = test::madeOrNull(makeContext); \
+  if (!var) GTEST_SKIP() << "no GL context on this machine"
 
 TEST(GlBakerInFlight, TilesCollectedInAnyOrderMatchOneAtATime) {
   TERRABAKE_CONTEXT_OR_SKIP(context);
@@ -99,7 +104,7 @@ TEST(GpuBakeService, WorkersSharingOneContextGetTheirOwnTiles) {
       expected.push_back(reference.bake(tiles.back().high, tiles.back().low, tiles.back().size));
     }
   }
-  auto service = std::make_shared<gl::GpuBakeService>([] { return gl::createOsMesaContext(); }, kInFlight);
+  auto service = std::make_shared<gl::GpuBakeService>(makeContext, kInFlight);
   std::vector<int> mismatches(kWorkers, 0);
   std::vector<std::thread> workers;
   for (int w = 0; w < kWorkers; ++w) {
@@ -127,7 +132,7 @@ TEST(GpuBakeService, AContextThatCannotBeMadeFailsTheConstructor) {
 TEST(GpuBakeService, ABakeThatFailsReachesItsCallerAndTheServiceGoesOn) {
   TERRABAKE_CONTEXT_OR_SKIP(context);
   context.reset();
-  gl::GpuBakeService service([] { return gl::createOsMesaContext(); }, 2);
+  gl::GpuBakeService service(makeContext, 2);
   const TileMeshes good = tile(0);
   // 2^16 texels a side is past any texture a renderer offers.
   EXPECT_THROW(service.bake(good.high, good.low, 1 << 16), InputError);
