@@ -484,7 +484,7 @@ struct DemFile::Impl {
       level = reader.decimated.get();
       level_band = 1;
     }
-    reader.dataset.reset(EdgeExtension::withVoidBorder(*level, level_band));
+    reader.dataset.reset(EdgeExtension::withVoidBorder(*level, level_band, meta.srsWkt()));
     if (!reader.dataset) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
     reader.transformer = std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()),
                                                               toWkt(spatialReference(crs)));

@@ -1,5 +1,6 @@
 #include "dem/edge_extension.hpp"
 
+#include "dem/crs_transform.hpp"
 #include "dem/mask_dilation.hpp"
 
 #include <gdal_vrt.h>
@@ -49,13 +50,12 @@ std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
   return float(sum / count);
 }
 
-// The columns of one turn round the globe of a `file` that spans it (its
-// width, or its width less the repeated column), else 0.
-int pixelsInATurn(GDALDataset& file) {
+// The columns of one turn round the globe of a `file` in CRS `crs_wkt` that
+// spans it (its width, or its width less the repeated column), else 0.
+int pixelsInATurn(GDALDataset& file, const std::string& crs_wkt) {
   const int width = file.GetRasterXSize();
   double gt[6];
-  const OGRSpatialReference* srs = file.GetSpatialRef();
-  if (!srs || !srs->IsGeographic() || file.GetGeoTransform(gt) != CE_None || gt[1] == 0 ||
+  if (crs_wkt.empty() || !isLonLatCrs(crs_wkt) || file.GetGeoTransform(gt) != CE_None || gt[1] == 0 ||
       3.0 * width > double(std::numeric_limits<int>::max())) {
     return 0;
   }
@@ -68,7 +68,7 @@ int pixelsInATurn(GDALDataset& file) {
 
 }  // namespace
 
-GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
+GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index, const std::string& crs_wkt) {
   const int width = file.GetRasterXSize(), height = file.GetRasterYSize();
   double gt[6];
   file.GetGeoTransform(gt);
@@ -76,7 +76,7 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   // other: a whole turn either side holds them, so that every read near the
   // antimeridian (a tile's apron, a hole fill's margin, a coarse texel's
   // footprint) finds the heights across it, as one anywhere else does.
-  const int turn_px = pixelsInATurn(file);
+  const int turn_px = pixelsInATurn(file, crs_wkt);
   const int border_x = turn_px ? turn_px : kPixels;
   const int own_width = turn_px ? turn_px : width;  // a repeated last column is left out
   VRTDatasetH vrt = VRTCreate(own_width + 2 * border_x, height + 2 * kPixels);
@@ -84,7 +84,7 @@ GDALDataset* EdgeExtension::withVoidBorder(GDALDataset& file, int band_index) {
   gt[0] -= border_x * gt[1];
   gt[3] -= kPixels * gt[5];
   GDALSetGeoTransform(vrt, gt);
-  GDALSetProjection(vrt, file.GetProjectionRef());
+  GDALSetProjection(vrt, crs_wkt.c_str());
   VRTAddBand(vrt, GDT_Float32, nullptr);
   GDALRasterBandH band = GDALGetRasterBand(vrt, 1);
   // Where no source reaches, a VRT reads its nodata value: NaN, a void.
