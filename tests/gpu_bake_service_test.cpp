@@ -51,7 +51,8 @@ bool identical(const bake::NormalMap& a, const bake::NormalMap& b) {
 }
 
 std::unique_ptr<gl::Context> makeContext() {
-  return gl::hasHardwareEglDevice() ? gl::createEglContext(gl::EglPlatform::kDevice) : gl::createOsMesaContext();
+  static const bool on_gpu = gl::hasHardwareEglDevice();
+  return on_gpu ? gl::createEglContext(gl::EglPlatform::kDevice) : gl::createOsMesaContext();
 }
 
 #define TERRABAKE_CONTEXT_OR_SKIP(var)      \
