@@ -110,7 +110,6 @@ class GreedyMesher {
     }
     // A row's last lanes may read past the tile's last sample.
     for (std::vector<float>* axis : {&m_x, &m_y, &m_z}) axis->resize(count + kLanes - 1, 0.0f);
-    m_excluded.assign(count + kLanes - 1, 0.0f);
     const double s = m_size;
     const int nw = addVertex({0, 0}), ne = addVertex({s, 0}), se = addVertex({s, s}), sw = addVertex({0, s});
     const int north_east = addTriangle(nw, ne, se), south_west = addTriangle(nw, se, sw);
@@ -218,7 +217,7 @@ class GreedyMesher {
 
   void insertSample(int t, int sample) {
     const int i = sample % m_size, j = sample / m_size;
-    m_excluded[std::size_t(sample)] = -INFINITY;
+    m_x[std::size_t(sample)] = NAN;  // a vertex's distance is NaN, which never wins
     const int p = addVertex({i + 0.5, j + 0.5});
     const Vertex& v = m_vertices[std::size_t(p)];
     for (int e = 3 * t; e < 3 * t + 3; ++e) {
@@ -342,8 +341,8 @@ class GreedyMesher {
         const Floats dx = load(m_x, row + std::size_t(i)) - (float(row_start.x) + step_x * along);
         const Floats dy = load(m_y, row + std::size_t(i)) - (float(row_start.y) + step_y * along);
         const Floats dz = load(m_z, row + std::size_t(i)) - (float(row_start.z) + step_z * along);
-        // Vertices, and lanes past the span, never win.
-        Floats e2 = dx * dx + dy * dy + dz * dz + load(m_excluded, row + std::size_t(i));
+        // Vertices (NaN), and lanes past the span, never win.
+        Floats e2 = dx * dx + dy * dy + dz * dz;
         e2 = along < float(count) ? e2 : Floats{} - INFINITY;
         const Ints farther = e2 > farthest2;
         farthest2 = farther ? e2 : farthest2;
@@ -375,8 +374,8 @@ class GreedyMesher {
   std::vector<int> m_corner;    // 3 per triangle
   std::vector<int> m_opposite;  // 3 per triangle
   glm::dvec3 m_origin;                  // the tile's middle sample
-  std::vector<float> m_x, m_y, m_z;     // per sample of the tile, row-major, from m_origin; kLanes - 1 beyond
-  std::vector<float> m_excluded;        // per sample: -inf once it is a vertex, else 0
+  std::vector<float> m_x, m_y, m_z;     // per sample of the tile, row-major, from m_origin; kLanes - 1 beyond;
+                                        // x NaN once the sample is a vertex
   std::vector<int> m_candidate;           // per triangle: its farthest sample, -1 none
   std::vector<int> m_stamp;               // per triangle: queue entries with another stamp are stale
   std::priority_queue<Entry> m_queue;
