@@ -229,6 +229,32 @@ TEST(Png, RgbaKeepsColourWhateverTheAlpha) {
   }
 }
 
+// The default compression codes a flat map with run-length matches, in a
+// fraction of the bytes Huffman codes alone would take, and a map whose
+// pixels rarely repeat with Huffman codes alone; either decodes exactly.
+TEST(Png, DefaultCompressionTakesRunsForFlatMapsAndHuffmanCodesForVariedOnes) {
+  constexpr int kSize = 256;
+  const io::PngCompression run_length{2, 0x80, io::ZlibStrategy::kRunLength};
+  const io::PngCompression huffman{2, 0x80, io::ZlibStrategy::kHuffmanOnly};
+  Image<std::uint16_t> flat{kSize, kSize, 3, {}};
+  Image<std::uint16_t> varied{kSize, kSize, 3, {}};
+  std::uint32_t state = 1;
+  for (int k = 0; k < kSize * kSize; ++k) {
+    flat.pixels.insert(flat.pixels.end(), {128, 128, 255});
+    for (int c = 0; c < 3; ++c) {
+      state = state * 1664525u + 1013904223u;  // a fixed pseudo-random walk
+      varied.pixels.push_back(std::uint16_t(120 + (state >> 28)));
+    }
+  }
+  const std::vector<std::uint8_t> flat_png = io::encodePng(flat, 8);
+  EXPECT_EQ(flat_png, io::encodePng(flat, 8, run_length));
+  EXPECT_LT(flat_png.size() * 10, io::encodePng(flat, 8, huffman).size());
+  EXPECT_EQ(decodePng(flat_png, 8).pixels, flat.pixels);
+  const std::vector<std::uint8_t> varied_png = io::encodePng(varied, 8);
+  EXPECT_EQ(varied_png, io::encodePng(varied, 8, huffman));
+  EXPECT_EQ(decodePng(varied_png, 8).pixels, varied.pixels);
+}
+
 TEST(Png, RejectsBadInput) {
   Image<std::uint16_t> img = gradient(4, 4, 8);
   EXPECT_THROW(io::encodePng(img, 12), std::invalid_argument);

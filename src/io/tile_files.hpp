@@ -43,14 +43,18 @@ bool isAbandonedTempFile(const std::string& path);
 // libpng's default, which tries all five per row), then zlib with a strategy
 // and a level. Levels choose how hard LZ77 searches, so they matter only
 // with kLz77. The default is what tiles use, chosen by measurement
-// (docs/performance.md, "PNG encoding"): after Paeth a normal map's rows are
-// mostly runs of small residuals, which run-length matches code in less time
-// and fewer bytes than zlib's level 2 LZ77 search.
-enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly };
+// (docs/performance.md, "PNG encoding"): after Paeth, zlib's run-length
+// matches code the flat stretches of a map (sea, plains, smooth slopes)
+// in a fraction of the bytes, while a map of varied terrain, whose
+// residuals rarely repeat, is smaller and quicker to code with Huffman
+// codes alone. kRunLengthOrHuffman takes run-length matches for an image
+// where many pixels repeat their left neighbour, Huffman codes alone for
+// the others.
+enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly, kRunLengthOrHuffman };
 struct PngCompression {
   int level = 2;
   int filters = 0x80;  // PNG_FILTER_PAETH
-  ZlibStrategy strategy = ZlibStrategy::kRunLength;
+  ZlibStrategy strategy = ZlibStrategy::kRunLengthOrHuffman;
 };
 
 // PNG bytes of an RGB or RGBA image whose samples are 8-bit (0..255) or
