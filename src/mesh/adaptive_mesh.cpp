@@ -101,15 +101,18 @@ class GreedyMesher {
       : m_samples(samples), m_size(samples.tile_size), m_bound2(max_error_m * max_error_m) {
     const std::size_t count = std::size_t(m_size) * std::size_t(m_size);
     m_origin = samples.position.at(samples.apron + m_size / 2, samples.apron + m_size / 2);
-    for (std::vector<float>* axis : {&m_x, &m_y, &m_z}) axis->reserve(count + kLanes - 1);
+    // A row's last lanes may read past the tile's last sample.
+    for (std::vector<float>* axis : {&m_x, &m_y, &m_z}) axis->assign(count + kLanes - 1, 0.0f);
     for (int j = 0; j < m_size; ++j) {
+      const glm::dvec3* row = &samples.position.at(samples.apron, samples.apron + j);
+      const std::size_t first = std::size_t(j) * std::size_t(m_size);
+      float* x = &m_x[first];
+      float* y = &m_y[first];
+      float* z = &m_z[first];
       for (int i = 0; i < m_size; ++i) {
-        const glm::dvec3 p = samples.position.at(samples.apron + i, samples.apron + j) - m_origin;
-        m_x.push_back(float(p.x)), m_y.push_back(float(p.y)), m_z.push_back(float(p.z));
+        x[i] = float(row[i].x - m_origin.x), y[i] = float(row[i].y - m_origin.y), z[i] = float(row[i].z - m_origin.z);
       }
     }
-    // A row's last lanes may read past the tile's last sample.
-    for (std::vector<float>* axis : {&m_x, &m_y, &m_z}) axis->resize(count + kLanes - 1, 0.0f);
     const double s = m_size;
     const int nw = addVertex({0, 0}), ne = addVertex({s, 0}), se = addVertex({s, s}), sw = addVertex({0, s});
     const int north_east = addTriangle(nw, ne, se), south_west = addTriangle(nw, se, sw);
