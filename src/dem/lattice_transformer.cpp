@@ -115,7 +115,6 @@ LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border)
   out.width = m_width + 2 * border;
   const int rows = m_height + 2 * border;
   const std::size_t count = std::size_t(out.width) * std::size_t(rows);
-  out.x.resize(count), out.y.resize(count), out.known.resize(count);
   // Along a row of texels the nodes' rows mix by the same weight: mixed once
   // per row, every node column becomes one source position, and a texel is
   // the straight line between the two either side of it.
@@ -135,12 +134,9 @@ LatticeTransformer::SourcePositions LatticeTransformer::texelCentres(int border)
       const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);
       out.row_y.push_back(m_source_y[above] * (1 - row.fraction) + m_source_y[below] * row.fraction);
     }
-    for (std::size_t r = 0, k = 0; r < out.row_y.size(); ++r) {
-      for (const double x : out.column_x) out.x[k] = x, out.y[k++] = out.row_y[r];
-    }
-    std::fill(out.known.begin(), out.known.end(), 1);
     return out;
   }
+  out.x.resize(count), out.y.resize(count), out.known.resize(count);
   for (int r = 0; r < rows; ++r) {
     const Step row = stepAlongY(r - border + 0.5);
     const std::size_t above = std::size_t(row.node) * std::size_t(m_nodes_x), below = above + std::size_t(m_nodes_x);

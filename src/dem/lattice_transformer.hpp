@@ -42,7 +42,9 @@ class LatticeTransformer {
     // Where the source's pixel axes run along the grid's (the same CRS, or
     // a geographic DEM under Web Mercator), x depends on the column alone
     // and y on the row alone: then these hold x per column and y per row
-    // (border included), and every entry is known. Empty otherwise.
+    // (border included), every texel is known, and x, y and known are left
+    // empty (a tile's would take 1.4 MB that no kernel reads). Empty
+    // otherwise.
     std::vector<double> column_x, row_y;
     bool separable() const { return !column_x.empty(); }
   };
