@@ -341,13 +341,15 @@ TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
     coverage.triangles.push_back(triangle);
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
       const std::size_t row = std::size_t(j) * std::size_t(size);
+      double* row_depth = &depth[row];
+      std::uint32_t* row_owner = &coverage.owner[row];
+      // No branch, so that the compiler runs the loop several texels at a time.
       for (int i = first; i <= last; ++i) {
         const TrianglePoint point = triangle.at(i, j);
-        const double inside = std::min({point.weight[0], point.weight[1], point.weight[2]});
-        if (inside > depth[row + std::size_t(i)]) {
-          depth[row + std::size_t(i)] = inside;
-          coverage.owner[row + std::size_t(i)] = index;
-        }
+        const double inside = std::min(point.weight[0], std::min(point.weight[1], point.weight[2]));
+        const bool deeper = inside > row_depth[i];
+        row_depth[i] = deeper ? inside : row_depth[i];
+        row_owner[i] = deeper ? index : row_owner[i];
       }
     });
   }
