@@ -14,14 +14,16 @@ bool SourceWindow::read(GDALRasterBandH band, long first_col, long first_row, in
     return false;
   }
   data.resize(count);
+  // Plain passes through local pointers and a copy of the rule, which no
+  // store to the flags can reach: the tests run several samples at a time.
+  const VoidRule rule = voids;
+  float* const samples = values.data();
+  std::uint8_t* const is_data = data.data();
+  for (std::size_t i = 0; i < count; ++i) is_data[i] = !rule.isVoid(samples[i]);
   long long implausible = 0;
+  for (std::size_t i = 0; i < count; ++i) implausible += (!is_data[i]) & rule.isImplausible(samples[i]);
   for (std::size_t i = 0; i < count; ++i) {
-    data[i] = !voids.isVoid(values[i]);
-    if (data[i]) {
-      values[i] = voids.height(values[i]);
-    } else if (voids.isImplausible(values[i])) {
-      ++implausible;
-    }
+    if (is_data[i]) samples[i] = rule.height(samples[i]);
   }
   voids.count(implausible);
   valid = data;

@@ -45,22 +45,25 @@ struct VoidRule {
     heights.max_height = max_height;
     return heights;
   }
+  // The tests below combine with | and &, not || and &&: with no branch,
+  // the loops that classify a window's samples run several at a time.
   bool isVoid(float sample) const {
-    return !std::isfinite(sample) || sample <= kVoidMarkerMax || (nodata && sample == *nodata) ||
-           isUndeclaredFill(sample) || isBeyondRange(sample);
+    return !std::isfinite(sample) | isMarked(sample) | isUndeclaredFill(sample) | isBeyondRange(sample);
   }
   // A void that is neither NaN, a void marker nor the declared nodata value:
   // one the file did not say is one.
   bool isImplausible(float sample) const {
-    if (std::isnan(sample)) return false;
-    if (std::isinf(sample)) return true;
-    if (sample <= kVoidMarkerMax || (nodata && sample == *nodata)) return false;
-    return isUndeclaredFill(sample) || isBeyondRange(sample);
+    return (!std::isnan(sample)) &
+           (std::isinf(sample) | ((!isMarked(sample)) & (isUndeclaredFill(sample) | isBeyondRange(sample))));
   }
-  bool isUndeclaredFill(float sample) const { return fill_value_void && sample == kUndeclaredFillValue; }
+  // A void marker or the declared nodata value (a NaN nodata matches nothing here).
+  bool isMarked(float sample) const {
+    return (sample <= kVoidMarkerMax) | (sample == nodata.value_or(std::numeric_limits<double>::quiet_NaN()));
+  }
+  bool isUndeclaredFill(float sample) const { return fill_value_void & (sample == kUndeclaredFillValue); }
   bool isBeyondRange(float sample) const {
     const double h = sample * scale + offset;
-    return h < min_height || h > max_height;
+    return (h < min_height) | (h > max_height);
   }
   void count(long long samples) const {
     if (implausible && samples > 0) implausible->fetch_add(samples, std::memory_order_relaxed);
