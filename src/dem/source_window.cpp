@@ -21,7 +21,10 @@ bool SourceWindow::read(GDALRasterBandH band, long first_col, long first_row, in
   std::uint8_t* const is_data = data.data();
   for (std::size_t i = 0; i < count; ++i) is_data[i] = !rule.isVoid(samples[i]);
   long long implausible = 0;
-  for (std::size_t i = 0; i < count; ++i) implausible += (!is_data[i]) & rule.isImplausible(samples[i]);
+  for (std::size_t i = 0; i < count; ++i) {
+    const bool void_sample = !is_data[i], implausible_value = rule.isImplausible(samples[i]);
+    implausible += void_sample & implausible_value;
+  }
   for (std::size_t i = 0; i < count; ++i) {
     if (is_data[i]) samples[i] = rule.height(samples[i]);
   }

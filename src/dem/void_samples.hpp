@@ -45,25 +45,35 @@ struct VoidRule {
     heights.max_height = max_height;
     return heights;
   }
-  // The tests below combine with | and &, not || and &&: with no branch,
-  // the loops that classify a window's samples run several at a time.
+  // The tests below are taken each on its own and combined with | and &,
+  // not || and &&: with no branch, the loops that classify a window's
+  // samples run several at a time.
   bool isVoid(float sample) const {
-    return !std::isfinite(sample) | isMarked(sample) | isUndeclaredFill(sample) | isBeyondRange(sample);
+    const bool not_finite = !std::isfinite(sample), marked = isMarked(sample),
+               undeclared_fill = isUndeclaredFill(sample), beyond_range = isBeyondRange(sample);
+    return not_finite | marked | undeclared_fill | beyond_range;
   }
   // A void that is neither NaN, a void marker nor the declared nodata value:
   // one the file did not say is one.
   bool isImplausible(float sample) const {
-    return (!std::isnan(sample)) &
-           (std::isinf(sample) | ((!isMarked(sample)) & (isUndeclaredFill(sample) | isBeyondRange(sample))));
+    const bool a_number = !std::isnan(sample), infinite = std::isinf(sample), unmarked = !isMarked(sample),
+               undeclared_fill = isUndeclaredFill(sample), beyond_range = isBeyondRange(sample);
+    return a_number & (infinite | (unmarked & (undeclared_fill | beyond_range)));
   }
   // A void marker or the declared nodata value (a NaN nodata matches nothing here).
   bool isMarked(float sample) const {
-    return (sample <= kVoidMarkerMax) | (sample == nodata.value_or(std::numeric_limits<double>::quiet_NaN()));
+    const bool marker = sample <= kVoidMarkerMax;
+    const bool declared = sample == nodata.value_or(std::numeric_limits<double>::quiet_NaN());
+    return marker | declared;
   }
-  bool isUndeclaredFill(float sample) const { return fill_value_void & (sample == kUndeclaredFillValue); }
+  bool isUndeclaredFill(float sample) const {
+    const bool fill = sample == kUndeclaredFillValue;
+    return fill_value_void & fill;
+  }
   bool isBeyondRange(float sample) const {
     const double h = sample * scale + offset;
-    return (h < min_height) | (h > max_height);
+    const bool below = h < min_height, above = h > max_height;
+    return below | above;
   }
   void count(long long samples) const {
     if (implausible && samples > 0) implausible->fetch_add(samples, std::memory_order_relaxed);
