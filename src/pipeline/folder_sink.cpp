@@ -51,8 +51,12 @@ class FolderSink : public TileSink {
     const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
     std::error_code ec;
     if (!fs::exists(record, ec)) {
-      // No job recorded: a new layer, or one another tool made.
-      if (const std::optional<std::string> found = foreignFile(); found && !force) {
+      // No job recorded: a new layer, or one another tool made. A run that
+      // starts at the same moment (a shard) may record its job while this
+      // one looks, and then write tiles: what it writes comes after its
+      // record, so a file found is another tool's only while there is
+      // still no record.
+      if (const std::optional<std::string> found = foreignFile(); found && !force && !fs::exists(record, ec)) {
         throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
                          "', which no terrabake job made; use another output.layer, or --force to write into it");
       }
