@@ -19,10 +19,11 @@ bool SourceWindow::read(GDALRasterBandH band, long first_col, long first_row, in
   const VoidRule rule = voids;
   float* const samples = values.data();
   std::uint8_t* const is_data = data.data();
-  for (std::size_t i = 0; i < count; ++i) is_data[i] = !rule.isVoid(samples[i]);
   long long implausible = 0;
   for (std::size_t i = 0; i < count; ++i) {
-    const bool void_sample = !is_data[i], implausible_value = rule.isImplausible(samples[i]);
+    // One pass, so the two tests share their parts.
+    const bool void_sample = rule.isVoid(samples[i]), implausible_value = rule.isImplausible(samples[i]);
+    is_data[i] = !void_sample;
     implausible += void_sample & implausible_value;
   }
   for (std::size_t i = 0; i < count; ++i) {
