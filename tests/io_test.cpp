@@ -234,8 +234,10 @@ TEST(Png, RgbaKeepsColourWhateverTheAlpha) {
 // pixels rarely repeat with Huffman codes alone; either decodes exactly.
 TEST(Png, DefaultCompressionTakesRunsForFlatMapsAndHuffmanCodesForVariedOnes) {
   constexpr int kSize = 256;
-  const io::PngCompression run_length{2, 0x80, io::ZlibStrategy::kRunLength};
-  const io::PngCompression huffman{2, 0x80, io::ZlibStrategy::kHuffmanOnly};
+  // The default's filters and level, each strategy forced.
+  io::PngCompression run_length, huffman;
+  run_length.strategy = io::ZlibStrategy::kRunLength;
+  huffman.strategy = io::ZlibStrategy::kHuffmanOnly;
   Image<std::uint16_t> flat{kSize, kSize, 3, {}};
   Image<std::uint16_t> varied{kSize, kSize, 3, {}};
   std::uint32_t state = 1;

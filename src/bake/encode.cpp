@@ -79,8 +79,8 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
     components[3 * k + 2] = n.z;
   }
   // Four at a time (GCC and Clang vector extensions), the same double
-  // arithmetic in each lane as one value alone; the components are padded
-  // to a multiple of four.
+  // arithmetic in each lane as one value alone; three components of padding
+  // keep the last four read inside.
   using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
   using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
   using Whole = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
