@@ -2,7 +2,8 @@
 // same job: the file opens with the sqlite3 tool and carries the MBTiles 1.3
 // metadata; every blob is the folder's file at the TMS row the scheme calls
 // for; --resume and the job record work on it; and `terrabake serve` answers
-// for it with the folder layer's bytes. The file is read with SQLite here,
+// for it with the folder layer's bytes; of runs ending together, the tileset
+// that lands last is over all their meshes. The file is read with SQLite here,
 // not with terrabake's reader.
 #include <gtest/gtest.h>
 
@@ -30,6 +31,7 @@
 #include "config/serve_config.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
+#include "io/mbtiles.hpp"
 #include "layer_check.hpp"
 #include "pipeline/tile_job_runner.hpp"
 #include "server/http_rules.hpp"
@@ -325,6 +327,27 @@ TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
   EXPECT_EQ(repair.written, 1);
   EXPECT_EQ(repair.skipped, first.written - 1);
   EXPECT_EQ(db.count("SELECT count(*) FROM meshes"), first.written);
+}
+
+// Two connections stand for two shards' runs. A run that read the meshes
+// leaves the tileset to one that added meshes since (that run rewrites it
+// when it ends), so no tileset over fewer meshes than the file holds lands
+// after one over all of them.
+TEST(Mbtiles, ATilesetIsLeftToTheRunThatAddedMeshesSinceTheyWereRead) {
+  const fs::path file = caseDir() / "shards.mbtiles";
+  const auto ending = io::MbtilesFile::openForWriting(file.string(), false);
+  ASSERT_EQ(ending->claimJob("job"), "");
+  const std::vector<std::uint8_t> png = {1}, glb = {2};
+  ending->writeTile({12, 1, 1}, png, glb, {});
+  std::int64_t read = 0;
+  ending->forEachTile(io::MbtilesTable::kMeshes, [&](const io::MbtilesKey&, const std::vector<std::uint8_t>&) { ++read; });
+
+  const auto still_writing = io::MbtilesFile::openForWriting(file.string(), false);
+  still_writing->writeTile({12, 1, 2}, png, glb, {});
+  EXPECT_FALSE(ending->replaceTilesetDocuments({{"tileset.json", "over one"}}, io::MbtilesTable::kMeshes, read));
+  EXPECT_EQ(ending->tilesetDocument("tileset.json"), std::nullopt);
+  EXPECT_TRUE(still_writing->replaceTilesetDocuments({{"tileset.json", "over two"}}, io::MbtilesTable::kMeshes, 2));
+  EXPECT_EQ(ending->tilesetDocument("tileset.json"), "over two");
 }
 
 TEST(Mbtiles, ADifferentJobNeedsForce) {

@@ -2,7 +2,7 @@
 // run killed with SIGKILL halfway, or stopped by a full disk, and resumed
 // leaves exactly the layer an uninterrupted run writes, no partial file ever
 // sits under a final name, and three shards together write the single run's
-// layer with no tile twice.
+// layer with no tile twice, taking turns at its tileset.
 #include <gtest/gtest.h>
 
 #include <chrono>
@@ -16,6 +16,10 @@
 #include <regex>
 #include <string>
 #include <thread>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include "child_process.hpp"
 #include "layer_check.hpp"
@@ -33,6 +37,9 @@ constexpr int kExitInput = 3;
 // The crash comes once this many meshes exist: well into the run (about a
 // fifth of its tiles), never at its end.
 constexpr std::size_t kMeshesBeforeCrash = 12;
+// How long a run is watched waiting for its tileset turn: several times what
+// a resumed run that makes nothing takes to get there (about 0.3 s).
+constexpr auto kTurnWait = std::chrono::seconds(2);
 
 // About 90 tiles over zooms 11-14: long enough to be killed well before the end.
 fs::path demForRuns() {
@@ -329,6 +336,34 @@ TEST(Shards, ThreeShardsWriteTheSingleRunsLayerOnce) {
   }
   EXPECT_EQ(written, tiles) << "a tile was written by two shards, or by none";
   EXPECT_TRUE(test::snapshot(shards_dir / "layer") == test::snapshot(single_dir / "layer"));
+}
+
+// Shards that end together take turns at tileset.json, each listing the
+// meshes only once the one before has written: the turn is an flock on the
+// job record, and a run that finds it held waits for it.
+TEST(Shards, TilesetWritersTakeTurns) {
+  const fs::path out = freshDir("tileset_turns");
+  std::vector<std::string> args = jobArgs(out);
+  args.insert(args.end(), {"--tileset", "true"});
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const fs::path tileset = out / "layer" / "tileset.json";
+  const std::string expected = test::readBytes(tileset);
+  ASSERT_FALSE(expected.empty());
+  fs::remove(tileset);
+
+  const int record = ::open((out / "layer" / "terrabake-job.txt").c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(record, 0);
+  ASSERT_EQ(::flock(record, LOCK_EX), 0);
+  args.push_back("--resume");
+  test::ChildProcess waiting(args);
+  // Ample for a resumed run with nothing left to make to reach the tileset.
+  std::this_thread::sleep_for(kTurnWait);
+  EXPECT_TRUE(waiting.running()) << waiting.err();
+  EXPECT_FALSE(fs::exists(tileset)) << "written while another run held the turn";
+  ::close(record);
+  ASSERT_EQ(waiting.wait(kRunLimit), 0) << waiting.err();
+  EXPECT_EQ(test::readBytes(tileset), expected);
 }
 
 TEST(Shards, BadShardIsAUsageError) {

@@ -358,9 +358,19 @@ void MbtilesFile::forEachTile(
   if (rc != SQLITE_DONE) m_impl->fail(std::string("cannot read table ") + tableName(table));
 }
 
-void MbtilesFile::replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents) {
+std::int64_t MbtilesFile::rowCount(MbtilesTable table) const {
+  if (!m_impl->has_table[std::size_t(table)]) return 0;
+  Statement statement;
+  sqlite3_stmt* s = m_impl->prepared(statement, std::string("SELECT count(*) FROM ") + tableName(table));
+  if (sqlite3_step(s) != SQLITE_ROW) m_impl->fail(std::string("cannot read table ") + tableName(table));
+  return sqlite3_column_int64(s, 0);
+}
+
+bool MbtilesFile::replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents,
+                                          MbtilesTable table, std::int64_t row_count) {
   m_impl->writeAhead();
   Impl::Transaction transaction(*m_impl);
+  if (rowCount(table) != row_count) return false;
   m_impl->exec(std::string("CREATE TABLE IF NOT EXISTS ") + kMbtilesTilesetTable +
                    " (path text PRIMARY KEY, json text NOT NULL); DELETE FROM " + kMbtilesTilesetTable,
                "cannot write table tilesets");
@@ -374,6 +384,7 @@ void MbtilesFile::replaceTilesetDocuments(const std::vector<std::pair<std::strin
     if (sqlite3_step(s) != SQLITE_DONE) m_impl->fail("cannot write table tilesets");
   }
   transaction.commit();
+  return true;
 }
 
 std::optional<std::string> MbtilesFile::tilesetDocument(const std::string& path) const {

@@ -1,9 +1,17 @@
+#include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <optional>
+#include <utility>
+
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "pipeline/sink_kinds.hpp"
@@ -31,6 +39,37 @@ void removeAbandonedTempFiles(const fs::path& layer) {
     if (it->is_regular_file(ignored) && io::isAbandonedTempFile(it->path().string())) fs::remove(it->path(), ignored);
   }
 }
+
+// An exclusive lock on a file, held while this lives.
+class RecordLock {
+ public:
+  // Waits for the lock. Where the file cannot be locked the layer is written
+  // without a turn, as before runs took turns, and a warning says so.
+  static std::optional<RecordLock> take(const std::string& path) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    int result = fd < 0 ? -1 : 0;
+    if (fd >= 0) {
+      while ((result = ::flock(fd, LOCK_EX)) != 0 && errno == EINTR) {
+      }
+    }
+    if (result == 0) return RecordLock(fd);
+    const int error = errno;
+    log::warning("output: cannot lock '" + path + "' (" + std::strerror(error) +
+                 "): shards ending together may leave tileset.json without each other's meshes; a --resume run "
+                 "of the job writes it over all of them");
+    if (fd >= 0) ::close(fd);
+    return std::nullopt;
+  }
+  RecordLock(RecordLock&& other) noexcept : m_fd(std::exchange(other.m_fd, -1)) {}
+  RecordLock& operator=(RecordLock&&) = delete;
+  ~RecordLock() {
+    if (m_fd >= 0) ::close(m_fd);
+  }
+
+ private:
+  explicit RecordLock(int fd) : m_fd(fd) {}
+  int m_fd;
+};
 
 class FolderSink : public TileSink {
  public:
@@ -77,7 +116,30 @@ class FolderSink : public TileSink {
 
   void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
 
-  void forEachMesh(const MeshVisitor& visit) const override {
+  // The turn is a lock on the job record, which every run into the layer
+  // has (flock: between processes, on NFS too, and let go however the run
+  // ends).
+  bool rewriteTileset(const MeshVisitor& visit, const TilesetDocuments& documents) override {
+    const std::optional<RecordLock> turn = RecordLock::take((fs::path(m_dir) / io::kJobFile).string());
+    forEachMesh(visit);
+    for (const io::TilesetDocument& doc : documents()) {
+      io::writeFileAtomically((fs::path(m_dir) / doc.path).string(),
+                              std::vector<std::uint8_t>(doc.json.begin(), doc.json.end()));
+    }
+    return true;
+  }
+
+  void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    if (!elevation_tilejson.empty()) {
+      io::writeFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(),
+                              std::vector<std::uint8_t>(elevation_tilejson.begin(), elevation_tilejson.end()));
+    }
+    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
+                            std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
+  }
+
+ private:
+  void forEachMesh(const MeshVisitor& visit) const {
     const std::string extension = "." + std::string(io::extensionOf(io::TileFormat::kGlb));
     std::error_code ec;
     for (fs::directory_iterator zs(m_dir, ec), end; !ec && zs != end; zs.increment(ec)) {
@@ -101,23 +163,6 @@ class FolderSink : public TileSink {
     if (ec) throw InputError("output: cannot list '" + m_dir + "': " + ec.message());
   }
 
-  void writeTileset(const std::vector<io::TilesetDocument>& documents) override {
-    for (const io::TilesetDocument& doc : documents) {
-      io::writeFileAtomically((fs::path(m_dir) / doc.path).string(),
-                              std::vector<std::uint8_t>(doc.json.begin(), doc.json.end()));
-    }
-  }
-
-  void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
-    if (!elevation_tilejson.empty()) {
-      io::writeFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(),
-                              std::vector<std::uint8_t>(elevation_tilejson.begin(), elevation_tilejson.end()));
-    }
-    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
-                            std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
-  }
-
- private:
   // A visible entry of the folder, which a layer without a job record should
   // not have; hidden files are temporary files of writers.
   std::optional<std::string> foreignFile() const {

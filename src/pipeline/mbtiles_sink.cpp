@@ -52,18 +52,18 @@ class MbtilesSink : public TileSink {
     m_file->writeTile(io::mbtilesKey(tile, m_tms_rows), files.png, files.glb, files.high_res_glb);
   }
 
-  void forEachMesh(const MeshVisitor& visit) const override {
+  // The meshes are read without holding up other runs' tile writes; the
+  // documents land only if no mesh was added meanwhile.
+  bool rewriteTileset(const MeshVisitor& visit, const TilesetDocuments& documents) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
+    std::int64_t meshes = 0;
     m_file->forEachTile(io::MbtilesTable::kMeshes, [&](const io::MbtilesKey& key, const std::vector<std::uint8_t>& bytes) {
+      ++meshes;
       visit(io::tileOfKey(key, m_tms_rows), bytes);
     });
-  }
-
-  void writeTileset(const std::vector<io::TilesetDocument>& documents) override {
     std::vector<std::pair<std::string, std::string>> rows;
-    for (const io::TilesetDocument& doc : documents) rows.emplace_back(doc.path, doc.json);
-    const std::lock_guard<std::mutex> lock(m_mutex);
-    m_file->replaceTilesetDocuments(rows);
+    for (const io::TilesetDocument& doc : documents()) rows.emplace_back(doc.path, doc.json);
+    return rows.empty() || m_file->replaceTilesetDocuments(rows, io::MbtilesTable::kMeshes, meshes);
   }
 
   // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.

@@ -95,10 +95,7 @@ class PmtilesSink : public TileSink {
   }
 
   // planLayer refuses output.tileset for PMTiles layers.
-  void forEachMesh(const MeshVisitor& /*visit*/) const override {
-    throw std::logic_error("a PMTiles layer keeps no tileset");
-  }
-  void writeTileset(const std::vector<io::TilesetDocument>& /*documents*/) override {
+  bool rewriteTileset(const MeshVisitor& /*visit*/, const TilesetDocuments& /*documents*/) override {
     throw std::logic_error("a PMTiles layer keeps no tileset");
   }
 

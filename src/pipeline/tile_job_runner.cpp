@@ -26,18 +26,28 @@ namespace {
 // run's it resumed, and other shards' that have finished.
 void writeTileset(TileSink& sink, const LayerPlan& plan) {
   std::vector<io::TilesetTile> tiles;
-  sink.forEachMesh([&](const TileId& tile, const std::vector<std::uint8_t>& glb) {
-    try {
-      tiles.push_back({tile, io::readGlbPlacement(glb)});
-    } catch (const std::exception& e) {
-      throw InputError("output: tile " + tile.str() + " of '" + sink.location() + "': " + oneLine(e.what()));
-    }
-  });
+  std::size_t files = 0;
+  const bool written = sink.rewriteTileset(
+      [&](const TileId& tile, const std::vector<std::uint8_t>& glb) {
+        try {
+          tiles.push_back({tile, io::readGlbPlacement(glb)});
+        } catch (const std::exception& e) {
+          throw InputError("output: tile " + tile.str() + " of '" + sink.location() + "': " + oneLine(e.what()));
+        }
+      },
+      [&] {
+        std::vector<io::TilesetDocument> documents;
+        if (!tiles.empty()) documents = io::buildTileset(tiles, plan.scheme->tileSize());
+        files = documents.size();
+        return documents;
+      });
   if (tiles.empty()) return;
-  const std::vector<io::TilesetDocument> documents = io::buildTileset(tiles, plan.scheme->tileSize());
-  sink.writeTileset(documents);
-  log::info("tileset: " + std::to_string(tiles.size()) + " tiles in " + std::to_string(documents.size()) +
-            " file" + (documents.size() == 1 ? "" : "s"));
+  if (!written) {
+    log::info("tileset: left to the run that added meshes to the layer while this one read them");
+    return;
+  }
+  log::info("tileset: " + std::to_string(tiles.size()) + " tiles in " + std::to_string(files) + " file" +
+            (files == 1 ? "" : "s"));
 }
 
 }  // namespace

@@ -28,11 +28,16 @@ class TileSink {
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
   virtual void write(const TileId& tile, const io::TileFiles& files) = 0;
-  // Every low-poly mesh the layer holds, whichever run wrote it.
   using MeshVisitor = std::function<void(const TileId&, const std::vector<std::uint8_t>&)>;
-  virtual void forEachMesh(const MeshVisitor& visit) const = 0;
-  // Writes the layer's 3D Tiles files, each whole, in place of any before.
-  virtual void writeTileset(const std::vector<io::TilesetDocument>& documents) = 0;
+  using TilesetDocuments = std::function<std::vector<io::TilesetDocument>()>;
+  // Shows `visit` every low-poly mesh the layer holds, whichever run wrote
+  // it, then writes the 3D Tiles files `documents` makes of them, each whole,
+  // in place of any before (none: those before stay). Of runs writing into
+  // one layer at once (shards), the tileset left at the end is over all
+  // their meshes: a folder's runs take turns at this, and an MBTiles file's
+  // leave it (returning false) to a run that has added meshes since they
+  // were shown, which rewrites it when it ends.
+  virtual bool rewriteTileset(const MeshVisitor& visit, const TilesetDocuments& documents) = 0;
   // Writes the layer's description (tilejson, or MBTiles metadata) last;
   // `elevation_tilejson` is the elevation tiles' (empty: the layer has none).
   virtual void finish(const std::string& tilejson, const std::string& elevation_tilejson) = 0;
