@@ -334,7 +334,12 @@ class GreedyMesher {
     const Ints lane_samples = laneNumbers<Ints>();
     Floats farthest2 = Floats{} - 1;
     Ints farthest = Ints{} - 1;
-    forEachTexelSpan(a.at, b.at, c.at, m_size, kExactOnEdge, [&](int j, int first, int last) {
+    // The rows' spans first, then the scan: apart, each loop keeps its
+    // values in registers.
+    m_rows.clear();
+    forEachTexelSpan(a.at, b.at, c.at, m_size, kExactOnEdge,
+                     [&](int j, int first, int last) { m_rows.push_back({j, first, last}); });
+    for (const auto& [j, first, last] : m_rows) {
       const glm::dvec3 row_start =
           a.position - m_origin + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
       const std::size_t row = std::size_t(j) * std::size_t(m_size) + std::size_t(first);
@@ -351,7 +356,7 @@ class GreedyMesher {
         farthest2 = farther ? e2 : farthest2;
         farthest = farther ? (j * m_size + first + i) + lane_samples : farthest;
       }
-    });
+    }
     // The farthest of the lanes' farthest; of equals, the first in the scan.
     int best = 0;
     for (int lane = 1; lane < kLanes; ++lane) {
@@ -385,6 +390,10 @@ class GreedyMesher {
   std::vector<int> m_touch_mark;  // per triangle: the generation that last touched it
   std::vector<int> m_touched;
   int m_generation = 1;
+  struct RowSpan {
+    int row, first, last;
+  };
+  std::vector<RowSpan> m_rows;  // rescore's, kept to save allocations
 };
 
 }  // namespace
