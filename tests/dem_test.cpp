@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <map>
 #include <memory>
+#include <random>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -20,6 +21,7 @@
 #include "dem/fill_holes.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/mask_dilation.hpp"
 #include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
 #include "layer_check.hpp"
@@ -40,6 +42,35 @@ TEST(FloorToLong, MatchesTheLibraryAndSaturatesBeyondAnyRaster) {
   EXPECT_EQ(floorToLong(1e300), 1L << 62);
   EXPECT_EQ(floorToLong(-INFINITY), -(1L << 62));
   EXPECT_EQ(floorToLong(NAN), -(1L << 62));
+}
+
+// The square dilation against its definition, sample by sample: masks of
+// scattered samples, of runs and of whole rows, reaches from 0 to past the
+// mask's size.
+TEST(DilatedMask, IsOneExactlyWithinReachOfANonZeroSample) {
+  std::mt19937 random(7);
+  for (const double density : {0.01, 0.2, 0.9}) {
+    for (const int reach : {0, 1, 3, 63, 80}) {
+      const int width = 71, height = 37;
+      std::vector<std::uint8_t> mask(std::size_t(width) * height, 0);
+      std::bernoulli_distribution on(density);
+      for (std::size_t k = 0; k < mask.size(); ++k) mask[k] = on(random) ? std::uint8_t(1 + k % 3) : 0;
+      for (int c = 0; c < width; ++c) mask[std::size_t(5 * width + c)] = 1;  // a whole row
+      const std::vector<std::uint8_t> dilated = dem::dilatedMask(mask, width, height, reach);
+      for (int r = 0; r < height; ++r) {
+        for (int c = 0; c < width; ++c) {
+          bool near = false;
+          for (int rr = std::max(0, r - reach); rr <= std::min(height - 1, r + reach); ++rr) {
+            for (int cc = std::max(0, c - reach); cc <= std::min(width - 1, c + reach); ++cc) {
+              near = near || mask[std::size_t(rr * width + cc)] != 0;
+            }
+          }
+          ASSERT_EQ(dilated[std::size_t(r * width + c)], near ? 1 : 0)
+              << "density " << density << ", reach " << reach << ", sample (" << c << ", " << r << ")";
+        }
+      }
+    }
+  }
 }
 
 TEST(FillHoles, LeavesNoHoleAndNoSpike) {
