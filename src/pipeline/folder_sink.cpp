@@ -43,8 +43,8 @@ void removeAbandonedTempFiles(const fs::path& layer) {
 // An exclusive lock on a file, held while this lives.
 class RecordLock {
  public:
-  // Waits for the lock. Where the file cannot be locked the layer is written
-  // without a turn, as before runs took turns, and a warning says so.
+  // Waits for the lock. Where the file cannot be locked, the run writes
+  // without a turn and a warning says so.
   static std::optional<RecordLock> take(const std::string& path) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     int result = fd < 0 ? -1 : 0;
