@@ -18,6 +18,7 @@
 #include <fstream>
 #include <iterator>
 #include <map>
+#include <mutex>
 #include <optional>
 #include <ostream>
 #include <set>
@@ -327,6 +328,40 @@ TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
   EXPECT_EQ(repair.written, 1);
   EXPECT_EQ(repair.skipped, first.written - 1);
   EXPECT_EQ(db.count("SELECT count(*) FROM meshes"), first.written);
+}
+
+// Shards starting together into a new file each switch it to a write-ahead
+// log before their first tile; SQLite answers one of two switches that meet
+// "database is locked" at once, without waiting, so the file waits itself.
+// Two connections (as two shards' processes) write their first tiles at the
+// same moment, into a new file each round.
+TEST(Mbtiles, WritersStartingTogetherBothWriteTheirFirstTiles) {
+  constexpr int kRounds = 40;
+  const std::vector<std::uint8_t> png = {1}, glb = {2};
+  for (int round = 0; round < kRounds; ++round) {
+    const fs::path file = caseDir() / ("together_" + std::to_string(round) + ".mbtiles");
+    const auto first = io::MbtilesFile::openForWriting(file.string(), false);
+    ASSERT_EQ(first->claimJob("job"), "");
+    const auto second = io::MbtilesFile::openForWriting(file.string(), false);
+    std::atomic<int> ready{0};
+    std::string failed;
+    std::mutex failed_mutex;
+    const auto writeFirstTile = [&](io::MbtilesFile& writer, int column) {
+      ++ready;
+      while (ready < 2) {
+      }
+      try {
+        writer.writeTile({12, column, 1}, png, glb, {});
+      } catch (const std::exception& e) {
+        const std::lock_guard<std::mutex> lock(failed_mutex);
+        failed = e.what();
+      }
+    };
+    std::thread one(writeFirstTile, std::ref(*first), 1), two(writeFirstTile, std::ref(*second), 2);
+    one.join();
+    two.join();
+    ASSERT_EQ(failed, "") << "round " << round;
+  }
 }
 
 // Two connections stand for two shards' runs. A run that read the meshes

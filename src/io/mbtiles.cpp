@@ -3,8 +3,10 @@
 #include <sqlite3.h>
 
 #include <array>
+#include <chrono>
 #include <set>
 #include <stdexcept>
+#include <thread>
 
 #include <nlohmann/json.hpp>
 
@@ -20,6 +22,8 @@ constexpr int kMbtilesApplicationId = 0x4d504258;
 // How long to wait for another process's write lock: a shard writing the
 // same file holds it for one tile's commit.
 constexpr int kBusyTimeoutMs = 60000;
+// How often a statement SQLite answered busy at once is tried again.
+constexpr auto kBusyRetry = std::chrono::milliseconds(5);
 constexpr const char* kDescription =
     "terrabake layer: tangent-space normal maps (PNG) in table tiles, the low-poly glTF meshes they belong to in "
     "table meshes";
@@ -88,6 +92,20 @@ struct MbtilesFile::Impl {
     if (sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr) != SQLITE_OK) fail(what);
   }
 
+  // exec, waiting as the busy timeout does where SQLite answers busy at
+  // once: two processes switching the file's journal together each hold a
+  // read lock that the other's switch needs, so SQLite fails one of them
+  // rather than have both wait (shards starting together into a new file).
+  void execWhenFree(const std::string& sql, const std::string& what) {
+    const auto give_up = std::chrono::steady_clock::now() + std::chrono::milliseconds(kBusyTimeoutMs);
+    int rc;
+    while ((rc = sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr)) == SQLITE_BUSY &&
+           std::chrono::steady_clock::now() < give_up) {
+      std::this_thread::sleep_for(kBusyRetry);
+    }
+    if (rc != SQLITE_OK) fail(what);
+  }
+
   sqlite3_stmt* prepared(Statement& slot, const std::string& sql) {
     if (!slot) {
       sqlite3_stmt* statement = nullptr;
@@ -125,7 +143,7 @@ struct MbtilesFile::Impl {
     // written. NORMAL: no fsync per commit; a crash of the process loses no
     // committed tile, a power cut at most the last ones, and the file stays
     // consistent either way.
-    exec("PRAGMA journal_mode=WAL", "cannot switch to a write-ahead log");
+    execWhenFree("PRAGMA journal_mode=WAL", "cannot switch to a write-ahead log");
     exec("PRAGMA synchronous=NORMAL", "cannot switch to a write-ahead log");
     write_ahead = true;
   }
