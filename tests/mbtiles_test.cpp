@@ -379,9 +379,9 @@ TEST(Mbtiles, ATilesetIsLeftToTheRunThatAddedMeshesSinceTheyWereRead) {
 
   const auto still_writing = io::MbtilesFile::openForWriting(file.string(), false);
   still_writing->writeTile({12, 1, 2}, png, glb, {});
-  EXPECT_FALSE(ending->replaceTilesetDocuments({{"tileset.json", "over one"}}, io::MbtilesTable::kMeshes, read));
+  EXPECT_FALSE(ending->replaceTilesetDocuments({{"tileset.json", "over one"}}, read));
   EXPECT_EQ(ending->tilesetDocument("tileset.json"), std::nullopt);
-  EXPECT_TRUE(still_writing->replaceTilesetDocuments({{"tileset.json", "over two"}}, io::MbtilesTable::kMeshes, 2));
+  EXPECT_TRUE(still_writing->replaceTilesetDocuments({{"tileset.json", "over two"}}, 2));
   EXPECT_EQ(ending->tilesetDocument("tileset.json"), "over two");
 }
 

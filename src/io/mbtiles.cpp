@@ -385,10 +385,10 @@ std::int64_t MbtilesFile::rowCount(MbtilesTable table) const {
 }
 
 bool MbtilesFile::replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents,
-                                          MbtilesTable table, std::int64_t row_count) {
+                                          std::int64_t mesh_count) {
   m_impl->writeAhead();
   Impl::Transaction transaction(*m_impl);
-  if (rowCount(table) != row_count) return false;
+  if (rowCount(MbtilesTable::kMeshes) != mesh_count) return false;
   m_impl->exec(std::string("CREATE TABLE IF NOT EXISTS ") + kMbtilesTilesetTable +
                    " (path text PRIMARY KEY, json text NOT NULL); DELETE FROM " + kMbtilesTilesetTable,
                "cannot write table tilesets");

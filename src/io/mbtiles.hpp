@@ -93,12 +93,12 @@ class MbtilesFile {
                    const std::function<void(const MbtilesKey&, const std::vector<std::uint8_t>&)>& visit) const;
 
   // Replaces the 3D Tiles files (path relative to the layer, JSON text) in
-  // one transaction, if the table still holds `row_count` rows: false, with
-  // nothing written, when another process has added rows since they were
-  // read. tilesetDocument gives one of them, nullopt when the file has no
-  // such document.
-  bool replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents, MbtilesTable table,
-                               std::int64_t row_count);
+  // one transaction, if table `meshes` still holds `mesh_count` rows: false,
+  // with nothing written, when another process has added meshes since they
+  // were read. tilesetDocument gives one of them, nullopt when the file has
+  // no such document.
+  bool replaceTilesetDocuments(const std::vector<std::pair<std::string, std::string>>& documents,
+                               std::int64_t mesh_count);
   std::optional<std::string> tilesetDocument(const std::string& path) const;
 
   // Folds the write-ahead log into the file and goes back to a rollback

@@ -63,7 +63,7 @@ class MbtilesSink : public TileSink {
     });
     std::vector<std::pair<std::string, std::string>> rows;
     for (const io::TilesetDocument& doc : documents()) rows.emplace_back(doc.path, doc.json);
-    return rows.empty() || m_file->replaceTilesetDocuments(rows, io::MbtilesTable::kMeshes, meshes);
+    return rows.empty() || m_file->replaceTilesetDocuments(rows, meshes);
   }
 
   // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
