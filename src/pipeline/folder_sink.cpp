@@ -47,12 +47,12 @@ class RecordLock {
   // without a turn and a warning says so.
   static std::optional<RecordLock> take(const std::string& path) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    int result = fd < 0 ? -1 : 0;
     if (fd >= 0) {
+      int result;
       while ((result = ::flock(fd, LOCK_EX)) != 0 && errno == EINTR) {
       }
+      if (result == 0) return RecordLock(fd);
     }
-    if (result == 0) return RecordLock(fd);
     const int error = errno;
     log::warning("output: cannot lock '" + path + "' (" + std::strerror(error) +
                  "): shards ending together may leave tileset.json without each other's meshes; a --resume run "
