@@ -11,6 +11,7 @@
 
 #include "mesh/adaptive_mesh.hpp"
 #include "mesh/mesh.hpp"
+#include "mesh/texel_raster.hpp"
 #include "synthetic_surface.hpp"
 
 namespace terrabake {
@@ -156,6 +157,40 @@ TEST(TexelFrames, FindTheTriangleUnderEveryTexelOfAnyMesh) {
       EXPECT_LT(test::angleDeg(rasterised.n, searched.n), kSameFrameDeg) << i << ", " << j;
       EXPECT_LT(test::angleDeg(rasterised.t, searched.t), kSameFrameDeg) << i << ", " << j;
       EXPECT_LT(test::angleDeg(rasterised.b, searched.b), kSameFrameDeg) << i << ", " << j;
+    }
+  }
+}
+
+// The mesher's exact span walk against the definition: a texel is listed
+// when its centre is inside the triangle or on an edge. Corners anywhere on
+// the half-texel lattice, past the tile too, with edges along rows and
+// columns, through centres and between them.
+TEST(TexelSpans, ListExactlyTheCentresInsideOrOnATriangleOnHalfTexels) {
+  constexpr int kSize = 12;
+  using P = mesh::HalfTexelPoint;
+  auto orient = [](P a, P b, P c) { return (b.x2 - a.x2) * (c.y2 - a.y2) - (b.y2 - a.y2) * (c.x2 - a.x2); };
+  std::mt19937 random(7);
+  std::uniform_int_distribution<std::int64_t> coordinate(-4, 2 * kSize + 4);
+  int triangles_tried = 0;
+  while (triangles_tried < 3000) {
+    const P a{coordinate(random), coordinate(random)}, b{coordinate(random), coordinate(random)},
+        c{coordinate(random), coordinate(random)};
+    if (orient(a, b, c) == 0) continue;
+    ++triangles_tried;
+    std::vector<int> listed(kSize * kSize, 0);
+    mesh::forEachTexelSpanExact(a, b, c, kSize, [&](int j, int first, int last) {
+      ASSERT_LE(first, last);
+      for (int i = first; i <= last; ++i) ++listed[std::size_t(j * kSize + i)];
+    });
+    for (int j = 0; j < kSize; ++j) {
+      for (int i = 0; i < kSize; ++i) {
+        const P centre{2 * i + 1, 2 * j + 1};
+        const std::int64_t ab = orient(a, b, centre), bc = orient(b, c, centre), ca = orient(c, a, centre);
+        const bool inside = (ab >= 0 && bc >= 0 && ca >= 0) || (ab <= 0 && bc <= 0 && ca <= 0);
+        ASSERT_EQ(listed[std::size_t(j * kSize + i)], inside ? 1 : 0)
+            << "texel " << i << ", " << j << " of (" << a.x2 << ", " << a.y2 << ") (" << b.x2 << ", " << b.y2
+            << ") (" << c.x2 << ", " << c.y2 << ")";
+      }
     }
   }
 }

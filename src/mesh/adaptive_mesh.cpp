@@ -86,10 +86,6 @@ int prevEdge(int e) { return e % 3 == 0 ? e + 2 : e - 1; }
 // kAdaptiveApron covers the reach).
 constexpr double kFrameStepSamples = 4;
 
-// Vertices sit on half texels, so the predicates are exact; the span scan
-// only has to be safe from rounding.
-constexpr double kExactOnEdge = 1e-9;
-
 constexpr int kLanes = kFloatLanes;
 
 // A triangulation of the tile in half-edge form: half-edge e of triangle
@@ -337,8 +333,8 @@ class GreedyMesher {
     // The rows' spans first, then the scan: apart, each loop keeps its
     // values in registers.
     m_rows.clear();
-    forEachTexelSpan(a.at, b.at, c.at, m_size, kExactOnEdge,
-                     [&](int j, int first, int last) { m_rows.push_back({j, first, last}); });
+    forEachTexelSpanExact({a.x2, a.y2}, {b.x2, b.y2}, {c.x2, c.y2}, m_size,
+                          [&](int j, int first, int last) { m_rows.push_back({j, first, last}); });
     for (const auto& [j, first, last] : m_rows) {
       const glm::dvec3 row_start =
           a.position - m_origin + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
