@@ -143,6 +143,10 @@ void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t
   }
 }
 
+void writeTextFileAtomically(const std::string& path, const std::string& text) {
+  writeFileAtomically(path, std::vector<std::uint8_t>(text.begin(), text.end()));
+}
+
 bool writeFileExclusively(const std::string& path, const std::vector<std::uint8_t>& bytes) {
   const std::string temp = writeTempFile(path, bytes);
   const int linked = ::link(temp.c_str(), path.c_str());

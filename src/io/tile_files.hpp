@@ -17,6 +17,8 @@ namespace terrabake::io {
 // Writes bytes to path through a temporary file in the same folder and a
 // rename, creating missing parent folders. Throws InputError naming the path.
 void writeFileAtomically(const std::string& path, const std::vector<std::uint8_t>& bytes);
+// The same for a text file (JSON documents, tilejson).
+void writeTextFileAtomically(const std::string& path, const std::string& text);
 
 // As writeFileAtomically, but only when `path` does not exist yet: of several
 // writers racing for one path exactly one creates it (a hard link, which

@@ -123,19 +123,16 @@ class FolderSink : public TileSink {
     const std::optional<RecordLock> turn = RecordLock::take((fs::path(m_dir) / io::kJobFile).string());
     forEachMesh(visit);
     for (const io::TilesetDocument& doc : documents()) {
-      io::writeFileAtomically((fs::path(m_dir) / doc.path).string(),
-                              std::vector<std::uint8_t>(doc.json.begin(), doc.json.end()));
+      io::writeTextFileAtomically((fs::path(m_dir) / doc.path).string(), doc.json);
     }
     return true;
   }
 
   void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
     if (!elevation_tilejson.empty()) {
-      io::writeFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(),
-                              std::vector<std::uint8_t>(elevation_tilejson.begin(), elevation_tilejson.end()));
+      io::writeTextFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(), elevation_tilejson);
     }
-    io::writeFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(),
-                            std::vector<std::uint8_t>(tilejson.begin(), tilejson.end()));
+    io::writeTextFileAtomically((fs::path(m_dir) / io::kTileJsonFile).string(), tilejson);
   }
 
  private:

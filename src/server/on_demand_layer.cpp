@@ -19,7 +19,7 @@ namespace {
 namespace fs = std::filesystem;
 
 void writeWhenMissing(const fs::path& path, const std::string& text) {
-  if (!fs::exists(path)) io::writeFileAtomically(path.string(), std::vector<std::uint8_t>(text.begin(), text.end()));
+  if (!fs::exists(path)) io::writeTextFileAtomically(path.string(), text);
 }
 
 // Creates the layer folder, its tilejson.json and elevation.json when missing; returns the folder.
