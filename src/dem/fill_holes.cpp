@@ -5,6 +5,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
+#include <map>
+#include <memory>
+#include <mutex>
 #include <vector>
 
 namespace terrabake::dem {
@@ -99,17 +103,26 @@ struct EdgePlane {
   double height = 0, slope_c = 0, slope_r = 0;
 };
 
-// The data samples next to a hole, in row-major order.
-std::vector<EdgePlane> edgePlanes(const Raster<float>& heights) {
+// 1 at the data samples next to a hole (a hole in the 3 x 3 samples
+// around): the hole's edge.
+std::vector<std::uint8_t> holeEdge(const Raster<float>& heights) {
   std::vector<std::uint8_t> hole(heights.data.size());
   for (std::size_t k = 0; k < hole.size(); ++k) hole[k] = std::isnan(heights.data[k]) ? 1 : 0;
-  // Next to a hole: one in the 3 x 3 samples around.
-  const std::vector<std::uint8_t> near_hole = dilatedMask(hole, heights.width, heights.height, 1);
+  std::vector<std::uint8_t> edge = dilatedMask(hole, heights.width, heights.height, 1);
+  for (std::size_t k = 0; k < edge.size(); ++k) edge[k] &= std::uint8_t(hole[k] ^ 1);
+  return edge;
+}
+
+// The planes of the samples `edge` marks, in row-major order.
+std::vector<EdgePlane> edgePlanes(const Raster<float>& heights, const std::vector<std::uint8_t>& edge) {
   std::vector<EdgePlane> planes;
   for (int r = 0; r < heights.height; ++r) {
-    for (int c = 0; c < heights.width; ++c) {
-      const std::size_t k = std::size_t(r) * std::size_t(heights.width) + std::size_t(c);
-      if (hole[k] || !near_hole[k]) continue;
+    const std::uint8_t* row = &edge[std::size_t(r) * std::size_t(heights.width)];
+    const std::uint8_t* const end = row + heights.width;
+    // Most rows hold an edge sample or two: find them a vector at a time.
+    for (auto* at = static_cast<const std::uint8_t*>(std::memchr(row, 1, std::size_t(end - row))); at;
+         at = static_cast<const std::uint8_t*>(std::memchr(at + 1, 1, std::size_t(end - at - 1)))) {
+      const int c = int(at - row);
       planes.push_back({c, r, heights.at(c, r), dataSlope(heights, c, r, 1, 0), dataSlope(heights, c, r, 0, 1)});
     }
   }
@@ -157,6 +170,17 @@ class ReachWeights {
   std::vector<int> m_half_width;                      // per dr
 };
 
+// The weights for `reach`, made once per process (a job fills with one
+// reach): making them costs a tenth of a tile's fill.
+const ReachWeights& reachWeights(int reach) {
+  static std::mutex mutex;
+  static std::map<int, std::unique_ptr<const ReachWeights>> made;
+  const std::lock_guard<std::mutex> lock(mutex);
+  std::unique_ptr<const ReachWeights>& weights = made[reach];
+  if (!weights) weights = std::make_unique<const ReachWeights>(reach);
+  return *weights;
+}
+
 // 1 at t = 0, 0 from t = 1 on, flat at both ends (smoothstep), so the fade
 // adds no kink where it starts or ends. (Smootherstep, flat in curvature too,
 // is a quarter steeper halfway: steeper than the terrain it continues.)
@@ -192,12 +216,11 @@ bool fillHoles(Raster<float>& heights) {
 }
 
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
-  const std::vector<EdgePlane> edge = edgePlanes(around);
-  const ReachWeights weights(reach);
+  const std::vector<std::uint8_t> is_edge = holeEdge(around);
+  const std::vector<EdgePlane> edge = edgePlanes(around, is_edge);
+  const ReachWeights& weights = reachWeights(reach);
   // Samples less than reach from an edge sample along both axes: the others
   // are the backdrop's alone, with no plane to visit.
-  std::vector<std::uint8_t> is_edge(around.data.size(), 0);
-  for (const EdgePlane& e : edge) is_edge[std::size_t(e.r) * std::size_t(around.width) + std::size_t(e.c)] = 1;
   const std::vector<std::uint8_t> near_edge = dilatedMask(is_edge, around.width, around.height, reach - 1);
   Raster<float> filled(around.width - 2 * margin, around.height - 2 * margin);
   const auto needsPlanes = [&](int c, int r) {
@@ -214,41 +237,48 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
   }
   // Inverse-distance weighted sums of the edge samples' planes within reach
   // of each such sample, each weight tapered to zero at reach, and the same
-  // sums of their distances: a smooth distance to the edge. Each edge sample
-  // adds to the hole samples inside its reach's circle, row by row; taking
-  // the edge samples in row-major order gives every hole sample its terms in
-  // the same order from any window, so its value depends only on where it is.
-  const std::size_t count = filled.data.size();
-  std::vector<double> weight_sum(count, 0.0), height_sum(count, 0.0), distance_sum(count, 0.0);
-  for (const EdgePlane& e : edge) {
-    for (int dr = 1 - reach; dr < reach; ++dr) {
-      const int r = e.r + dr - margin;
-      if (r < 0 || r >= filled.height) continue;
+  // sums of their distances: a smooth distance to the edge. A row's sums
+  // take the edge samples less than reach rows away, a run of the list;
+  // taking them in row-major order gives every hole sample its terms in the
+  // same order from any window, so its value depends only on where it is.
+  // One row's sums at a time stay in the first-level cache.
+  std::vector<double> weight_sum(std::size_t(filled.width)), height_sum(weight_sum.size()),
+      distance_sum(weight_sum.size());
+  std::size_t first_edge = 0;  // the first edge sample less than reach rows above the row
+  for (int r = 0; r < filled.height; ++r) {
+    const int row = r + margin;  // in `around`
+    while (first_edge < edge.size() && edge[first_edge].r <= row - reach) ++first_edge;
+    const int row_first = first_hole[std::size_t(r)], row_last = last_hole[std::size_t(r)];
+    if (row_first <= row_last) {
+      std::fill(weight_sum.begin() + row_first, weight_sum.begin() + row_last + 1, 0.0);
+      std::fill(height_sum.begin() + row_first, height_sum.begin() + row_last + 1, 0.0);
+      std::fill(distance_sum.begin() + row_first, distance_sum.begin() + row_last + 1, 0.0);
+    }
+    // With no sample that needs planes, the row's range is empty and no edge sample adds to it.
+    for (std::size_t i = first_edge; i < edge.size() && edge[i].r < row + reach; ++i) {
+      const EdgePlane& e = edge[i];
+      const int dr = row - e.r;
       const int half = weights.halfWidth(dr);
-      const int from = std::max(e.c - half - margin, first_hole[std::size_t(r)]);
-      const int to = std::min(e.c + half - margin, last_hole[std::size_t(r)]);
+      const int from = std::max(e.c - half - margin, row_first);
+      const int to = std::min(e.c + half - margin, row_last);
       if (from > to) continue;
       const double across_rows = e.slope_r * double(dr);
-      const std::size_t row = std::size_t(r) * std::size_t(filled.width);
       const std::size_t at_from = weights.index(from + margin - e.c, dr);
       for (int c = from; c <= to; ++c) {
         const std::size_t k = at_from + std::size_t(c - from);
         const double weight = weights.weight(k);
-        weight_sum[row + std::size_t(c)] += weight;
-        height_sum[row + std::size_t(c)] +=
-            weight * (e.height + e.slope_c * (double(c + margin) - double(e.c)) + across_rows);
-        distance_sum[row + std::size_t(c)] += weights.weightedDistance(k);
+        weight_sum[std::size_t(c)] += weight;
+        height_sum[std::size_t(c)] += weight * (e.height + e.slope_c * (double(c + margin) - double(e.c)) + across_rows);
+        distance_sum[std::size_t(c)] += weights.weightedDistance(k);
       }
     }
-  }
-  for (int r = 0; r < filled.height; ++r) {
     for (int c = 0; c < filled.width; ++c) {
       float& out = filled.at(c, r);
-      out = around.at(c + margin, r + margin);
+      out = around.at(c + margin, row);
       if (!std::isnan(out)) continue;
       const double far = backdrop.at(c, r);
-      const std::size_t k = std::size_t(r) * std::size_t(filled.width) + std::size_t(c);
-      const double blend = needsPlanes(c + margin, r + margin) && weight_sum[k] > 0
+      const std::size_t k = std::size_t(c);
+      const double blend = needsPlanes(c + margin, row) && weight_sum[k] > 0
                                ? fadeOut(distance_sum[k] / weight_sum[k] / reach)
                                : 0.0;
       out = float(blend > 0 ? blend * height_sum[k] / weight_sum[k] + (1 - blend) * far : far);

@@ -26,6 +26,7 @@
 #include "bake/cpu_baker.hpp"
 #include "bake/encode.hpp"
 #include "dem/dem_source.hpp"
+#include "dem/fill_holes.hpp"
 #include "gl/baker_factory.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
@@ -255,6 +256,26 @@ void benchReadWindow(benchmark::State& state) {
   }
 }
 
+// The hole fill of a tile past the DEM's edge, at the default reach of 64
+// texels: the edge crosses the window a third of the way across, at a slant,
+// and the surface beyond it is carried on into the hole.
+void benchHoleFill(benchmark::State& state) {
+  constexpr int kReach = 64;
+  const int margin = dem::continuationReach(kReach);
+  Raster<float> around(kTileSize + 2 * margin, kTileSize + 2 * margin);
+  for (int r = 0; r < around.height; ++r) {
+    for (int c = 0; c < around.width; ++c) {
+      const bool past_edge = c < around.width / 3 + r / 8;
+      around.at(c, r) = past_edge ? NAN : float(500 + 40 * std::sin(c * 0.05) * std::cos(r * 0.03));
+    }
+  }
+  Raster<float> backdrop(kTileSize, kTileSize);
+  std::fill(backdrop.data.begin(), backdrop.data.end(), 450.0f);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(dem::continueIntoHoles(around, margin, backdrop, kReach));
+  }
+}
+
 // The PNG step of a tile: quantise the normals, then compress.
 void benchEncodePng(benchmark::State& state) {
   const bake::NormalMap& map = benchData().normal_map;
@@ -374,6 +395,7 @@ void registerBenchmarks() {
     benchmark::RegisterBenchmark(name, benchAdaptiveMesh, bound_m)->Unit(benchmark::kMillisecond)->UseRealTime();
   }
   benchmark::RegisterBenchmark("BM_ReadWindow", benchReadWindow)->Unit(benchmark::kMillisecond)->UseRealTime();
+  benchmark::RegisterBenchmark("BM_HoleFill", benchHoleFill)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodeGlb", benchEncodeGlb)->Unit(benchmark::kMillisecond)->UseRealTime();
   constexpr std::pair<const char*, int> kPngFilters[] = {{"default", 0}, {"sub", 0x10}, {"up", 0x20}, {"paeth", 0x80}};
