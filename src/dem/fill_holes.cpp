@@ -253,23 +253,23 @@ Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const R
       std::fill(weight_sum.begin() + row_first, weight_sum.begin() + row_last + 1, 0.0);
       std::fill(height_sum.begin() + row_first, height_sum.begin() + row_last + 1, 0.0);
       std::fill(distance_sum.begin() + row_first, distance_sum.begin() + row_last + 1, 0.0);
-    }
-    // With no sample that needs planes, the row's range is empty and no edge sample adds to it.
-    for (std::size_t i = first_edge; i < edge.size() && edge[i].r < row + reach; ++i) {
-      const EdgePlane& e = edge[i];
-      const int dr = row - e.r;
-      const int half = weights.halfWidth(dr);
-      const int from = std::max(e.c - half - margin, row_first);
-      const int to = std::min(e.c + half - margin, row_last);
-      if (from > to) continue;
-      const double across_rows = e.slope_r * double(dr);
-      const std::size_t at_from = weights.index(from + margin - e.c, dr);
-      for (int c = from; c <= to; ++c) {
-        const std::size_t k = at_from + std::size_t(c - from);
-        const double weight = weights.weight(k);
-        weight_sum[std::size_t(c)] += weight;
-        height_sum[std::size_t(c)] += weight * (e.height + e.slope_c * (double(c + margin) - double(e.c)) + across_rows);
-        distance_sum[std::size_t(c)] += weights.weightedDistance(k);
+      for (std::size_t i = first_edge; i < edge.size() && edge[i].r < row + reach; ++i) {
+        const EdgePlane& e = edge[i];
+        const int dr = row - e.r;
+        const int half = weights.halfWidth(dr);
+        const int from = std::max(e.c - half - margin, row_first);
+        const int to = std::min(e.c + half - margin, row_last);
+        if (from > to) continue;
+        const double across_rows = e.slope_r * double(dr);
+        const std::size_t at_from = weights.index(from + margin - e.c, dr);
+        for (int c = from; c <= to; ++c) {
+          const std::size_t k = at_from + std::size_t(c - from);
+          const double weight = weights.weight(k);
+          weight_sum[std::size_t(c)] += weight;
+          height_sum[std::size_t(c)] +=
+              weight * (e.height + e.slope_c * (double(c + margin) - double(e.c)) + across_rows);
+          distance_sum[std::size_t(c)] += weights.weightedDistance(k);
+        }
       }
     }
     for (int c = 0; c < filled.width; ++c) {
