@@ -25,6 +25,7 @@
 
 #include "bake/cpu_baker.hpp"
 #include "bake/encode.hpp"
+#include "config/tile_job.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
 #include "gl/baker_factory.hpp"
@@ -256,12 +257,12 @@ void benchReadWindow(benchmark::State& state) {
   }
 }
 
-// The hole fill of a tile past the DEM's edge, at the default reach of 64
-// texels: the edge crosses the window a third of the way across, at a slant,
-// and the surface beyond it is carried on into the hole.
+// The hole fill of a tile past the DEM's edge, at a job's default reach
+// (nodata.max_fill_px): the edge crosses the window a third of the way
+// across, at a slant, and the surface beyond it is carried on into the hole.
 void benchHoleFill(benchmark::State& state) {
-  constexpr int kReach = 64;
-  const int margin = dem::continuationReach(kReach);
+  const int reach = config::TileJob().max_fill_px;
+  const int margin = dem::continuationReach(reach);
   Raster<float> around(kTileSize + 2 * margin, kTileSize + 2 * margin);
   for (int r = 0; r < around.height; ++r) {
     for (int c = 0; c < around.width; ++c) {
@@ -272,7 +273,7 @@ void benchHoleFill(benchmark::State& state) {
   Raster<float> backdrop(kTileSize, kTileSize);
   std::fill(backdrop.data.begin(), backdrop.data.end(), 450.0f);
   for (auto _ : state) {
-    benchmark::DoNotOptimize(dem::continueIntoHoles(around, margin, backdrop, kReach));
+    benchmark::DoNotOptimize(dem::continueIntoHoles(around, margin, backdrop, reach));
   }
 }
 
