@@ -48,6 +48,50 @@ struct HalfTexelPoint {
   std::int64_t x2, y2;
 };
 
+// Of the centres on successive rows y2, y2 + 2, ... crossed by edge p-q
+// (p.y2 <= y2 <= q.y2), the last column left of the edge or on it and the
+// first right of it or on it: floor and ceil of (x2 - 1) / 2, where
+// x2 = p.x2 + (y2 - p.y2) * (q.x2 - p.x2) / (q.y2 - p.y2). Exact: the
+// numerator of (x2 - 1) / 2 is kept as a whole part and a remainder, so a
+// row costs an addition where each would cost a division.
+class EdgeColumns {
+ public:
+  using Int = std::int64_t;
+
+  EdgeColumns(HalfTexelPoint p, HalfTexelPoint q, Int y2) {
+    const Int d = std::max<Int>(q.y2 - p.y2, 1);  // an edge along a row starts where it is
+    m_denominator = 2 * d;
+    split(p.x2 * d + (y2 - p.y2) * (q.x2 - p.x2) - d, m_last_left, m_remainder);
+    split(2 * (q.x2 - p.x2), m_step_whole, m_step_remainder);
+  }
+
+  Int lastLeft() const { return m_last_left; }
+  Int firstRight() const { return m_last_left + (m_remainder != 0 ? 1 : 0); }
+
+  // Without a branch: the carry comes on about every other row.
+  void nextRow() {
+    m_remainder += m_step_remainder;
+    const Int carry = m_remainder >= m_denominator ? 1 : 0;
+    m_last_left += m_step_whole + carry;
+    m_remainder -= carry * m_denominator;
+  }
+
+ private:
+  // n = whole * m_denominator + remainder, 0 <= remainder < m_denominator.
+  void split(Int n, Int& whole, Int& remainder) const {
+    whole = n / m_denominator;
+    remainder = n - whole * m_denominator;
+    if (remainder < 0) {
+      --whole;
+      remainder += m_denominator;
+    }
+  }
+
+  Int m_denominator = 1;
+  Int m_last_left = 0, m_remainder = 0;
+  Int m_step_whole = 0, m_step_remainder = 0;
+};
+
 // forEachTexelSpan for a triangle whose corners lie on half texels, in exact
 // integer arithmetic: a centre on an edge counts as inside, with no
 // tolerance to choose. The triangle must have some area.
@@ -57,29 +101,26 @@ void forEachTexelSpanExact(HalfTexelPoint a, HalfTexelPoint b, HalfTexelPoint c,
   if (b.y2 < a.y2) std::swap(a, b);
   if (c.y2 < b.y2) std::swap(b, c);
   if (b.y2 < a.y2) std::swap(a, b);
-  // n / d rounded down, for d > 0.
-  auto floorDiv = [](Int n, Int d) { return n / d - (n % d != 0 && n < 0 ? 1 : 0); };
-  // Of the centres on row y2 (p.y2 <= y2 <= q.y2), the last column left of
-  // edge p-q or on it, and the first right of it or on it: floor and ceil of
-  // (x2 - 1) / 2, where x2 = p.x2 + (y2 - p.y2) * (q.x2 - p.x2) / (q.y2 - p.y2).
-  struct Columns {
-    Int last_left, first_right;
-  };
-  auto columnsAt = [&](HalfTexelPoint p, HalfTexelPoint q, Int y2) -> Columns {
-    const Int d = std::max<Int>(q.y2 - p.y2, 1);  // an edge along a row starts where it is
-    const Int n = p.x2 * d + (y2 - p.y2) * (q.x2 - p.x2) - d;
-    const Int last_left = floorDiv(n, 2 * d);
-    return {last_left, last_left + (n == last_left * 2 * d ? 0 : 1)};
-  };
-  const Int first_row = std::max<Int>(0, floorDiv(a.y2, 2));  // ceil((a.y2 - 1) / 2)
-  const Int last_row = std::min<Int>(size - 1, floorDiv(c.y2 - 1, 2));
-  for (Int j = first_row; j <= last_row; ++j) {
-    const Int y2 = 2 * j + 1;
-    const Columns along_long = columnsAt(a, c, y2);
-    const Columns along_short = y2 < b.y2 ? columnsAt(a, b, y2) : columnsAt(b, c, y2);
-    const Int first = std::max<Int>(0, std::min(along_long.first_right, along_short.first_right));
-    const Int last = std::min<Int>(size - 1, std::max(along_long.last_left, along_short.last_left));
+  // n / 2 rounded down.
+  auto halfDown = [](Int n) { return n >= 0 ? n / 2 : -((1 - n) / 2); };
+  const Int first_row = std::max<Int>(0, halfDown(a.y2));  // ceil((a.y2 - 1) / 2)
+  const Int last_row = std::min<Int>(size - 1, halfDown(c.y2 - 1));
+  if (first_row > last_row) return;
+  Int y2 = 2 * first_row + 1;
+  EdgeColumns along_long(a, c, y2);
+  const bool starts_upper = y2 < b.y2;
+  EdgeColumns along_short = starts_upper ? EdgeColumns(a, b, y2) : EdgeColumns(b, c, y2);
+  bool on_upper = starts_upper;
+  for (Int j = first_row; j <= last_row; ++j, y2 += 2) {
+    if (on_upper && y2 >= b.y2) {
+      along_short = EdgeColumns(b, c, y2);
+      on_upper = false;
+    }
+    const Int first = std::max<Int>(0, std::min(along_long.firstRight(), along_short.firstRight()));
+    const Int last = std::min<Int>(size - 1, std::max(along_long.lastLeft(), along_short.lastLeft()));
     if (first <= last) visit(int(j), int(first), int(last));
+    along_long.nextRow();
+    along_short.nextRow();
   }
 }
 
