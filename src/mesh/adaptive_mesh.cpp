@@ -52,20 +52,20 @@ namespace {
 using Int = std::int64_t;
 
 struct Vertex {
-  Int x2, y2;           // doubled texel coordinates, exact: vertices sit on half texels
-  glm::dvec2 at;        // texel coordinates (u * size, v * size)
-  glm::dvec3 position;  // tile frame
+  HalfTexelPoint lattice;  // exact: vertices sit on half texels
+  glm::dvec2 at;           // texel coordinates (u * size, v * size)
+  glm::dvec3 position;     // tile frame
 };
 
 // Twice the signed area of (a, b, c); positive for the orientation every
 // triangle here keeps (x east, y south: clockwise seen from above).
-Int orient(const Vertex& a, const Vertex& b, const Vertex& c) {
+Int orient(HalfTexelPoint a, HalfTexelPoint b, HalfTexelPoint c) {
   return (b.x2 - a.x2) * (c.y2 - a.y2) - (b.y2 - a.y2) * (c.x2 - a.x2);
 }
 
 // Whether d lies strictly inside the circle through a, b and c. Exact in
 // 64-bit integers: coordinates up to 8192 give terms below 2^56.
-bool inCircle(const Vertex& a, const Vertex& b, const Vertex& c, const Vertex& d) {
+bool inCircle(HalfTexelPoint a, HalfTexelPoint b, HalfTexelPoint c, HalfTexelPoint d) {
   const Int adx = a.x2 - d.x2, ady = a.y2 - d.y2;
   const Int bdx = b.x2 - d.x2, bdy = b.y2 - d.y2;
   const Int cdx = c.x2 - d.x2, cdy = c.y2 - d.y2;
@@ -120,9 +120,8 @@ class GreedyMesher {
     const int p = addVertex(at);
     for (int e = 0; e < int(m_corner.size()); ++e) {
       if (m_opposite[std::size_t(e)] != kNone) continue;
-      const Vertex& a = m_vertices[std::size_t(m_corner[std::size_t(e)])];
-      const Vertex& b = m_vertices[std::size_t(m_corner[std::size_t(nextEdge(e))])];
-      const Vertex& v = m_vertices[std::size_t(p)];
+      const HalfTexelPoint a = lattice(m_corner[std::size_t(e)]), b = lattice(m_corner[std::size_t(nextEdge(e))]),
+                           v = lattice(p);
       const bool between = std::min(a.x2, b.x2) <= v.x2 && v.x2 <= std::max(a.x2, b.x2) &&
                            std::min(a.y2, b.y2) <= v.y2 && v.y2 <= std::max(a.y2, b.y2);
       if (between && orient(a, b, v) == 0) {
@@ -181,11 +180,11 @@ class GreedyMesher {
   };
 
   int triangleCount() const { return int(m_corner.size() / 3); }
+  HalfTexelPoint lattice(int vertex) const { return m_vertices[std::size_t(vertex)].lattice; }
 
   int addVertex(glm::dvec2 at) {
     Vertex v;
-    v.x2 = Int(std::llround(2 * at.x));
-    v.y2 = Int(std::llround(2 * at.y));
+    v.lattice = {Int(std::llround(2 * at.x)), Int(std::llround(2 * at.y))};
     v.at = at;
     v.position = interpolatePosition(m_samples.position, m_samples.apron + at.x - 0.5, m_samples.apron + at.y - 0.5);
     m_vertices.push_back(v);
@@ -218,10 +217,9 @@ class GreedyMesher {
     const int i = sample % m_size, j = sample / m_size;
     m_x[std::size_t(sample)] = NAN;  // a vertex's distance is NaN, which never wins
     const int p = addVertex({i + 0.5, j + 0.5});
-    const Vertex& v = m_vertices[std::size_t(p)];
     for (int e = 3 * t; e < 3 * t + 3; ++e) {
-      const Int side = orient(m_vertices[std::size_t(m_corner[std::size_t(e)])],
-                              m_vertices[std::size_t(m_corner[std::size_t(nextEdge(e))])], v);
+      const Int side =
+          orient(lattice(m_corner[std::size_t(e)]), lattice(m_corner[std::size_t(nextEdge(e))]), lattice(p));
       if (side < 0) throw std::logic_error("adaptive mesh: a sample lies outside its triangle");
       if (side == 0) {
         splitEdge(e, p);
@@ -290,10 +288,7 @@ class GreedyMesher {
     const int en = nextEdge(e), ep = prevEdge(e), fn = nextEdge(f), fp = prevEdge(f);
     const int a = m_corner[std::size_t(e)], b = m_corner[std::size_t(en)], c = m_corner[std::size_t(ep)];
     const int d = m_corner[std::size_t(fp)];
-    if (!inCircle(m_vertices[std::size_t(a)], m_vertices[std::size_t(b)], m_vertices[std::size_t(c)],
-                  m_vertices[std::size_t(d)])) {
-      return;
-    }
+    if (!inCircle(lattice(a), lattice(b), lattice(c), lattice(d))) return;
     const int outer_ad = m_opposite[std::size_t(fn)], outer_db = m_opposite[std::size_t(fp)],
               outer_bc = m_opposite[std::size_t(en)];
     // (a, b, c) and (b, a, d) become (a, d, c) and (d, b, c).
@@ -333,7 +328,7 @@ class GreedyMesher {
     // The rows' spans first, then the scan: apart, each loop keeps its
     // values in registers.
     m_rows.clear();
-    forEachTexelSpanExact({a.x2, a.y2}, {b.x2, b.y2}, {c.x2, c.y2}, m_size,
+    forEachTexelSpanExact(a.lattice, b.lattice, c.lattice, m_size,
                           [&](int j, int first, int last) { m_rows.push_back({j, first, last}); });
     for (const auto& [j, first, last] : m_rows) {
       const glm::dvec3 row_start =
