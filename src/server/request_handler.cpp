@@ -82,6 +82,16 @@ HttpReply validated(const HttpRequest& request, std::string content_type, std::s
   return std::move(v.reply);
 }
 
+// The same for a tile in memory, which the connection sends from where it is.
+HttpReply validatedMemory(const HttpRequest& request, std::string content_type,
+                          std::shared_ptr<const FileContent> content, const std::string& cache_control) {
+  Validation v = validate(request, content->bytes.size(), content->etag, cache_control);
+  if (v.done) return std::move(v.reply);
+  v.reply.content_type = std::move(content_type);
+  v.reply.memory_part = HttpReply::MemoryPart{std::move(content), v.first, v.count};
+  return std::move(v.reply);
+}
+
 // The same for a file, which the connection reads as it sends the part.
 HttpReply validatedFile(const HttpRequest& request, std::string content_type, OpenedFile file,
                         const std::string& cache_control) {
@@ -262,8 +272,7 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
 HttpReply RequestHandler::fromTile(const HttpRequest& request, const Route& route, const TileAnswer& answer) const {
   switch (answer.status) {
     case TileAnswer::Status::kFound:
-      return validated(request, contentTypeOf(route.format), answer.content->bytes, answer.content->etag,
-                       m_tile_cache_control);
+      return validatedMemory(request, contentTypeOf(route.format), answer.content, m_tile_cache_control);
     case TileAnswer::Status::kBusy: {
       HttpReply reply = text(503, "busy: " + answer.reason);
       reply.headers.emplace_back("Retry-After", m_retry_after_s);

@@ -42,6 +42,13 @@ struct HttpReply {
     std::size_t first = 0, length = 0;
   };
   std::optional<FilePart> file_part;
+  // Sent instead of `body` when set: `length` bytes from `first` of a tile
+  // held in memory, shared with the tile cache and the layer, not copied.
+  struct MemoryPart {
+    std::shared_ptr<const FileContent> content;
+    std::size_t first = 0, length = 0;
+  };
+  std::optional<MemoryPart> memory_part;
 };
 
 class RequestHandler {

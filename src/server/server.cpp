@@ -127,6 +127,35 @@ struct FilePartBody {
   };
 };
 
+// A response body that is part of a tile held in memory, sent from where it
+// is (Beast's Body concept, for writing only).
+struct MemoryPartBody {
+  using value_type = HttpReply::MemoryPart;
+
+  static std::uint64_t size(const value_type& part) { return part.length; }
+
+  class writer {
+   public:
+    using const_buffers_type = net::const_buffer;
+
+    template <bool isRequest, class Fields>
+    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_part(part) {}
+
+    void init(beast::error_code& ec) { ec = {}; }
+
+    boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
+      ec = {};
+      if (m_sent || m_part.length == 0) return boost::none;
+      m_sent = true;
+      return std::make_pair(net::const_buffer(m_part.content->bytes.data() + m_part.first, m_part.length), false);
+    }
+
+   private:
+    const value_type& m_part;
+    bool m_sent = false;
+  };
+};
+
 class Session;
 
 // The listening socket, the io_context's threads, the open connections.
@@ -289,11 +318,23 @@ class Session : public std::enable_shared_from_this<Session> {
       response->body() = std::move(*reply.file_part);
       return send(std::move(response), keep);
     }
+    if (reply.memory_part && !m_head) {
+      auto response = std::make_shared<http::response<MemoryPartBody>>();
+      setHead(*response, reply, reply.memory_part->length, keep);
+      response->body() = std::move(*reply.memory_part);
+      return send(std::move(response), keep);
+    }
     auto response = std::make_shared<http::response<http::string_body>>();
     // Also for HEAD: the length a GET would have.
-    setHead(*response, reply, reply.file_part ? reply.file_part->length : reply.body.size(), keep);
+    setHead(*response, reply, bodyLength(reply), keep);
     if (!m_head) response->body() = std::move(reply.body);
     send(std::move(response), keep);
+  }
+
+  static std::size_t bodyLength(const HttpReply& reply) {
+    if (reply.file_part) return reply.file_part->length;
+    if (reply.memory_part) return reply.memory_part->length;
+    return reply.body.size();
   }
 
   template <class Response>
@@ -375,7 +416,7 @@ class Session : public std::enable_shared_from_this<Session> {
 Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
     : handler(config, std::move(layers)),
       bind(config.bind),
-      threads(std::max(config.threads, 1)),
+      threads(config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()))),
       read_timeout(config.read_timeout_s),
       idle_timeout(config.idle_timeout_s),
       max_header_bytes(std::uint32_t(config.max_header_bytes)),
