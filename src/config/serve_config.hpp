@@ -16,7 +16,7 @@ struct ServeConfig {
   std::vector<std::string> layer_jobs;       // layers: tile-job files baked on demand
   std::string bind = "127.0.0.1";            // http.bind
   int port = 8080;                           // http.port: 0 = any free port
-  int threads = 8;                           // http.threads: threads answering requests
+  int threads = 0;                           // http.threads: threads answering requests; 0 = one per core
   int max_connections = 1024;                // http.max_connections: open at once; more are refused
   int read_timeout_s = 10;                   // http.read_timeout_s: to send a request head, to take an answer
   int idle_timeout_s = 5;                    // http.idle_timeout_s: a kept connection with no request
