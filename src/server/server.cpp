@@ -89,10 +89,12 @@ void raiseFileLimit(int connections) {
 // How much of a file a connection reads at a time while sending it.
 constexpr std::size_t kFilePieceBytes = 64 * 1024;
 
-// A response body that is part of a file, read a piece at a time as the
-// connection sends it (Beast's Body concept, for writing only).
-struct FilePartBody {
-  using value_type = HttpReply::FilePart;
+// A response body that is part of something larger (Beast's Body concept,
+// for writing only): `Pieces(part)` hands out its bytes a buffer at a time,
+// `next` returning none after the last (and setting `ec` on a failure).
+template <class Part, class Pieces>
+struct PartBody {
+  using value_type = Part;
 
   static std::uint64_t size(const value_type& part) { return part.length; }
 
@@ -101,60 +103,63 @@ struct FilePartBody {
     using const_buffers_type = net::const_buffer;
 
     template <bool isRequest, class Fields>
-    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_part(part) {}
+    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_pieces(part) {}
 
     void init(beast::error_code& ec) { ec = {}; }
 
     boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
       ec = {};
-      const std::size_t left = m_part.length - m_sent;
-      if (left == 0) return boost::none;
-      std::optional<std::string> piece = m_part.file->read(m_part.first + m_sent, std::min(left, kFilePieceBytes));
-      if (!piece) {
-        // The head is sent already: all that is left is to drop the connection.
-        ec = make_error_code(boost::system::errc::io_error);
-        return boost::none;
-      }
-      m_piece = std::move(*piece);
-      m_sent += m_piece.size();
-      return std::make_pair(net::const_buffer(m_piece.data(), m_piece.size()), m_sent < m_part.length);
+      return m_pieces.next(ec);
     }
 
    private:
-    const value_type& m_part;
-    std::size_t m_sent = 0;
-    std::string m_piece;
+    Pieces m_pieces;
   };
 };
 
-// A response body that is part of a tile held in memory, sent from where it
-// is (Beast's Body concept, for writing only).
-struct MemoryPartBody {
-  using value_type = HttpReply::MemoryPart;
+// Part of a file, read a piece at a time as the connection sends it.
+class FilePieces {
+ public:
+  explicit FilePieces(const HttpReply::FilePart& part) : m_part(part) {}
 
-  static std::uint64_t size(const value_type& part) { return part.length; }
-
-  class writer {
-   public:
-    using const_buffers_type = net::const_buffer;
-
-    template <bool isRequest, class Fields>
-    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_part(part) {}
-
-    void init(beast::error_code& ec) { ec = {}; }
-
-    boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
-      ec = {};
-      if (m_sent || m_part.length == 0) return boost::none;
-      m_sent = true;
-      return std::make_pair(net::const_buffer(m_part.content->bytes.data() + m_part.first, m_part.length), false);
+  boost::optional<std::pair<net::const_buffer, bool>> next(beast::error_code& ec) {
+    const std::size_t left = m_part.length - m_sent;
+    if (left == 0) return boost::none;
+    std::optional<std::string> piece = m_part.file->read(m_part.first + m_sent, std::min(left, kFilePieceBytes));
+    if (!piece) {
+      // The head is sent already: all that is left is to drop the connection.
+      ec = make_error_code(boost::system::errc::io_error);
+      return boost::none;
     }
+    m_piece = std::move(*piece);
+    m_sent += m_piece.size();
+    return std::make_pair(net::const_buffer(m_piece.data(), m_piece.size()), m_sent < m_part.length);
+  }
 
-   private:
-    const value_type& m_part;
-    bool m_sent = false;
-  };
+ private:
+  const HttpReply::FilePart& m_part;
+  std::size_t m_sent = 0;
+  std::string m_piece;
 };
+
+// Part of a tile held in memory, sent from where it is, in one piece.
+class MemoryPieces {
+ public:
+  explicit MemoryPieces(const HttpReply::MemoryPart& part) : m_part(part) {}
+
+  boost::optional<std::pair<net::const_buffer, bool>> next(beast::error_code& /*ec*/) {
+    if (m_sent || m_part.length == 0) return boost::none;
+    m_sent = true;
+    return std::make_pair(net::const_buffer(m_part.content->bytes.data() + m_part.first, m_part.length), false);
+  }
+
+ private:
+  const HttpReply::MemoryPart& m_part;
+  bool m_sent = false;
+};
+
+using FilePartBody = PartBody<HttpReply::FilePart, FilePieces>;
+using MemoryPartBody = PartBody<HttpReply::MemoryPart, MemoryPieces>;
 
 class Session;
 
