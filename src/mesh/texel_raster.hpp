@@ -108,9 +108,8 @@ void forEachTexelSpanExact(HalfTexelPoint a, HalfTexelPoint b, HalfTexelPoint c,
   if (first_row > last_row) return;
   Int y2 = 2 * first_row + 1;
   EdgeColumns along_long(a, c, y2);
-  const bool starts_upper = y2 < b.y2;
-  EdgeColumns along_short = starts_upper ? EdgeColumns(a, b, y2) : EdgeColumns(b, c, y2);
-  bool on_upper = starts_upper;
+  bool on_upper = y2 < b.y2;  // the short edge is a-b, then b-c
+  EdgeColumns along_short = on_upper ? EdgeColumns(a, b, y2) : EdgeColumns(b, c, y2);
   for (Int j = first_row; j <= last_row; ++j, y2 += 2) {
     if (on_upper && y2 >= b.y2) {
       along_short = EdgeColumns(b, c, y2);
