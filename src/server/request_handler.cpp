@@ -2,6 +2,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 
 #include <nlohmann/json.hpp>
 
@@ -88,7 +89,7 @@ HttpReply validatedMemory(const HttpRequest& request, std::string content_type,
   Validation v = validate(request, content->bytes.size(), content->etag, cache_control);
   if (v.done) return std::move(v.reply);
   v.reply.content_type = std::move(content_type);
-  v.reply.memory_part = HttpReply::MemoryPart{std::move(content), v.first, v.count};
+  v.reply.body = HttpReply::MemoryPart{std::move(content), v.first, v.count};
   return std::move(v.reply);
 }
 
@@ -98,7 +99,7 @@ HttpReply validatedFile(const HttpRequest& request, std::string content_type, Op
   Validation v = validate(request, file.size(), file.etag(), cache_control);
   if (v.done) return std::move(v.reply);
   v.reply.content_type = std::move(content_type);
-  v.reply.file_part = HttpReply::FilePart{std::make_shared<const OpenedFile>(std::move(file)), v.first, v.count};
+  v.reply.body = HttpReply::FilePart{std::make_shared<const OpenedFile>(std::move(file)), v.first, v.count};
   return std::move(v.reply);
 }
 

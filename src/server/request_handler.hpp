@@ -5,9 +5,9 @@
 #include <functional>
 #include <map>
 #include <memory>
-#include <optional>
 #include <string>
 #include <utility>
+#include <variant>
 #include <vector>
 
 #include "config/serve_config.hpp"
@@ -32,23 +32,21 @@ struct HttpRequest {
 struct HttpReply {
   int status = 200;
   std::vector<std::pair<std::string, std::string>> headers;
-  std::string content_type;  // with body; "" when there is none
-  std::string body;          // HEAD: the server leaves it out, Content-Length stays
-  // Sent instead of `body` when set: `length` bytes of `file` from `first`,
-  // read piece by piece as the connection sends them, so a file of any size
-  // costs a piece of memory.
+  std::string content_type;  // with a body; "" when there is none
+  // `length` bytes of `file` from `first`, read piece by piece as the
+  // connection sends them, so a file of any size costs a piece of memory.
   struct FilePart {
     std::shared_ptr<const OpenedFile> file;
     std::size_t first = 0, length = 0;
   };
-  std::optional<FilePart> file_part;
-  // Sent instead of `body` when set: `length` bytes from `first` of a tile
-  // held in memory, shared with the tile cache and the layer, not copied.
+  // `length` bytes from `first` of a tile held in memory, shared with the
+  // tile cache and the layer, not copied.
   struct MemoryPart {
     std::shared_ptr<const FileContent> content;
     std::size_t first = 0, length = 0;
   };
-  std::optional<MemoryPart> memory_part;
+  // HEAD: the server leaves the body out, Content-Length stays.
+  std::variant<std::string, FilePart, MemoryPart> body;
 };
 
 class RequestHandler {

@@ -9,8 +9,11 @@
 #include <limits>
 #include <mutex>
 #include <optional>
+#include <string>
 #include <thread>
+#include <type_traits>
 #include <unordered_map>
+#include <variant>
 
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/executor_work_guard.hpp>
@@ -158,8 +161,25 @@ class MemoryPieces {
   bool m_sent = false;
 };
 
-using FilePartBody = PartBody<HttpReply::FilePart, FilePieces>;
-using MemoryPartBody = PartBody<HttpReply::MemoryPart, MemoryPieces>;
+// The Beast body that sends each kind of HttpReply body, and its length.
+template <class Part>
+struct BeastBody;
+template <>
+struct BeastBody<std::string> {
+  using type = http::string_body;
+};
+template <>
+struct BeastBody<HttpReply::FilePart> {
+  using type = PartBody<HttpReply::FilePart, FilePieces>;
+};
+template <>
+struct BeastBody<HttpReply::MemoryPart> {
+  using type = PartBody<HttpReply::MemoryPart, MemoryPieces>;
+};
+
+std::size_t partLength(const std::string& body) { return body.size(); }
+std::size_t partLength(const HttpReply::FilePart& part) { return part.length; }
+std::size_t partLength(const HttpReply::MemoryPart& part) { return part.length; }
 
 class Session;
 
@@ -317,29 +337,16 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void write(HttpReply reply) {
     const bool keep = m_keep_alive && !m_closing && !m_server.stopping;
-    if (reply.file_part && !m_head) {
-      auto response = std::make_shared<http::response<FilePartBody>>();
-      setHead(*response, reply, reply.file_part->length, keep);
-      response->body() = std::move(*reply.file_part);
-      return send(std::move(response), keep);
-    }
-    if (reply.memory_part && !m_head) {
-      auto response = std::make_shared<http::response<MemoryPartBody>>();
-      setHead(*response, reply, reply.memory_part->length, keep);
-      response->body() = std::move(*reply.memory_part);
-      return send(std::move(response), keep);
-    }
-    auto response = std::make_shared<http::response<http::string_body>>();
-    // Also for HEAD: the length a GET would have.
-    setHead(*response, reply, bodyLength(reply), keep);
-    if (!m_head) response->body() = std::move(reply.body);
-    send(std::move(response), keep);
-  }
-
-  static std::size_t bodyLength(const HttpReply& reply) {
-    if (reply.file_part) return reply.file_part->length;
-    if (reply.memory_part) return reply.memory_part->length;
-    return reply.body.size();
+    std::visit(
+        [&](auto& body) {
+          using Body = typename BeastBody<std::decay_t<decltype(body)>>::type;
+          auto response = std::make_shared<http::response<Body>>();
+          // Also for HEAD: the length a GET would have.
+          setHead(*response, reply, partLength(body), keep);
+          if (!m_head) response->body() = std::move(body);
+          send(std::move(response), keep);
+        },
+        reply.body);
   }
 
   template <class Response>
@@ -475,10 +482,11 @@ void Listener::accept() {
 // Nothing of the request is read and nothing is queued.
 void Listener::refuse(tcp::socket& socket) {
   const HttpReply reply = handler.refusal(503, "busy: too many connections");
+  const std::string& message = std::get<std::string>(reply.body);
   std::string text = "HTTP/1.1 503 Service Unavailable\r\n";
   for (const auto& [name, value] : reply.headers) text += name + ": " + value + "\r\n";
-  text += "Content-Type: " + reply.content_type + "\r\nContent-Length: " + std::to_string(reply.body.size()) +
-          "\r\nConnection: close\r\n\r\n" + reply.body;
+  text += "Content-Type: " + reply.content_type + "\r\nContent-Length: " + std::to_string(message.size()) +
+          "\r\nConnection: close\r\n\r\n" + message;
   beast::error_code ec;
   socket.non_blocking(true, ec);
   socket.write_some(net::buffer(text), ec);
