@@ -267,8 +267,6 @@ DemSource DemSource::reader() const {
 
 const DemInfo& DemSource::info() const { return m_shared->info; }
 
-std::size_t DemSource::fileCount() const { return m_shared->files.size(); }
-
 Extent DemSource::boundsIn(const std::string& crs) const {
   const auto& files = m_shared->files;
   Extent all = files.front()->boundsIn(crs);

@@ -86,7 +86,6 @@ class DemSource {
   DemSource reader() const;
 
   const DemInfo& info() const;
-  std::size_t fileCount() const;
 
   // The union of the files' extents in another CRS.
   Extent boundsIn(const std::string& crs) const;
