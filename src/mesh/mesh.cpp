@@ -126,6 +126,18 @@ void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool centra
   n1 = glm::vec3(glm::dvec3(x[1], y[1], z[1]) * inverse_length[1]);
 }
 
+// Whether differenceAt takes central differences both ways at samples (c0,
+// r) and (c1, r): each is filled in, or it and its four neighbours are the
+// DEM's.
+bool centralAt(const Raster<std::uint8_t>& from_dem, int c0, int c1, int r) {
+  bool central = true;
+  for (const int c : {c0, c1}) {
+    const bool around = from_dem.at(c - 1, r) && from_dem.at(c + 1, r) && from_dem.at(c, r - 1) && from_dem.at(c, r + 1);
+    central &= !from_dem.at(c, r) || around;
+  }
+  return central;
+}
+
 }  // namespace
 
 std::vector<std::uint32_t> gridIndices(int cols, int rows) {
@@ -171,9 +183,10 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
     // Two normals at a time; an odd row's last pair is one sample twice.
     glm::vec3* normals = &mesh.normal[std::size_t(j) * std::size_t(s)];
     const std::size_t r = std::size_t(a + j);
-    const bool central = all_dem[r - 1] && all_dem[r] && all_dem[r + 1];
+    const bool central_row = all_dem[r - 1] && all_dem[r] && all_dem[r + 1];
     for (int i = 0; i < s; i += 2) {
       const int next = std::min(i + 1, s - 1);
+      const bool central = central_row || centralAt(samples.from_dem, a + i, a + next, a + j);
       sampleNormals(samples, a + i, a + next, a + j, central, normals[i], normals[next]);
     }
   }
