@@ -106,9 +106,9 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
 }
 
 // The normals of samples (c0, r) and (c1, r), the same bits as
-// normalFromDifferences gives each, the two taken at once. `central`: the
-// samples round both are the DEM's, so differenceAt would take central
-// differences; skip its checks.
+// normalFromDifferences gives each, the two taken at once. `central`:
+// differenceAt would take central differences at both (centralAt):
+// skip its checks.
 void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool central, glm::vec3& n0, glm::vec3& n1) {
   const Raster<glm::dvec3>& p = samples.position;
   const auto difference = [&](int c, int dc, int dr) {
