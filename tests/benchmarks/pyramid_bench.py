@@ -23,7 +23,9 @@
    limited to about --max-tiles tiles round the DEM's centre. It prints the mean time per tile
    of each zoom and its ratio to the deepest zoom's with as many tiles.
 
-Timings on a shared machine are noisy: compare rows of one run.
+Every run writes into a folder no other run used, and the folders are removed
+when the script ends. Timings on a shared machine are noisy: compare rows of
+one run.
 """
 import argparse
 import collections
@@ -48,7 +50,7 @@ parser.add_argument("--backends", default="cpu,osmesa")
 parser.add_argument("--rounds", type=int, default=1, help="runs taking turns this many times")
 parser.add_argument("--per-zoom", type=int, default=0, metavar="REPEATS")
 parser.add_argument("--max-tiles", type=int, default=48)
-parser.add_argument("--keep", default=None, help="work in this folder and keep it")
+parser.add_argument("--keep", default=None, help="work in this folder and keep it (the DEM; the tiles go at the end)")
 args = parser.parse_args()
 
 terrabake = os.path.join(args.build, "src", "app", "terrabake")
@@ -71,13 +73,25 @@ def measured(command, env=None):
     return float(probe.group(1)), int(probe.group(2)) / 1024, float(probe.group(3)), result.stdout
 
 
+def output_folder(name):
+    """A folder of its own for one run's files. A run into the folder of an earlier one would pay for freeing the
+    files it replaces (on a file system mounted with discard, as this machine's is, that costs a run about a tenth of
+    its time), which neither a user's first run nor one into a folder just emptied, as the GDAL chain's was, pays.
+    The folders go when the script ends, after every timed run."""
+    output_folder.count += 1
+    return os.path.join(OUTPUTS, f"{output_folder.count:03d}-{name}")
+
+
+output_folder.count = 0
+
+
 def count_files(folder, suffix):
     return sum(1 for _, _, files in os.walk(folder) for f in files if f.endswith(suffix))
 
 
 def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
     command = [terrabake, "tile", "--dem", dem, "--zoom", zoom, "--out", out, "--layer", layer,
-               "--workers", str(workers or args.workers), "--backend", backend, "--force", *extra]
+               "--workers", str(workers or args.workers), "--backend", backend, *extra]
     seconds, peak, cpu, output = measured(command)
     summary = re.search(r"wrote (\d+) tiles .*\((\d+) skipped, (\d+) empty, (\d+) failed\) in ([0-9.]+) s", output)
     if not summary or int(summary.group(4)) != 0:
@@ -92,12 +106,13 @@ def terrabake_run(dem, out, layer, zoom, backend, extra=(), workers=None):
 Run = collections.namedtuple("Run", "name tiles seconds rate cpu cpu_rate peak stages")
 
 
-def pyramid_round(dem, work):
+def pyramid_round(dem):
     """One run of the GDAL chain and then of each backend, as Runs."""
     rows = []
-    shade = os.path.join(work, "hillshade.tif")
-    gdal_out = os.path.join(work, "gdal2tiles")
-    shutil.rmtree(gdal_out, ignore_errors=True)
+    chain = output_folder("gdal")
+    os.makedirs(chain)
+    shade = os.path.join(chain, "hillshade.tif")
+    gdal_out = os.path.join(chain, "gdal2tiles")
     t_shade, peak_shade, cpu_shade, _ = measured(["gdaldem", "hillshade", "-q", "-compute_edges", dem, shade])
     t_tiles, peak_tiles, cpu_tiles, _ = measured(["gdal2tiles.py", "-q", f"--processes={args.workers}", "-z", args.zoom,
                                        "-w", "none", "-r", "average", "--xyz", shade, gdal_out])
@@ -106,7 +121,7 @@ def pyramid_round(dem, work):
     rows.append(Run("gdaldem hillshade + gdal2tiles", gdal_tiles, seconds, gdal_tiles / seconds, cpu, gdal_tiles / cpu,
                     max(peak_shade, peak_tiles), ""))
     for backend in args.backends.split(","):
-        tiles, seconds, peak, cpu, stages = terrabake_run(dem, os.path.join(work, "tiles"), backend, args.zoom, backend)
+        tiles, seconds, peak, cpu, stages = terrabake_run(dem, output_folder(backend), backend, args.zoom, backend)
         rows.append(Run(f"terrabake --backend {backend}", tiles, seconds, tiles / seconds, cpu, tiles / cpu, peak,
                         stages))
     return rows
@@ -122,7 +137,7 @@ def pyramid(work):
           f"{args.workers} workers or processes each")
     rounds = []
     for number in range(1, args.rounds + 1):
-        rows = pyramid_round(dem, work)
+        rows = pyramid_round(dem)
         rounds.append(rows)
         gdal = rows[0]
         if args.rounds > 1:
@@ -186,7 +201,7 @@ def per_zoom(work):
         half_lat = half_deg * math.cos(math.radians(lat))
         bbox = f"{max(lon - half_deg, -180)},{max(lat - half_lat, -85)},{min(lon + half_deg, 180)}," \
                f"{min(lat + half_lat, 85)}"
-        tiles, seconds, peak, _, stages = terrabake_run(vrt, os.path.join(work, "zooms"), f"z{z}", str(z), "cpu",
+        tiles, seconds, peak, _, stages = terrabake_run(vrt, output_folder(f"z{z}"), f"z{z}", str(z), "cpu",
                                                      ["--bbox", bbox], workers=1)
         return tiles, seconds, sum(float(v) for v in re.findall(r"([0-9.]+) ms", stages)), peak
 
@@ -206,6 +221,10 @@ def per_zoom(work):
 with tempfile.TemporaryDirectory(prefix="terrabake-pyramid-") as tmp:
     work = args.keep or tmp
     os.makedirs(work, exist_ok=True)
-    pyramid(work)
-    if args.per_zoom:
-        per_zoom(work)
+    OUTPUTS = tempfile.mkdtemp(prefix="outputs-", dir=work)
+    try:
+        pyramid(work)
+        if args.per_zoom:
+            per_zoom(work)
+    finally:
+        shutil.rmtree(OUTPUTS, ignore_errors=True)
