@@ -89,6 +89,11 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
   std::string failure;
   const auto buildBands = [&](GDALRasterBand& band) {
     std::vector<float> rows(std::size_t(band_rows) * std::size_t(width));
+    // Copies, so the compiler knows the loops' stores leave them alone.
+    const VoidRule rule = voids;
+    const std::size_t row_width = std::size_t(width), factor = std::size_t(f);
+    // 1 where a pixel of the row is no void.
+    std::vector<int> valid(row_width);
     std::vector<double> sums(std::size_t(finest.width));
     std::vector<int> counts(std::size_t(finest.width));
     long long own_implausible = 0;
@@ -106,15 +111,25 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
         std::fill(counts.begin(), counts.end(), 0);
         for (int r = top; r < top + row_count; ++r) {
           const float* row = &rows[std::size_t(r) * std::size_t(width)];
-          for (int block = 0; block < finest.width; ++block) {
-            for (int c = block * f; c < std::min(width, (block + 1) * f); ++c) {
-              if (voids.isVoid(row[c])) {
-                own_implausible += voids.isImplausible(row[c]);
-                continue;
-              }
-              sums[std::size_t(block)] += voids.height(row[c]);
-              ++counts[std::size_t(block)];
+          // Classified without a branch, several pixels at a time; a void
+          // then adds 0 to its block's sum, which leaves the sum as it was.
+          long long row_implausible = 0;
+          for (std::size_t c = 0; c < row_width; ++c) {
+            const bool is_void = rule.isVoid(row[c]);
+            row_implausible += is_void & rule.isImplausible(row[c]);
+            valid[c] = !is_void;
+          }
+          own_implausible += row_implausible;
+          for (std::size_t block = 0; block < sums.size(); ++block) {
+            double sum = sums[block];
+            int count = counts[block];
+            for (std::size_t c = block * factor; c < std::min(row_width, (block + 1) * factor); ++c) {
+              const float sample_height = rule.height(row[c]);
+              sum += valid[c] ? double(sample_height) : 0.0;
+              count += valid[c];
             }
+            sums[block] = sum;
+            counts[block] = count;
           }
         }
         for (int c = 0; c < finest.width; ++c) {
