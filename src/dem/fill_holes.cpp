@@ -106,10 +106,17 @@ struct EdgePlane {
 // 1 at the data samples next to a hole (a hole in the 3 x 3 samples
 // around): the hole's edge.
 std::vector<std::uint8_t> holeEdge(const Raster<float>& heights) {
-  std::vector<std::uint8_t> hole(heights.data.size());
-  for (std::size_t k = 0; k < hole.size(); ++k) hole[k] = std::isnan(heights.data[k]) ? 1 : 0;
+  // Through plain pointers and a count of its own, each loop runs in lanes:
+  // a byte stored through a vector might, for all the compiler knows, change
+  // the vector's own size.
+  const std::size_t count = heights.data.size();
+  std::vector<std::uint8_t> hole(count);
+  const float* const height = heights.data.data();
+  std::uint8_t* const is_hole = hole.data();
+  for (std::size_t k = 0; k < count; ++k) is_hole[k] = std::isnan(height[k]) ? 1 : 0;
   std::vector<std::uint8_t> edge = dilatedMask(hole, heights.width, heights.height, 1);
-  for (std::size_t k = 0; k < edge.size(); ++k) edge[k] &= std::uint8_t(hole[k] ^ 1);
+  std::uint8_t* const is_edge = edge.data();
+  for (std::size_t k = 0; k < count; ++k) is_edge[k] &= std::uint8_t(is_hole[k] ^ 1);
   return edge;
 }
 

@@ -178,9 +178,13 @@ struct TileMaker::Impl {
   // into the backdrop there.
   Raster<float> filledHeights(const GridSpec& grid, const Raster<float>& around) const {
     const int margin = fillMargin();
-    std::vector<std::uint8_t> holes(std::size_t(grid.width) * std::size_t(grid.height));
-    for (int r = 0, k = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c, ++k) holes[std::size_t(k)] = std::isnan(around.at(c + margin, r + margin));
+    const std::size_t width = std::size_t(grid.width), height = std::size_t(grid.height);
+    std::vector<std::uint8_t> holes(width * height);
+    // Plain pointers, so the loop runs in lanes (see dem::holeEdge).
+    std::uint8_t* const is_hole = holes.data();
+    for (std::size_t r = 0; r < height; ++r) {
+      const float* const row = &around.at(margin, int(r) + margin);
+      for (std::size_t c = 0; c < width; ++c) is_hole[r * width + c] = std::isnan(row[c]);
     }
     // Read at the holes alone.
     return dem::continueIntoHoles(around, margin, plan->backdrop->heightsAt(grid, holes), settings.max_fill_px);
