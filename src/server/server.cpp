@@ -161,7 +161,7 @@ class MemoryPieces {
   bool m_sent = false;
 };
 
-// The Beast body that sends each kind of HttpReply body, and its length.
+// The Beast body that sends each kind of HttpReply body.
 template <class Part>
 struct BeastBody;
 template <>
@@ -176,10 +176,6 @@ template <>
 struct BeastBody<HttpReply::MemoryPart> {
   using type = PartBody<HttpReply::MemoryPart, MemoryPieces>;
 };
-
-std::size_t partLength(const std::string& body) { return body.size(); }
-std::size_t partLength(const HttpReply::FilePart& part) { return part.length; }
-std::size_t partLength(const HttpReply::MemoryPart& part) { return part.length; }
 
 class Session;
 
@@ -342,7 +338,7 @@ class Session : public std::enable_shared_from_this<Session> {
           using Body = typename BeastBody<std::decay_t<decltype(body)>>::type;
           auto response = std::make_shared<http::response<Body>>();
           // Also for HEAD: the length a GET would have.
-          setHead(*response, reply, partLength(body), keep);
+          setHead(*response, reply, std::size_t(Body::size(body)), keep);
           if (!m_head) response->body() = std::move(body);
           send(std::move(response), keep);
         },
