@@ -414,6 +414,13 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   // the current DEM row, so that adding a row's sums to a row of texels is a
   // loop the compiler vectorises. A column off the raster adds zeros.
   SumArrays sums(width * rows.size()), along_row(width);
+  // For each DEM row of the reach, the rows of texels whose spans reach it, in order.
+  std::vector<std::vector<std::size_t>> rows_reaching(std::size_t(reach.row1 - reach.row0 + 1));
+  for (std::size_t r = 0; r < rows.size(); ++r) {
+    for (long y = std::max(rows[r].first, reach.row0); y <= std::min(rows[r].last, reach.row1); ++y) {
+      rows_reaching[std::size_t(y - reach.row0)].push_back(r);
+    }
+  }
   const auto add = [&](const SourceWindow& strip, long top, long bottom) {
     for (long y = top; y <= bottom; ++y) {
       for (std::size_t c = 0; c < width; ++c) {
@@ -427,8 +434,7 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
         }
         along_row.set(c, along);
       }
-      for (std::size_t r = 0; r < rows.size(); ++r) {
-        if (y < rows[r].first || y > rows[r].last) continue;
+      for (const std::size_t r : rows_reaching[std::size_t(y - reach.row0)]) {
         sums.addScaled(r * width, along_row, row_weights[r].at(y));
       }
     }
