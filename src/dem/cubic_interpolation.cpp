@@ -49,13 +49,17 @@ double bilinearAt(const SourceWindow& window, const Taps& x, const Taps& y) {
   return weight > 0 ? sum / weight : NAN;
 }
 
+// The kernel's sum over four pixels along a row.
+double kernelSum(const Taps& x, const float* values) {
+  return x.weight[0] * values[0] + x.weight[1] * values[1] + x.weight[2] * values[2] + x.weight[3] * values[3];
+}
+
 // The kernel along one row: its four taps from `at` on, NaN when one is not
 // valid.
 double alongRow(const SourceWindow& window, const Taps& x, std::size_t at) {
-  const float* values = &window.values[at];
   const std::uint8_t* valid = &window.valid[at];
   if (!(valid[0] && valid[1] && valid[2] && valid[3])) return NAN;
-  return x.weight[0] * values[0] + x.weight[1] * values[1] + x.weight[2] * values[2] + x.weight[3] * values[3];
+  return kernelSum(x, &window.values[at]);
 }
 
 // The cubic value at (x, y), or nullopt when a tap is not valid.
@@ -81,38 +85,58 @@ void cubicAlongAxes(const SourceWindow& window, const LatticeTransformer::Source
                     const std::vector<Taps>& columns, const std::vector<Taps>& rows, int first, int last,
                     Raster<float>& heights) {
   const std::size_t width = columns.size();
-  // The pixel each column's centres lie on.
-  std::vector<long> centre_cols;
-  for (const double x : centres.column_x) centre_cols.push_back(floorToLong(x));
+  const long window_width = window.width;
+  // Counted from the window's left edge, -1 off it: each column's first tap
+  // where its kernel fits in the window, and the pixel its centres lie on.
+  std::vector<long> first_tap(width), centre_at(width);
+  for (std::size_t c = 0; c < width; ++c) {
+    const long tap = columns[c].before - 1 - window.col0;
+    first_tap[c] = tap >= 0 && tap + 3 < window_width ? tap : -1;
+    const long centre = floorToLong(centres.column_x[c]) - window.col0;
+    centre_at[c] = centre >= 0 && centre < window_width ? centre : -1;
+  }
   // Per row of the window and column of texels; NaN where a tap is outside
   // the window or not valid.
   std::vector<double> across(std::size_t(window.height) * width);
+  std::vector<std::uint8_t> four_valid(static_cast<std::size_t>(window_width));  // pixels i to i + 3 all valid
   for (int r = 0; r < window.height; ++r) {
-    const long row = window.row0 + r;
+    const std::size_t row = std::size_t(r) * std::size_t(window_width);
+    const float* values = &window.values[row];
+    const std::uint8_t* valid = &window.valid[row];
+    std::uint8_t* const valid_from = four_valid.data();
+    for (long i = 0; i + 3 < window_width; ++i) valid_from[i] = valid[i] & valid[i + 1] & valid[i + 2] & valid[i + 3];
     for (std::size_t c = 0; c < width; ++c) {
-      const Taps& x = columns[c];
-      across[std::size_t(r) * width + c] =
-          window.contains(x.before - 1, row) && window.contains(x.before + 2, row)
-              ? alongRow(window, x, window.indexOf(x.before - 1, row))
-              : NAN;
+      const long tap = first_tap[c];
+      across[std::size_t(r) * width + c] = tap >= 0 && valid_from[tap] ? kernelSum(columns[c], values + tap) : NAN;
     }
   }
+  // Down each column of texels, a row of them at a time, a lane per
+  // texel: NaN, where a tap is, carries through to the sum.
+  std::vector<double> down(width);
   for (int r = first; r <= last; ++r) {
     const Taps& y = rows[std::size_t(r)];
     const long centre_row = floorToLong(centres.row_y[std::size_t(r)]);
     const bool rows_inside = y.before - 1 >= window.row0 && y.before + 2 < window.row0 + window.height;
-    for (std::size_t c = 0; c < width; ++c) {
-      const Taps& x = columns[c];
-      const long centre_col = centre_cols[c];
-      if (!window.contains(centre_col, centre_row) || !window.data[window.indexOf(centre_col, centre_row)]) continue;
-      double sum = 0;
-      bool cubic = rows_inside;
-      for (int j = 0; cubic && j < 4; ++j) {
-        const double row = across[std::size_t(y.before - 1 + j - window.row0) * width + c];
-        cubic = !std::isnan(row);
-        sum += y.weight[j] * row;
+    if (rows_inside) {
+      const double* tap[4];
+      for (int j = 0; j < 4; ++j) tap[j] = &across[std::size_t(y.before - 1 + j - window.row0) * width];
+      const double w0 = y.weight[0], w1 = y.weight[1], w2 = y.weight[2], w3 = y.weight[3];
+      double* const sums = down.data();
+      for (std::size_t c = 0; c < width; ++c) {
+        double sum = 0;
+        sum += w0 * tap[0][c];
+        sum += w1 * tap[1][c];
+        sum += w2 * tap[2][c];
+        sum += w3 * tap[3][c];
+        sums[c] = sum;
       }
-      heights.at(int(c), r) = float(cubic ? sum : bilinearAt(window, x, y));
+    }
+    if (centre_row < window.row0 || centre_row >= window.row0 + window.height) continue;
+    const std::uint8_t* data = &window.data[std::size_t(centre_row - window.row0) * std::size_t(window_width)];
+    for (std::size_t c = 0; c < width; ++c) {
+      if (centre_at[c] < 0 || !data[centre_at[c]]) continue;
+      const bool cubic = rows_inside && !std::isnan(down[c]);
+      heights.at(int(c), r) = float(cubic ? down[c] : bilinearAt(window, columns[c], y));
     }
   }
 }
