@@ -38,12 +38,46 @@ std::vector<VertexFrame> vertexFrames(const mesh::TriangleMesh& low) {
   return frames;
 }
 
+// The nine components of an interpolated frame: n, t and b, x, y and z of each.
+constexpr int kFrameComponents = 9;
+
+// A covering triangle's corner frames, component by component, and the
+// interpolated frame's change per texel along a row: a run of texels under
+// it then needs only its first texel's weights.
+struct TriangleFrames {
+  double corner[3][kFrameComponents];
+  float per_texel[kFrameComponents];
+};
+
+std::vector<TriangleFrames> triangleFrames(const mesh::TexelCoverage& coverage,
+                                           const std::vector<VertexFrame>& vertices) {
+  std::vector<TriangleFrames> frames(coverage.triangles.size());
+  for (std::size_t t = 0; t < frames.size(); ++t) {
+    const mesh::TexelTriangle& triangle = coverage.triangles[t];
+    const double weight_per_texel[3] = {-triangle.w1_per.x - triangle.w2_per.x, triangle.w1_per.x,
+                                        triangle.w2_per.x};
+    TriangleFrames& f = frames[t];
+    for (int k = 0; k < 3; ++k) {
+      const VertexFrame& v = vertices[triangle.vertex[k]];
+      for (int axis = 0; axis < 3; ++axis) {
+        f.corner[k][axis] = v.n[axis], f.corner[k][3 + axis] = v.t[axis], f.corner[k][6 + axis] = v.b[axis];
+      }
+    }
+    for (int m = 0; m < kFrameComponents; ++m) {
+      double step = 0;
+      for (int k = 0; k < 3; ++k) step += f.corner[k][m] * weight_per_texel[k];
+      f.per_texel[m] = float(step);
+    }
+  }
+  return frames;
+}
+
 }  // namespace
 
 NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh& low, int size) {
   checkOneVertexPerTexel(high, size);
-  const std::vector<VertexFrame> corners = vertexFrames(low);
   const mesh::TexelCoverage coverage = mesh::texelCoverage(low, size);
+  const std::vector<TriangleFrames> frames = triangleFrames(coverage, vertexFrames(low));
   NormalMap map;
   map.size = size;
   map.texels.resize(std::size_t(size) * std::size_t(size));
@@ -71,28 +105,20 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
       const std::uint32_t owner = coverage.owner[row + std::size_t(first)];
       int end = first + 1;
       while (end < size && coverage.owner[row + std::size_t(end)] == owner) ++end;
-      // The frame at the run's first texel and its change per texel along
-      // the row, from the weights there.
-      const mesh::TexelTriangle& triangle = coverage.triangles[owner];
-      const mesh::TrianglePoint start = triangle.at(first, j);
-      const double per_texel[3] = {-triangle.w1_per.x - triangle.w2_per.x, triangle.w1_per.x, triangle.w2_per.x};
-      for (int axis = 0; axis < 3; ++axis) {
-        double value[3] = {0, 0, 0}, step[3] = {0, 0, 0};  // n, t, b
-        for (int k = 0; k < 3; ++k) {
-          const VertexFrame& corner = corners[triangle.vertex[k]];
-          const double of_corner[3] = {corner.n[axis], corner.t[axis], corner.b[axis]};
-          for (int q = 0; q < 3; ++q) {
-            value[q] += of_corner[q] * start.weight[k];
-            step[q] += of_corner[q] * per_texel[k];
-          }
-        }
-        for (int q = 0; q < 3; ++q) {
-          float* to = component(kNx + 3 * q + axis) + first;
-          const Floats base = Floats{} + float(value[q]), per = Floats{} + float(step[q]);
-          for (int i = 0; i < end - first; i += kFloatLanes) {
-            const Floats along = base + per * (lane_numbers + float(i));
-            std::memcpy(to + i, &along, sizeof along);
-          }
+      // The frame at the run's first texel, from the weights there.
+      const TriangleFrames& triangle = frames[owner];
+      const mesh::TrianglePoint start = coverage.triangles[owner].at(first, j);
+      double value[kFrameComponents];
+      for (int m = 0; m < kFrameComponents; ++m) {
+        value[m] = 0;
+        for (int k = 0; k < 3; ++k) value[m] += triangle.corner[k][m] * start.weight[k];
+      }
+      for (int m = 0; m < kFrameComponents; ++m) {
+        float* to = component(kNx + m) + first;
+        const Floats base = Floats{} + float(value[m]), per = Floats{} + triangle.per_texel[m];
+        for (int i = 0; i < end - first; i += kFloatLanes) {
+          const Floats along = base + per * (lane_numbers + float(i));
+          std::memcpy(to + i, &along, sizeof along);
         }
       }
       first = end;
