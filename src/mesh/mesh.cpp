@@ -325,15 +325,6 @@ TrianglePoint triangleAt(const TriangleMesh& mesh, glm::dvec2 uv) {
 
 TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return frameAt(mesh, triangleAt(mesh, uv)); }
 
-TrianglePoint TexelTriangle::at(int i, int j) const {
-  const double from_a_x = i + 0.5 - a.x, from_a_y = j + 0.5 - a.y;
-  TrianglePoint point{{vertex[0], vertex[1], vertex[2]}, {}};
-  point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
-  point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
-  point.weight[0] = 1 - point.weight[1] - point.weight[2];
-  return point;
-}
-
 TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
   constexpr std::uint32_t kNoTriangle = ~std::uint32_t(0);
   TexelCoverage coverage;

@@ -116,7 +116,14 @@ struct TexelTriangle {
   glm::dvec2 w1_per, w2_per;  // weights 1 and 2 per texel along x and y
 
   // The weights at texel (i, j)'s centre.
-  TrianglePoint at(int i, int j) const;
+  TrianglePoint at(int i, int j) const {
+    const double from_a_x = i + 0.5 - a.x, from_a_y = j + 0.5 - a.y;
+    TrianglePoint point{{vertex[0], vertex[1], vertex[2]}, {}};
+    point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
+    point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
+    point.weight[0] = 1 - point.weight[1] - point.weight[2];
+    return point;
+  }
 };
 
 // Which triangle each texel centre of a size x size tile lies under, the
