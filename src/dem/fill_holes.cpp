@@ -76,10 +76,6 @@ void relaxToMembrane(Raster<float>& heights, const std::vector<std::uint8_t>& ho
   }
 }
 
-bool hasHoles(const Raster<float>& r) {
-  return std::any_of(r.data.begin(), r.data.end(), [](float v) { return std::isnan(v); });
-}
-
 bool isData(const Raster<float>& heights, int c, int r) {
   return c >= 0 && r >= 0 && c < heights.width && r < heights.height && !std::isnan(heights.at(c, r));
 }
@@ -106,15 +102,12 @@ struct EdgePlane {
 // 1 at the data samples next to a hole (a hole in the 3 x 3 samples
 // around): the hole's edge.
 std::vector<std::uint8_t> holeEdge(const Raster<float>& heights) {
-  // Through plain pointers and a count of its own, each loop runs in lanes:
-  // a byte stored through a vector might, for all the compiler knows, change
-  // the vector's own size.
-  const std::size_t count = heights.data.size();
-  std::vector<std::uint8_t> hole(count);
-  const float* const height = heights.data.data();
-  std::uint8_t* const is_hole = hole.data();
-  for (std::size_t k = 0; k < count; ++k) is_hole[k] = std::isnan(height[k]) ? 1 : 0;
+  const std::vector<std::uint8_t> hole = holeMask(heights, 0);
   std::vector<std::uint8_t> edge = dilatedMask(hole, heights.width, heights.height, 1);
+  // Through plain pointers and a count of its own, the loop runs in lanes
+  // (see holeMask).
+  const std::size_t count = hole.size();
+  const std::uint8_t* const is_hole = hole.data();
   std::uint8_t* const is_edge = edge.data();
   for (std::size_t k = 0; k < count; ++k) is_edge[k] &= std::uint8_t(is_hole[k] ^ 1);
   return edge;
@@ -197,6 +190,23 @@ double fadeOut(double t) {
 }
 
 }  // namespace
+
+bool hasHoles(const Raster<float>& heights) {
+  return std::any_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); });
+}
+
+std::vector<std::uint8_t> holeMask(const Raster<float>& heights, int margin) {
+  const std::size_t width = std::size_t(heights.width - 2 * margin), height = std::size_t(heights.height - 2 * margin);
+  std::vector<std::uint8_t> holes(width * height);
+  // Through plain pointers, the loop runs in lanes: a byte stored through a
+  // vector might, for all the compiler knows, change the vector's own size.
+  std::uint8_t* const is_hole = holes.data();
+  for (std::size_t r = 0; r < height; ++r) {
+    const float* const row = &heights.at(margin, int(r) + margin);
+    for (std::size_t c = 0; c < width; ++c) is_hole[r * width + c] = std::isnan(row[c]) ? 1 : 0;
+  }
+  return holes;
+}
 
 bool fillHoles(Raster<float>& heights) {
   if (std::all_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); })) {

@@ -1,8 +1,18 @@
 #pragma once
 // Fills NaN holes of a height window from the valid samples around them.
+#include <cstdint>
+#include <vector>
+
 #include "core/types.hpp"
 
 namespace terrabake::dem {
+
+// Whether any sample is a NaN hole.
+bool hasHoles(const Raster<float>& heights);
+
+// 1 at the NaN holes of `heights` less `margin` samples each side, row by
+// row; 0 elsewhere.
+std::vector<std::uint8_t> holeMask(const Raster<float>& heights, int margin);
 
 // Pull-push fill relaxed into a membrane: valid samples are averaged down a
 // pyramid until every cell has a value; on the way back up each level's holes

@@ -25,10 +25,6 @@
 namespace terrabake::pipeline {
 namespace {
 
-bool hasHoles(const Raster<float>& heights) {
-  return std::any_of(heights.data.begin(), heights.data.end(), [](float v) { return std::isnan(v); });
-}
-
 bool hasValidSample(const Raster<float>& heights, int apron, int tile_size) {
   for (int r = apron; r < apron + tile_size; ++r) {
     for (int c = apron; c < apron + tile_size; ++c) {
@@ -178,16 +174,9 @@ struct TileMaker::Impl {
   // into the backdrop there.
   Raster<float> filledHeights(const GridSpec& grid, const Raster<float>& around) const {
     const int margin = fillMargin();
-    const std::size_t width = std::size_t(grid.width), height = std::size_t(grid.height);
-    std::vector<std::uint8_t> holes(width * height);
-    // Plain pointers, so the loop runs in lanes (see dem::holeEdge).
-    std::uint8_t* const is_hole = holes.data();
-    for (std::size_t r = 0; r < height; ++r) {
-      const float* const row = &around.at(margin, int(r) + margin);
-      for (std::size_t c = 0; c < width; ++c) is_hole[r * width + c] = std::isnan(row[c]);
-    }
     // Read at the holes alone.
-    return dem::continueIntoHoles(around, margin, plan->backdrop->heightsAt(grid, holes), settings.max_fill_px);
+    const Raster<float> backdrop = plan->backdrop->heightsAt(grid, dem::holeMask(around, margin));
+    return dem::continueIntoHoles(around, margin, backdrop, settings.max_fill_px);
   }
 
   // Longitude and latitude of every cell centre of `grid`, row by row.
@@ -240,7 +229,7 @@ struct TileMaker::Impl {
   Raster<float> finishedHeights(WindowRead read, const GridSpec& grid, const dem::ReadPlan& read_plan,
                                 Raster<std::uint8_t>* from_dem) const {
     Raster<float>& heights = read.cells;
-    if (hasHoles(heights)) {
+    if (dem::hasHoles(heights)) {
       if (from_dem) *from_dem = demSamples(heights);
       heights = filledHeights(grid, read.around ? *read.around : dem.read(fillGrid(grid), read_plan));
     }
