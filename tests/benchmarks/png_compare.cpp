@@ -1,7 +1,9 @@
-// zlib strategies compared on the PNG tiles of real layers: every tile of
-// the folders given is decoded and encoded again with each strategy (after
-// the Paeth filter, as tiles are written), and a table gives the bytes and
-// the milliseconds a tile each took, against run-length matches alone.
+// PNG settings compared on the tiles of real layers: every tile of the
+// folders given is decoded and encoded again with each zlib strategy (after
+// the Paeth filter, as tiles are written) and with each of libpng's row
+// filters (with the strategy tiles are written with). Two tables give the
+// bytes and the milliseconds a tile each took: the strategies against
+// run-length matches alone, the filters against Paeth.
 //
 //   png_compare tiles/sample [more layer folders...]
 //
@@ -22,12 +24,34 @@ using namespace terrabake;
 
 namespace {
 
-struct Strategy {
+// libpng's filter masks (png.h's PNG_FILTER_*), which io::PngCompression takes.
+constexpr int kSub = 0x10, kUp = 0x20, kAverage = 0x40, kPaeth = 0x80, kAllFive = 0xf8;
+
+struct Encoding {
   const char* name;
-  io::ZlibStrategy strategy;
+  io::PngCompression compression;
   double ms = 0;
   double bytes = 0;
 };
+
+io::PngCompression settings(int filters, io::ZlibStrategy strategy) {
+  io::PngCompression compression;  // the tiles' level
+  compression.filters = filters;
+  compression.strategy = strategy;
+  return compression;
+}
+
+// One table: each encoding's bytes and time a tile, and both against the first's.
+void printTable(const char* heading, const std::vector<Encoding>& encodings, int tiles, int rounds) {
+  std::printf("\n| %s | MB | ms a tile | bytes vs %s | time vs %s |\n", heading, encodings.front().name,
+              encodings.front().name);
+  std::printf("| --- | --- | --- | --- | --- |\n");
+  const Encoding& base = encodings.front();
+  for (const Encoding& e : encodings) {
+    std::printf("| %s | %.2f | %.2f | %.3fx | %.2fx |\n", e.name, e.bytes / 1e6, e.ms / (tiles * rounds),
+                e.bytes / base.bytes, e.ms / base.ms);
+  }
+}
 
 // A tile as the image encodePng took, its samples at the bits it was written with.
 bool decode(const fs::path& path, Image<std::uint16_t>& image, int& bits) {
@@ -51,10 +75,18 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "usage: png_compare LAYER_DIR...\n");
     return 2;
   }
-  std::vector<Strategy> strategies = {{"run-length", io::ZlibStrategy::kRunLength},
-                                      {"Huffman only", io::ZlibStrategy::kHuffmanOnly},
-                                      {"run-length or Huffman (default)", io::ZlibStrategy::kRunLengthOrHuffman}};
-  // Each tile is encoded this many times per strategy, the strategies in turn.
+  using io::ZlibStrategy;
+  std::vector<Encoding> strategies = {
+      {"run-length", settings(kPaeth, ZlibStrategy::kRunLength)},
+      {"Huffman only", settings(kPaeth, ZlibStrategy::kHuffmanOnly)},
+      {"run-length or Huffman (default)", settings(kPaeth, ZlibStrategy::kRunLengthOrHuffman)}};
+  std::vector<Encoding> filters = {
+      {"Paeth (default)", settings(kPaeth, ZlibStrategy::kRunLengthOrHuffman)},
+      {"up", settings(kUp, ZlibStrategy::kRunLengthOrHuffman)},
+      {"sub", settings(kSub, ZlibStrategy::kRunLengthOrHuffman)},
+      {"average", settings(kAverage, ZlibStrategy::kRunLengthOrHuffman)},
+      {"all five, chosen per row", settings(kAllFive, ZlibStrategy::kRunLengthOrHuffman)}};
+  // Each tile is encoded this many times per setting, the settings in turn.
   constexpr int kRounds = 3;
   int tiles = 0;
   for (int a = 1; a < argc; ++a) {
@@ -68,13 +100,13 @@ int main(int argc, char** argv) {
       }
       ++tiles;
       for (int round = 0; round < kRounds; ++round) {
-        for (Strategy& s : strategies) {
-          const auto start = std::chrono::steady_clock::now();
-          io::PngCompression compression;  // the tiles' filters and level
-          compression.strategy = s.strategy;
-          const std::size_t size = io::encodePng(image, bits, compression).size();
-          s.ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
-          if (round == 0) s.bytes += double(size);
+        for (std::vector<Encoding>* table : {&strategies, &filters}) {
+          for (Encoding& e : *table) {
+            const auto start = std::chrono::steady_clock::now();
+            const std::size_t size = io::encodePng(image, bits, e.compression).size();
+            e.ms += std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+            if (round == 0) e.bytes += double(size);
+          }
         }
       }
     }
@@ -83,13 +115,8 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "png_compare: no .png tiles under the folders given\n");
     return 1;
   }
-  std::printf("%d tiles, Paeth filter, each encoded %d times per strategy\n\n", tiles, kRounds);
-  std::printf("| zlib strategy | MB | ms a tile | bytes vs run-length | time vs run-length |\n");
-  std::printf("| --- | --- | --- | --- | --- |\n");
-  const Strategy& base = strategies.front();
-  for (const Strategy& s : strategies) {
-    std::printf("| %s | %.2f | %.2f | %.3fx | %.2fx |\n", s.name, s.bytes / 1e6, s.ms / (tiles * kRounds),
-                s.bytes / base.bytes, s.ms / base.ms);
-  }
+  std::printf("%d tiles, each encoded %d times per setting\n", tiles, kRounds);
+  printTable("zlib strategy, Paeth filter", strategies, tiles, kRounds);
+  printTable("row filter, the default strategy", filters, tiles, kRounds);
   return 0;
 }
