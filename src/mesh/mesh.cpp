@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
+#include <cstring>
 #include <limits>
 #include <stdexcept>
 #include <string>
@@ -327,9 +328,16 @@ TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return fr
 
 TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
   constexpr std::uint32_t kNoTriangle = ~std::uint32_t(0);
+  // Four texels at a time: TexelTriangle::at's arithmetic in each lane.
+  using Depths = double __attribute__((vector_size(4 * sizeof(double))));
+  using Owners = std::uint32_t __attribute__((vector_size(4 * sizeof(std::uint32_t))));
+  constexpr int kLanes = 4;
+  const std::size_t texels = std::size_t(size) * std::size_t(size);
   TexelCoverage coverage;
-  coverage.owner.assign(std::size_t(size) * std::size_t(size), kNoTriangle);
+  // A row's last lanes may reach past the last texel: they store what they load.
+  coverage.owner.assign(texels + kLanes - 1, kNoTriangle);
   std::vector<double> depth(coverage.owner.size(), -std::numeric_limits<double>::infinity());
+  const Depths lane_numbers = {0, 1, 2, 3};
   for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
     const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
     const glm::dvec2 a = glm::dvec2(mesh.uv[v[0]]) * double(size), b = glm::dvec2(mesh.uv[v[1]]) * double(size),
@@ -345,18 +353,29 @@ TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
     coverage.triangles.push_back(triangle);
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
       const std::size_t row = std::size_t(j) * std::size_t(size);
-      double* row_depth = &depth[row];
-      std::uint32_t* row_owner = &coverage.owner[row];
-      // No branch, so that the compiler runs the loop several texels at a time.
-      for (int i = first; i <= last; ++i) {
-        const TrianglePoint point = triangle.at(i, j);
-        const double inside = std::min(point.weight[0], std::min(point.weight[1], point.weight[2]));
-        const bool deeper = inside > row_depth[i];
-        row_depth[i] = deeper ? inside : row_depth[i];
-        row_owner[i] = deeper ? index : row_owner[i];
+      const double from_a_y = j + 0.5 - triangle.a.y;
+      for (int i = first; i <= last; i += kLanes) {
+        const Depths column = double(i) + lane_numbers;
+        const Depths from_a_x = column + 0.5 - triangle.a.x;
+        const Depths w1 = from_a_x * triangle.w1_per.x + from_a_y * triangle.w1_per.y;
+        const Depths w2 = from_a_x * triangle.w2_per.x + from_a_y * triangle.w2_per.y;
+        const Depths w0 = 1 - w1 - w2;
+        // std::min's choice, lane by lane.
+        const Depths w12 = w2 < w1 ? w2 : w1;
+        const Depths inside = w12 < w0 ? w12 : w0;
+        Depths depths;
+        Owners owners;
+        std::memcpy(&depths, &depth[row + std::size_t(i)], sizeof depths);
+        std::memcpy(&owners, &coverage.owner[row + std::size_t(i)], sizeof owners);
+        const auto deeper = (inside > depths) & (column <= double(last));
+        depths = deeper ? inside : depths;
+        owners = __builtin_convertvector(deeper, Owners) != 0 ? Owners{} + index : owners;
+        std::memcpy(&depth[row + std::size_t(i)], &depths, sizeof depths);
+        std::memcpy(&coverage.owner[row + std::size_t(i)], &owners, sizeof owners);
       }
     });
   }
+  coverage.owner.resize(texels);
   const auto hole = std::find(coverage.owner.begin(), coverage.owner.end(), kNoTriangle);
   if (hole != coverage.owner.end()) {
     const auto texel = std::size_t(hole - coverage.owner.begin());
