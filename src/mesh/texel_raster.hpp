@@ -27,15 +27,18 @@ void forEachTexelSpan(glm::dvec2 a, glm::dvec2 b, glm::dvec2 c, int size, double
   auto slope = [](glm::dvec2 p, glm::dvec2 q) { return q.y > p.y ? (q.x - p.x) / (q.y - p.y) : 0.0; };
   const double long_slope = slope(a, c), upper_slope = slope(a, b), lower_slope = slope(b, c);
   // Widening the span by on_edge along x widens it by at least on_edge
-  // across any edge.
+  // across any edge: by this much above b and below it.
+  const double widen_upper = on_edge * (1 + std::max(std::abs(long_slope), std::abs(upper_slope)));
+  const double widen_lower = on_edge * (1 + std::max(std::abs(long_slope), std::abs(lower_slope)));
   const int first_row = std::max(0, int(ceilToLong(a.y - 0.5 - on_edge)));
   const int last_row = std::min(size - 1, int(floorToLong(c.y - 0.5 + on_edge)));
   for (int j = first_row; j <= last_row; ++j) {
     const double y = std::clamp(j + 0.5, a.y, c.y);
+    const bool upper = y < b.y;
     const double x_long = a.x + (y - a.y) * long_slope;
-    const double x_short = y < b.y ? a.x + (y - a.y) * upper_slope : b.x + (y - b.y) * lower_slope;
+    const double x_short = upper ? a.x + (y - a.y) * upper_slope : b.x + (y - b.y) * lower_slope;
     const double lo = std::min(x_long, x_short), hi = std::max(x_long, x_short);
-    const double widen = on_edge * (1 + std::max(std::abs(long_slope), std::abs(y < b.y ? upper_slope : lower_slope)));
+    const double widen = upper ? widen_upper : widen_lower;
     const int first = std::max(0, int(ceilToLong(lo - widen - 0.5)));
     const int last = std::min(size - 1, int(floorToLong(hi + widen - 0.5)));
     if (first <= last) visit(j, first, last);
