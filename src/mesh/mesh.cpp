@@ -328,7 +328,7 @@ TangentFrame lowPolyFrameAt(const TriangleMesh& mesh, glm::dvec2 uv) { return fr
 
 TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
   constexpr std::uint32_t kNoTriangle = ~std::uint32_t(0);
-  // Four texels at a time: TexelTriangle::at's arithmetic in each lane.
+  // Four texels at a time.
   using Depths = double __attribute__((vector_size(4 * sizeof(double))));
   using Owners = std::uint32_t __attribute__((vector_size(4 * sizeof(std::uint32_t))));
   constexpr int kLanes = 4;
@@ -353,16 +353,13 @@ TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
     coverage.triangles.push_back(triangle);
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
       const std::size_t row = std::size_t(j) * std::size_t(size);
-      const double from_a_y = j + 0.5 - triangle.a.y;
       for (int i = first; i <= last; i += kLanes) {
         const Depths column = double(i) + lane_numbers;
-        const Depths from_a_x = column + 0.5 - triangle.a.x;
-        const Depths w1 = from_a_x * triangle.w1_per.x + from_a_y * triangle.w1_per.y;
-        const Depths w2 = from_a_x * triangle.w2_per.x + from_a_y * triangle.w2_per.y;
-        const Depths w0 = 1 - w1 - w2;
+        Depths weight[3];
+        triangle.weightsAt(column, j, weight);
         // std::min's choice, lane by lane.
-        const Depths w12 = w2 < w1 ? w2 : w1;
-        const Depths inside = w12 < w0 ? w12 : w0;
+        const Depths w12 = weight[2] < weight[1] ? weight[2] : weight[1];
+        const Depths inside = w12 < weight[0] ? w12 : weight[0];
         Depths depths;
         Owners owners;
         std::memcpy(&depths, &depth[row + std::size_t(i)], sizeof depths);

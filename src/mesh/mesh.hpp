@@ -115,13 +115,22 @@ struct TexelTriangle {
   glm::dvec2 a;               // vertex[0]
   glm::dvec2 w1_per, w2_per;  // weights 1 and 2 per texel along x and y
 
+  // The weights at the centre of texel (column, j): `Column` a double, or a
+  // vector of them (core/lanes.hpp), a lane per texel, each lane with the
+  // arithmetic of one value alone.
+  template <class Column>
+  void weightsAt(const Column& column, int j, Column (&weight)[3]) const {
+    const Column from_a_x = column + 0.5 - a.x;
+    const double from_a_y = j + 0.5 - a.y;
+    weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
+    weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
+    weight[0] = 1 - weight[1] - weight[2];
+  }
+
   // The weights at texel (i, j)'s centre.
   TrianglePoint at(int i, int j) const {
-    const double from_a_x = i + 0.5 - a.x, from_a_y = j + 0.5 - a.y;
     TrianglePoint point{{vertex[0], vertex[1], vertex[2]}, {}};
-    point.weight[1] = from_a_x * w1_per.x + from_a_y * w1_per.y;
-    point.weight[2] = from_a_x * w2_per.x + from_a_y * w2_per.y;
-    point.weight[0] = 1 - point.weight[1] - point.weight[2];
+    weightsAt(double(i), j, point.weight);
     return point;
   }
 };
