@@ -34,5 +34,33 @@ TEST(LocalFrame, AGraticuleLandsWhereEachOfItsPointsDoes) {
   EXPECT_LE(worst, kGraticuleAgreementM);
 }
 
+// ecefOfGraticule shares the trigonometry but rounds as geodeticToEcef
+// does, so its points are the same bits; past a pole it takes the negative
+// cosine where geodeticToEcef turns to the opposite meridian, the same
+// point to rounding (at the Earth's radius, a few nanometres).
+TEST(Ecef, AGraticuleIsEachOfItsPointsBitForBitAndPastAPoleToRounding) {
+  std::vector<double> lon = {-179.9, -12.345678, 0.0, 9.95, 123.456789, 180.0};
+  std::vector<double> lat = {-90.0, -45.5, 0.0, 46.5, 89.999, 90.0};
+  std::vector<float> heights;
+  for (std::size_t k = 0; k < lon.size() * lat.size(); ++k) heights.push_back(float(-420.0 + 311.25 * double(k % 29)));
+  const std::vector<glm::dvec3> ecef = geo::ecefOfGraticule(lon, lat, heights);
+  ASSERT_EQ(ecef.size(), lon.size() * lat.size());
+  for (std::size_t r = 0; r < lat.size(); ++r) {
+    for (std::size_t c = 0; c < lon.size(); ++c) {
+      const std::size_t k = r * lon.size() + c;
+      EXPECT_EQ(ecef[k], geo::geodeticToEcef(lon[c], lat[r], heights[k])) << lon[c] << ", " << lat[r];
+    }
+  }
+  const std::vector<double> past_poles = {90.3, -90.7};
+  const std::vector<glm::dvec3> beyond = geo::ecefOfGraticule(lon, past_poles, heights);
+  for (std::size_t r = 0; r < past_poles.size(); ++r) {
+    for (std::size_t c = 0; c < lon.size(); ++c) {
+      const std::size_t k = r * lon.size() + c;
+      EXPECT_LE(glm::distance(beyond[k], geo::geodeticToEcef(lon[c], past_poles[r], heights[k])),
+                kGraticuleAgreementM);
+    }
+  }
+}
+
 }  // namespace
 }  // namespace terrabake

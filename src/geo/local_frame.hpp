@@ -46,5 +46,10 @@ class LocalFrame {
 // Geodetic point to earth-centred earth-fixed metres (WGS84); a latitude past
 // a pole as LocalFrame takes it.
 glm::dvec3 geodeticToEcef(double lon_deg, double lat_deg, double height_m);
+// geodeticToEcef of every point of a graticule, laid out as toLocalGraticule
+// takes it, with one sine and cosine per column and per row: the same bits,
+// but past a pole (there the same to rounding).
+std::vector<glm::dvec3> ecefOfGraticule(const std::vector<double>& lon_deg, const std::vector<double>& lat_deg,
+                                        const std::vector<float>& heights_m);
 
 }  // namespace terrabake::geo

@@ -190,6 +190,23 @@ struct TileMaker::Impl {
     return lon_lat;
   }
 
+  // Web Mercator and geodetic grids are graticules: a column's longitude
+  // and a row's latitude are each one for the whole column or row.
+  struct Graticule {
+    std::vector<double> lon, lat;  // per column, per row
+  };
+  Graticule graticuleOf(const GridSpec& grid) const {
+    std::vector<glm::dvec2> along_row(std::size_t(grid.width)), along_column(std::size_t(grid.height));
+    for (int c = 0; c < grid.width; ++c) along_row[std::size_t(c)] = {grid.centreX(c), grid.centreY(0)};
+    for (int r = 0; r < grid.height; ++r) along_column[std::size_t(r)] = {grid.centreX(0), grid.centreY(r)};
+    to_lon_lat.transform(along_row);
+    to_lon_lat.transform(along_column);
+    Graticule graticule{std::vector<double>(along_row.size()), std::vector<double>(along_column.size())};
+    for (std::size_t c = 0; c < along_row.size(); ++c) graticule.lon[c] = along_row[c].x;
+    for (std::size_t r = 0; r < along_column.size(); ++r) graticule.lat[r] = along_column[r].y;
+    return graticule;
+  }
+
   // Positions of every sample in the frame of the tile's centre.
   mesh::SampleGrid samplePositions(const GridSpec& grid, const Raster<float>& heights,
                                    const geo::LocalFrame& frame) const {
@@ -210,17 +227,8 @@ struct TileMaker::Impl {
       }
       return samples;
     }
-    // Web Mercator and geodetic grids are graticules: a column's longitude
-    // and a row's latitude are each one for the whole column or row.
-    std::vector<glm::dvec2> along_row(std::size_t(grid.width)), along_column(std::size_t(grid.height));
-    for (int c = 0; c < grid.width; ++c) along_row[std::size_t(c)] = {grid.centreX(c), grid.centreY(0)};
-    for (int r = 0; r < grid.height; ++r) along_column[std::size_t(r)] = {grid.centreX(0), grid.centreY(r)};
-    to_lon_lat.transform(along_row);
-    to_lon_lat.transform(along_column);
-    std::vector<double> lon(along_row.size()), lat(along_column.size());
-    for (std::size_t c = 0; c < lon.size(); ++c) lon[c] = along_row[c].x;
-    for (std::size_t r = 0; r < lat.size(); ++r) lat[r] = along_column[r].y;
-    samples.position.data = frame.toLocalGraticule(lon, lat, heights.data);
+    const Graticule graticule = graticuleOf(grid);
+    samples.position.data = frame.toLocalGraticule(graticule.lon, graticule.lat, heights.data);
     return samples;
   }
 
@@ -243,10 +251,15 @@ struct TileMaker::Impl {
   // places and keep the same edge vertices.
   mesh::EdgeProfile edgeProfile(const GridSpec& strip, const dem::ReadPlan& read_plan) const {
     const Raster<float> heights = finishedHeights(readHeights(strip, read_plan), strip, read_plan, nullptr);
-    const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(strip);
     Raster<glm::dvec3> ecef(strip.width, strip.height);
-    for (std::size_t k = 0; k < lon_lat.size(); ++k) {
-      ecef.data[k] = geo::geodeticToEcef(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+    if (scheme.kind() == SchemeKind::kNative) {
+      const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(strip);
+      for (std::size_t k = 0; k < lon_lat.size(); ++k) {
+        ecef.data[k] = geo::geodeticToEcef(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+      }
+    } else {
+      const Graticule graticule = graticuleOf(strip);
+      ecef.data = geo::ecefOfGraticule(graticule.lon, graticule.lat, heights.data);
     }
     // Point k of the profile lies between samples k - 1 and k along the
     // edge, half way across it; the corners (k = 0 and k = n - 1) between four.
