@@ -264,6 +264,13 @@ TEST(Cli, HelpExitsZero) {
   EXPECT_EQ(r.err, "");
 }
 
+TEST(Cli, VersionPrintsTheProjectsVersion) {
+  const RunResult r = runTerrabake({"--version"});
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_EQ(r.out, "terrabake " TERRABAKE_VERSION "\n") << describe(r);
+  EXPECT_EQ(r.err, "");
+}
+
 TEST(Cli, TileHelpShowsExamplesAndExitCodes) {
   const RunResult r = runTerrabake({"tile", "--help"});
   EXPECT_EQ(r.exit_code, kExitOk) << describe(r);

@@ -46,6 +46,7 @@ int main(int argc, char** argv) {
                "terrabake");
   cli.footer(app::kExitCodes);
   cli.require_subcommand(1);
+  cli.set_version_flag("--version", "terrabake " TERRABAKE_VERSION, "Print the version and exit");
   bool verbose = false;
   cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");
   const app::Action tile = app::addTileCommand(cli);
@@ -57,6 +58,8 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForHelp& e) {
     return cli.exit(e);
   } catch (const CLI::CallForAllHelp& e) {
+    return cli.exit(e);
+  } catch (const CLI::CallForVersion& e) {
     return cli.exit(e);
   } catch (const CLI::ExtrasError& e) {
     std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << flagSuggestion(cli)
