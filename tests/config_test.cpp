@@ -271,10 +271,10 @@ TEST(ConfigErrors, NameFileLineAndKey) {
       {head + "output:\n  bits: [8]\n", "3: output.bits: expected an integer, got a list"},
       {head + "output:\n  green: left\n", "3: output.green: must be up or down, got 'left'"},
       {head + "output:\n  layer: ../up\n",
-       "3: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+       "3: output.layer: must be a folder name of at most 128 letters, digits, '.', '_' and '-' "
        "(not '.' or '..'), got '../up'"},
       {head + "output:\n  layer: ..\n",
-       "3: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+       "3: output.layer: must be a folder name of at most 128 letters, digits, '.', '_' and '-' "
        "(not '.' or '..'), got '..'"},
       {head + "output:\n  dir: ''\n", "3: output.dir: must not be empty"},
       {head + "output: 5\n", "2: output: expected a map of keys, got '5'"},
@@ -447,6 +447,15 @@ TEST(ConfigErrors, NulEscapeInAValueIsRefused) {
   EXPECT_EQ(loadMessage(path), path + ":1: dem: the value holds a NUL character (\\0) after 'a.tif'");
 }
 
+// Raw control bytes (a NUL, an escape sequence) are no YAML: named by line,
+// and shown escaped rather than sent to the terminal.
+TEST(ConfigErrors, ControlCharactersAreRefusedByLine) {
+  const std::string nul = writeYaml("raw_nul.yaml", std::string("dem: a.tif\ntiling:\n  zoom: 3\0junk\n", 34));
+  EXPECT_EQ(loadMessage(nul), nul + ":3: the file holds a control character (\\x00); a config file is text");
+  const std::string escape = writeYaml("escape.yaml", "dem: a.tif\x1b[31m\ntiling:\n  zoom: 3\n");
+  EXPECT_EQ(loadMessage(escape), escape + ":1: the file holds a control character (\\x1b); a config file is text");
+}
+
 TEST(ConfigErrors, LongValuesAreShortenedInMessages) {
   const std::string value(1'000'000, 'a');
   const std::string path = writeYaml("long.yaml", "dem: a.tif\ntiling:\n  zoom: 3\noutput:\n  bits: " + value + "\n");
@@ -523,7 +532,7 @@ TEST(ConfigOverrides, BadValuesNameTheFlagAndKey) {
   EXPECT_EQ(overrideMessage("tiling.zoom", "-3", "--zoom"),
             "--zoom: tiling.zoom: must be between 0 and 24, got -3");
   EXPECT_EQ(overrideMessage("output.layer", "a/b", "--layer"),
-            "--layer: output.layer: must be a folder name of letters, digits, '.', '_' and '-' "
+            "--layer: output.layer: must be a folder name of at most 128 letters, digits, '.', '_' and '-' "
             "(not '.' or '..'), got 'a/b'");
   EXPECT_EQ(overrideMessage("output.dir", "", "--out"), "--out: output.dir: must not be empty");
   EXPECT_EQ(overrideMessage("bake.backend", "gl", "--backend"),

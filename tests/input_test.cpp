@@ -646,6 +646,27 @@ TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
   EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
 }
 
+// A geocentric CRS (EPSG:4978) puts a grid on no surface: refused, for tile
+// and info alike, rather than read as degrees at the pole.
+TEST(Inputs, ADemInAGeocentricCrsIsRefused) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {4000000, 100, 0, 700000, 0, -100};
+  writeDem(dir / "ecef.tif", 50, 50, gt, hill);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "ecef.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    OGRSpatialReference geocentric;
+    ASSERT_EQ(geocentric.importFromEPSG(4978), OGRERR_NONE);
+    ASSERT_EQ(ds->SetSpatialRef(&geocentric), CE_None);
+  }
+  for (const std::vector<std::string>& args :
+       {tileArgs(dir / "ecef.tif", dir / "out", "ecef"), std::vector<std::string>{"info", (dir / "ecef.tif").string()}}) {
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+    EXPECT_TRUE(contains(r.err, "ecef.tif' is in a geocentric CRS")) << describe(r);
+  }
+}
+
 // A Mars DEM: PROJ finds no way to the Earth's CRSs, and the frames would be
 // the Earth's anyway; refused by the body's name, not with PROJ's WKT.
 TEST(Inputs, ADemOfAnotherBodyIsRefusedNamingIt) {
@@ -682,7 +703,7 @@ TEST(Inputs, ATinyDemAtCoarseZoomsMakesNothingWithoutRunningOutOfMemory) {
   limits.address_space = std::size_t(3) << 30;
   const RunResult r = run(tileArgs(dir / "tiny.tif", dir / "out", "tiny", "0-3"), limits, std::chrono::seconds(60));
   EXPECT_EQ(r.exit_code, kExitNothingMade) << describe(r);
-  EXPECT_TRUE(contains(r.err, "holds a valid DEM sample (the DEM is smaller than a texel of zoom 3")) << describe(r);
+  EXPECT_TRUE(contains(r.err, "holds a valid DEM sample (the DEM is under two texels of zoom 3 across")) << describe(r);
   EXPECT_FALSE(contains(r.err, "bad_alloc")) << describe(r);
 }
 

@@ -10,6 +10,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <set>
+#include <string>
+#include <vector>
 #include <nlohmann/json.hpp>
 
 #include "child_process.hpp"
@@ -275,6 +278,33 @@ TEST(Pmtiles, ResumeAndShardsAreRefused) {
   EXPECT_THROW(pipeline::runTileJob(job, shard), UsageError);
 }
 
+// A layer's archives are all written before any replaces its old one: a
+// finished archive stays hidden until published, and one dropped unpublished
+// (a later archive of the layer failed) leaves the old file and no temporary.
+TEST(Pmtiles, AFinishedArchiveReplacesTheOldOneOnlyWhenPublished) {
+  const fs::path dir = test::caseDir();
+  const fs::path path = dir / "layer.pmtiles";
+  test::writeText(path, "the old archive");
+  const std::string tilejson =
+      R"({"tilejson": "3.0.0", "minzoom": 1, "maxzoom": 1, "bounds": [-180, -85, 180, 85], "center": [0, 0, 1]})";
+  const std::vector<std::uint8_t> tile = {1, 2, 3};
+  {
+    io::PmtilesWriter dropped(path.string(), io::PmtilesTileType::kUnknown);
+    dropped.add({1, 0, 0}, tile);
+    dropped.finish(tilejson, "job");
+    EXPECT_EQ(test::readBytes(path), "the old archive");
+  }
+  EXPECT_EQ(test::filesUnder(dir), std::set<std::string>{"layer.pmtiles"}) << "a temporary file was left";
+  {
+    io::PmtilesWriter published(path.string(), io::PmtilesTileType::kUnknown);
+    published.add({1, 0, 0}, tile);
+    published.finish(tilejson, "job");
+    published.publish();
+  }
+  EXPECT_EQ(io::PmtilesReader(path.string()).header().addressed_tiles, 1u);
+  EXPECT_EQ(test::filesUnder(dir), std::set<std::string>{"layer.pmtiles"});
+}
+
 TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {
   const fs::path path = test::caseDir() / "many.pmtiles";
   constexpr int kZoom = 8;  // 65536 tiles: their root directory alone would be far above 16 KiB
@@ -290,6 +320,7 @@ TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {
     writer.finish(R"({"tilejson": "3.0.0", "minzoom": 8, "maxzoom": 8, "bounds": [-180, -85, 180, 85],
                       "center": [0, 0, 8]})",
                   "job");
+    writer.publish();
   }
   const io::PmtilesReader reader(path.string());
   const io::PmtilesHeader& h = reader.header();

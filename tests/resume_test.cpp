@@ -228,6 +228,86 @@ TEST(Resume, SigtermStopsAnMbtilesRunAsOneWholeFileThatResumes) {
   EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), all);
 }
 
+// Every file of a tile counts: a tile with one file removed by hand, or left
+// empty by a power cut, is made again, whichever file it was, and only that
+// tile.
+TEST(Resume, ATileMissingAnyOfItsFilesIsMadeAgain) {
+  const fs::path dir = freshDir("missing_file");
+  std::vector<std::string> args = jobArgs(dir);
+  args[4] = "14";  // --zoom 14 only
+  args.insert(args.end(), {"--elevation", "terrarium"});
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const fs::path layer = dir / "layer";
+  const auto expected = test::snapshot(layer);
+  std::vector<fs::path> meshes;
+  for (const auto& [path, bytes] : expected) {
+    if (fs::path(path).extension() == ".glb") meshes.push_back(layer / path);
+  }
+  ASSERT_GE(meshes.size(), 4u);
+  // One tile loses its normal map, one its elevation tile, one its mesh, and
+  // one is left with an empty mesh.
+  const auto sibling = [](const fs::path& mesh, const std::string& extension) {
+    return mesh.parent_path() / (mesh.stem().string() + extension);
+  };
+  for (const fs::path& gone : {sibling(meshes[0], ".png"), sibling(meshes[1], ".elevation.png"), meshes[2]}) {
+    ASSERT_TRUE(fs::remove(gone)) << gone;
+  }
+  fs::resize_file(meshes[3], 0);
+  args.push_back("--resume");
+  test::ChildProcess resumed(args);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_EQ(summaryCount(resumed.out(), "wrote"), 4) << resumed.out();
+  EXPECT_TRUE(test::snapshot(layer) == expected) << "the resumed layer differs from the first run's";
+}
+
+// The same in an MBTiles file: a row deleted from one table makes its tile again.
+TEST(Resume, AnMbtilesTileMissingARowIsMadeAgain) {
+  const fs::path dir = freshDir("missing_row");
+  std::vector<std::string> args = jobArgs(dir);
+  args[4] = "14";
+  args.insert(args.end(), {"--format", "mbtiles"});
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const fs::path file = dir / "layer.mbtiles";
+  const int tiles = std::stoi(sqlite(file, "SELECT count(*) FROM tiles;"));
+  const std::string deleted = "DELETE FROM tiles WHERE rowid = (SELECT min(rowid) FROM tiles);";
+  ASSERT_EQ(std::system(("sqlite3 '" + file.string() + "' '" + deleted + "'").c_str()), 0);
+  ASSERT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), tiles - 1);
+  args.push_back("--resume");
+  test::ChildProcess resumed(args);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_EQ(summaryCount(resumed.out(), "wrote"), 1) << resumed.out();
+  EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), tiles);
+}
+
+// A closed terminal stops a run as SIGTERM does (exit 128 + 1), and a
+// reader of its output that goes away stops nothing.
+TEST(Resume, SighupStopsTheRunAndAClosedPipeDoesNot) {
+  const fs::path dir = freshDir("sighup");
+  {
+    test::ChildProcess stopped(jobArgs(dir));
+    test::waitUntil([&] { return countMeshes(dir) >= kMeshesBeforeCrash || !stopped.running(); }, kRunLimit,
+                    std::chrono::milliseconds(2));
+    ASSERT_TRUE(stopped.running()) << "the run ended before it could be stopped: " << stopped.err();
+    stopped.signal(SIGHUP);
+    EXPECT_EQ(stopped.wait(kRunLimit), 129) << stopped.err();
+    EXPECT_NE(stopped.err().find("stopping on SIGHUP"), std::string::npos) << stopped.err();
+  }
+  // `| head -c 1` closes the pipe after the first byte of the log.
+  const fs::path status = dir / "status";
+  std::vector<std::string> args = jobArgs(dir);
+  args.push_back("--resume");
+  const std::string command = "{ " + shellQuoted(TERRABAKE_EXE) + " " + joined(args) + "; echo $? > " +
+                              shellQuoted(status.string()) + "; } 2>&1 | head -c 1 > /dev/null";
+  ASSERT_EQ(std::system(command.c_str()), 0);
+  std::ifstream in(status);
+  int code = -1;
+  in >> code;
+  EXPECT_EQ(code, 0) << "the resumed run, its output closed";
+  EXPECT_TRUE(fs::exists(dir / "layer" / "tilejson.json")) << "the run went on to its end";
+}
+
 TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   const fs::path dir = freshDir("other_job");
   std::vector<std::string> args = jobArgs(dir);

@@ -74,6 +74,55 @@ TEST(ServeCli, SigintStopsItToo) {
   EXPECT_EQ(stopWith(process, SIGINT, &took), 0) << process.err();
 }
 
+// The folder of an on-demand layer records its job as a batch run does, so
+// `terrabake tile --resume` with the same job carries the layer on.
+TEST(ServeCli, AnOnDemandLayerRecordsItsJobForTileToResume) {
+  const Case c = makeCase();
+  const fs::path config = c.dir / "serve.yaml";
+  writeText(config, "layers: [live.yaml]\n");
+  {
+    test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
+    const std::string line = process.firstLine(kWaitLimit);
+    const std::size_t port_at = line.rfind(':');
+    ASSERT_NE(port_at, std::string::npos) << line << process.err();
+    const auto tile = get(std::stoi(line.substr(port_at + 1)), tileUrl("live", c.someTile(), "png"));
+    ASSERT_TRUE(tile);
+    EXPECT_EQ(tile->status, 200);
+    std::chrono::milliseconds took{};
+    EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
+  }
+  EXPECT_TRUE(fs::exists(c.tiles / "live" / "terrabake-job.txt"));
+  test::ChildProcess resumed({"tile", "--config", c.live_job.string(), "--out", c.tiles.string(), "--resume"});
+  EXPECT_EQ(resumed.wait(std::chrono::minutes(2)), 0) << resumed.err();
+  EXPECT_NE(resumed.out().find("(1 skipped"), std::string::npos) << resumed.out();
+}
+
+// Baking one job's tiles into a layer another job made would mix the two.
+TEST(ServeCli, AnOnDemandLayerInAFolderOfAnotherJobIsRefused) {
+  const Case c = makeCase();
+  writeText(c.tiles / "live" / "terrabake-job.txt", "dem: another.tif\n");
+  const fs::path config = c.dir / "serve.yaml";
+  writeText(config, "layers: [live.yaml]\n");
+  test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
+  EXPECT_EQ(process.wait(kStopLimit), 2) << process.err();
+  EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
+  EXPECT_NE(process.err().find((c.tiles / "live").string() + "' was made by a different job"), std::string::npos)
+      << process.err();
+  EXPECT_EQ(process.out(), "");
+}
+
+// An on-demand layer is a folder; a job that writes one file is not baked as one.
+TEST(ServeCli, AnOnDemandJobWritingAnArchiveIsAUsageError) {
+  const fs::path dir = caseDir();
+  const fs::path job = dir / "archive.yaml", config = dir / "serve.yaml";
+  writeText(job, "dem: " + smallDem().string() + "\noutput:\n  layer: packed\n  format: mbtiles\n" + kJobBody);
+  writeText(config, "layers: [archive.yaml]\n");
+  test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", dir.string(), "--port", "0"}));
+  EXPECT_EQ(process.wait(kStopLimit), 2) << process.err();
+  EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
+  EXPECT_NE(process.err().find("archive.yaml: output.format"), std::string::npos) << process.err();
+}
+
 TEST(ServeCli, BadFlagsAndMissingFoldersAreOneLineErrors) {
   const fs::path dir = caseDir();
   const struct {

@@ -195,6 +195,7 @@ inline std::unique_ptr<server::OnDemandLayer> fakeLayer(const std::filesystem::p
   server::OnDemandLayer::Settings settings{"fake",
                                            tiles / "fake",
                                            R"({"tilejson": "3.0.0", "tiles": ["./{z}/{x}/{y}.png"]})",
+                                           "scheme: fake\n",
                                            server::TileCoverage(0, 24),
                                            false,
                                            workers,

@@ -540,7 +540,7 @@ TEST(ServeOnDemand, AFailedBakeAnswers500AndKeepsNothing) {
     EXPECT_EQ(health(running.port())["bakes_started"], attempt) << "a failure is not cached";
   }
   EXPECT_EQ(health(running.port())["bakes_failed"], 2);
-  EXPECT_EQ(filesUnder(c.tiles / "live"), (std::set<std::string>{"13", "tilejson.json"}));
+  EXPECT_EQ(filesUnder(c.tiles / "live"), (std::set<std::string>{"13", "terrabake-job.txt", "tilejson.json"}));
 }
 
 TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
@@ -552,8 +552,9 @@ TEST(ServeOnDemand, AnInjectedFailureAnswers500AndLeavesNoFile) {
   const auto reply = get(running.port(), "/fake/4/2/3.glb");
   ASSERT_TRUE(reply);
   EXPECT_EQ(reply->status, 500);
-  EXPECT_NE(reply->body.find("injected failure"), std::string::npos) << reply->body;
-  EXPECT_EQ(filesUnder(dir / "tiles" / "fake"), std::set<std::string>{"tilejson.json"});
+  EXPECT_NE(reply->body.find("tile 4/2/3: the bake failed"), std::string::npos) << reply->body;
+  EXPECT_EQ(reply->body.find("injected failure"), std::string::npos) << "the reason is for the log: " << reply->body;
+  EXPECT_EQ(filesUnder(dir / "tiles" / "fake"), (std::set<std::string>{"terrabake-job.txt", "tilejson.json"}));
 }
 
 TEST(ServeOnDemand, ATileWithoutDemSamplesIs404) {
@@ -607,7 +608,7 @@ TEST(ServeOnDemand, StopFinishesTheRunningBakeAndAbandonsQueuedOnes) {
   stopper.join();
   EXPECT_EQ(running_status, 200) << "a running bake finishes and is answered";
   EXPECT_EQ(filesUnder(dir / "tiles" / "fake"),
-            (std::set<std::string>{"tilejson.json", "6/1/1.png", "6/1/1.glb"}));
+            (std::set<std::string>{"terrabake-job.txt", "tilejson.json", "6/1/1.png", "6/1/1.glb"}));
 }
 
 }  // namespace

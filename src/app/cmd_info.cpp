@@ -71,7 +71,8 @@ void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   std::printf("%s\n", line.c_str());
 }
 
-void printInfo(const dem::DemSource& dem, int tile_size) {
+// `files`: how many DEM files were given; of several, the nodata line is the first's.
+void printInfo(const dem::DemSource& dem, std::size_t files, int tile_size) {
   const dem::DemInfo& info = dem.info();
   const GridSpec& g = info.grid;
   const double east = g.origin_x + g.width * g.cell_w, south = g.origin_y - g.height * g.cell_h;
@@ -80,7 +81,8 @@ void printInfo(const dem::DemSource& dem, int tile_size) {
   std::printf("CRS        %s\n", crsText(info).c_str());
   std::printf("size       %d x %d pixels, %s, %d overview%s\n", g.width, g.height, info.data_type.c_str(),
               info.overview_count, info.overview_count == 1 ? "" : "s");
-  std::printf("nodata     %s\n", info.nodata ? format("%.10g", *info.nodata).c_str() : "none declared");
+  std::printf("nodata     %s%s\n", info.nodata ? format("%.10g", *info.nodata).c_str() : "none declared",
+              files > 1 ? " (by the first file; each file is read with its own)" : "");
   if (!info.mask.empty()) std::printf("mask       %s: no data where it is 0\n", info.mask.c_str());
   if (info.scale != 1 || info.offset != 0) {
     std::printf("heights    samples x %s + %s (the band's scale and offset)\n", format("%.10g", info.scale).c_str(),
@@ -126,7 +128,7 @@ Action addInfoCommand(CLI::App& app) {
     dem_options.band = job.band;
     const dem::DemSource dem(options->dems, dem_options);
     for (const std::string& warning : dem.warnings()) log::warning(warning);
-    printInfo(dem, job.tile_size);
+    printInfo(dem, options->dems.size(), job.tile_size);
     return int(ExitCode::kOk);
   };
 }

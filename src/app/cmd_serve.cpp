@@ -49,8 +49,8 @@ Action addServeCommand(CLI::App& app) {
     std::printf("terrabake: serving %s on %s\n", tiles.c_str(), server.url().c_str());
     std::fflush(stdout);
     runUntilStopSignal([&server] { server.run(); },
-                       [&server](const std::string& name) {
-                         log::info("stopping on " + name + ": finishing bakes in progress");
+                       [&server](int signal) {
+                         log::info("stopping on " + stopSignalName(signal) + ": finishing bakes in progress");
                          server.stop();
                        });
     return int(ExitCode::kOk);

@@ -20,7 +20,7 @@ constexpr const char* kTileExamples = R"(Examples:
   terrabake tile --config config/sample.yaml
   terrabake tile --config config/sample.yaml --zoom 12 --bits 16 --layer sample16
   terrabake tile --dem dem.tif --zoom 8-12 --out tiles --layer alps
-  terrabake tile --dem dem.tif --scheme native --zoom 0-3 --backend cpu
+  terrabake tile --dem dem.tif --scheme native --zoom auto --backend cpu
   terrabake tile --dem dem_ft.tif --zoom 8-auto --z-scale 0.3048 --bbox 9.9,46.4,10.1,46.6 --alpha true
   terrabake tile --config config/sample.yaml --resume          # after a crash: only what is missing
   terrabake tile --config config/sample.yaml --shard 2/8       # one of 8 machines of a job array)";
@@ -66,15 +66,17 @@ Action addTileCommand(CLI::App& app) {
     options->run.stop = &stop;
     pipeline::RunSummary summary;
     runUntilStopSignal([&] { summary = pipeline::runTileJob(job, options->run); },
-                       [&](const std::string& name) {
-                         log::info("stopping on " + name + ": finishing the tiles in progress");
-                         stop_code = int(name == "SIGINT" ? ExitCode::kInterrupted : ExitCode::kTerminated);
+                       [&](int signal) {
+                         log::info("stopping on " + stopSignalName(signal) + ": finishing the tiles in progress");
+                         stop_code = int(ExitCode::kStoppedBySignal) + signal;
                          stop = true;
                        });
     std::printf("terrabake: wrote %d tiles to %s (%d skipped, %d empty, %d failed) in %.1f s\n", summary.written,
                 summary.layer_dir.c_str(), summary.skipped, summary.empty, summary.failed, summary.seconds);
     if (summary.interrupted) {
-      log::warning("stopped before the end: the tiles written are whole; --resume makes the rest");
+      log::warning(job.format == OutputFormat::kPmtiles
+                       ? "stopped before the end: a PMTiles layer is written whole at the end, so run the job again"
+                       : "stopped before the end: the tiles written are whole; --resume makes the rest");
       return stop_code.load();
     }
     if (!summary.nothing_made.empty()) {

@@ -16,8 +16,8 @@ inline constexpr const char* kExitCodes =
     "output (a full disk stops `tile` at once; --resume makes the rest) or no GL context;\n"
     "4 the run finished but some tiles failed; 5 nothing to make:\n"
     "no tile of the job has a valid DEM sample (the warning says why; a shard with no\n"
-    "tile of its own exits 0); 130 / 143 `tile` stopped by SIGINT / SIGTERM (the tiles\n"
-    "written are whole, an MBTiles file is one file again; --resume makes the rest).";
+    "tile of its own exits 0); 130 / 143 / 129 `tile` stopped by SIGINT / SIGTERM / SIGHUP\n"
+    "(the tiles written are whole, an MBTiles file is one file again; --resume makes the rest).";
 
 Action addTileCommand(CLI::App& app);
 Action addServeCommand(CLI::App& app);

@@ -6,6 +6,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <string>
 #include <thread>
 
 #include "core/error.hpp"
@@ -15,6 +16,7 @@ namespace {
 
 int g_pipe[2] = {-1, -1};
 constexpr unsigned char kWorkDone = 0;  // what runUntilStopSignal writes to end its watcher
+constexpr int kStopSignals[] = {SIGINT, SIGTERM, SIGHUP};
 
 void onStopSignal(int signal) {
   const int saved = errno;
@@ -31,19 +33,29 @@ void catchStopSignals() {
   action.sa_handler = onStopSignal;
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESTART;  // other threads' reads and writes go on
-  ::sigaction(SIGINT, &action, nullptr);
-  ::sigaction(SIGTERM, &action, nullptr);
+  for (const int signal : kStopSignals) ::sigaction(signal, &action, nullptr);
+  // A reader that went away (`terrabake tile ... | head -1`) costs the log
+  // lines, not the run: writes to it fail instead of ending the process.
+  ::signal(SIGPIPE, SIG_IGN);
   // A parent may have started us with them blocked (the mask is inherited
   // across exec); unblocked here, the handler runs on this thread at least,
   // and on every thread started from now on.
   sigset_t signals;
   sigemptyset(&signals);
-  sigaddset(&signals, SIGINT);
-  sigaddset(&signals, SIGTERM);
+  for (const int signal : kStopSignals) sigaddset(&signals, signal);
   pthread_sigmask(SIG_UNBLOCK, &signals, nullptr);
 }
 
-void runUntilStopSignal(const std::function<void()>& work, const std::function<void(const std::string&)>& stop) {
+std::string stopSignalName(int signal) {
+  switch (signal) {
+    case SIGINT: return "SIGINT";
+    case SIGTERM: return "SIGTERM";
+    case SIGHUP: return "SIGHUP";
+  }
+  return "signal " + std::to_string(signal);
+}
+
+void runUntilStopSignal(const std::function<void()>& work, const std::function<void(int)>& stop) {
   std::thread watcher([&stop] {
     bool stopped = false;
     for (;;) {
@@ -56,7 +68,7 @@ void runUntilStopSignal(const std::function<void()>& work, const std::function<v
         ::signal(byte, SIG_DFL);
         ::raise(byte);
       }
-      stop(byte == SIGINT ? "SIGINT" : "SIGTERM");
+      stop(byte);
       stopped = true;
     }
   });

@@ -1,5 +1,6 @@
 #pragma once
-// Graceful stop on SIGINT and SIGTERM without work in a signal handler: the
+// Graceful stop on SIGINT, SIGTERM and SIGHUP (a closed terminal) without
+// work in a signal handler: the
 // handler only writes the signal's number to a pipe, and a watcher thread
 // reads it and asks the work to stop. A handler, not a blocked mask, since
 // libraries start threads of their own (before main, too) whose masks we do
@@ -9,13 +10,17 @@
 
 namespace terrabake::app {
 
-// Installs the handler for SIGINT and SIGTERM. Call it once, early.
+// Installs the handler for SIGINT, SIGTERM and SIGHUP, and ignores SIGPIPE.
+// Call it once, early.
 void catchStopSignals();
 
-// Runs work(). The first SIGINT or SIGTERM that arrives meanwhile calls
-// stop("SIGINT" or "SIGTERM") from a watcher thread; a second one ends the
-// process as the signal would have.
+// "SIGINT", "SIGTERM", "SIGHUP".
+std::string stopSignalName(int signal);
+
+// Runs work(). The first stop signal that arrives meanwhile calls
+// stop(its number) from a watcher thread; a second one ends the process as
+// the signal would have.
 // Returns once work() has returned.
-void runUntilStopSignal(const std::function<void()>& work, const std::function<void(const std::string&)>& stop);
+void runUntilStopSignal(const std::function<void()>& work, const std::function<void(int)>& stop);
 
 }  // namespace terrabake::app

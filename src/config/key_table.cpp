@@ -274,6 +274,18 @@ void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& spec
 void readYamlText(const std::string& text, const std::string& yaml_path, const std::vector<KeySpec>& specs,
                   const std::function<void(std::size_t, const Value&)>& apply) {
   FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
+  // YAML is text: control characters other than tab and line breaks are not
+  // allowed anywhere (the parser would report something else about them).
+  const auto control = std::find_if(text.begin(), text.end(), [](char c) {
+    const auto byte = static_cast<unsigned char>(c);
+    return (byte < 0x20 && c != '\t' && c != '\n' && c != '\r') || byte == 0x7f;
+  });
+  if (control != text.end()) {
+    const std::string before(text.begin(), control);
+    const auto line = std::count(before.begin(), before.end(), '\n') + 1;
+    fail(yaml_path + ":" + std::to_string(line), "",
+         "the file holds a control character (" + oneLine(std::string(1, *control)) + "); a config file is text");
+  }
   YAML::Node root;
   try {
     const std::vector<YAML::Mark> starts = documentStarts(text, 2);
@@ -477,7 +489,8 @@ std::string pathsProblem(const std::vector<std::string>& paths) {
 
 std::string layerNameProblem(const std::string& value) {
   if (isLayerName(value)) return {};
-  return "must be a folder name of letters, digits, '.', '_' and '-' (not '.' or '..'), got " + quoted(value);
+  return "must be a folder name of at most " + std::to_string(kMaxLayerNameBytes) +
+         " letters, digits, '.', '_' and '-' (not '.' or '..'), got " + quoted(value);
 }
 
 std::string hostProblem(const std::string& value) {

@@ -14,10 +14,10 @@ enum class ExitCode : int {
   kInput = 3,        // unreadable DEM, unwritable output, no GL context...
   kTilesFailed = 4,  // the run finished but some tiles could not be made
   kNothingMade = 5,  // the job holds no tile with data: nothing was written (the reason is logged)
-  // `tile` stopped by a signal, as shells report one (128 + its number): the
-  // tiles written are whole, --resume makes the rest.
-  kInterrupted = 130,  // SIGINT
-  kTerminated = 143,   // SIGTERM
+  // `tile` stopped by a signal, as shells report one: 128 + its number (129
+  // SIGHUP, 130 SIGINT, 143 SIGTERM). The tiles written are whole, --resume
+  // makes the rest.
+  kStoppedBySignal = 128,
 };
 
 class Error : public std::runtime_error {
@@ -58,8 +58,9 @@ struct NothingToMake : Error {
   explicit NothingToMake(const std::string& message) : Error(ExitCode::kNothingMade, message) {}
 };
 
-// Folds line breaks so that every error reaches the user as one line.
-std::string oneLine(std::string text);
+// Folds line breaks and tabs into spaces so that every error reaches the
+// user as one line, and writes other control characters as \xNN.
+std::string oneLine(const std::string& text);
 
 // `text` as quoted in a message: whole when short, else its start and how
 // long it was ("aaaa... (10485760 bytes)"), so no value floods a log line.

@@ -240,6 +240,10 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   if (!srs || srs->IsEmpty()) {
     throw InputError("dem: " + name + " has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
   }
+  if (srs->IsGeocentric()) {
+    throw InputError("dem: " + name + " is in a geocentric CRS (x, y and z from the Earth's centre), not a "
+                     "geographic or projected one: its grid lies on no surface (assign the CRS it was made in)");
+  }
   m_srs = *srs;
   m_srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);
   const double semi_major_m = m_srs.GetSemiMajor();

@@ -1,7 +1,10 @@
 #include "io/layer_layout.hpp"
 
 #include <filesystem>
+#include <fstream>
+#include <iterator>
 
+#include "core/error.hpp"
 #include "io/tile_files.hpp"
 
 namespace terrabake::io {
@@ -86,8 +89,21 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
   }
 }
 
-TileFormat lastWrittenFormat(bool high_res_mesh) {
-  return high_res_mesh ? TileFormat::kHighResGlb : TileFormat::kGlb;
+std::string recordJob(const std::string& layer_dir, const std::string& fingerprint) {
+  const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
+  if (writeFileExclusively(record, std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()))) return fingerprint;
+  std::ifstream in(record, std::ios::binary);
+  std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
+  return recorded;
+}
+
+std::vector<TileFormat> tileFormats(bool high_res_mesh, bool elevation) {
+  std::vector<TileFormat> formats{TileFormat::kPng};
+  if (elevation) formats.push_back(TileFormat::kElevationPng);
+  formats.push_back(TileFormat::kGlb);
+  if (high_res_mesh) formats.push_back(TileFormat::kHighResGlb);
+  return formats;
 }
 
 }  // namespace terrabake::io

@@ -30,6 +30,10 @@ std::string tilePath(const std::string& layer_dir, const TileId& tile, TileForma
 // the job that made it.
 inline constexpr const char* kTileJsonFile = "tilejson.json";
 inline constexpr const char* kJobFile = "terrabake-job.txt";
+// Records `fingerprint` in the layer folder's job record when it has none (of
+// several writers racing, exactly one records); returns what the record holds.
+// Throws InputError naming the record when it cannot be written or read.
+std::string recordJob(const std::string& layer_dir, const std::string& fingerprint);
 // With output.elevation: the tilejson of the elevation tiles, a raster-dem source.
 inline constexpr const char* kElevationTileJsonFile = "elevation.json";
 // A layer stored as one file is "<layer>.mbtiles" beside the layer folders.
@@ -62,7 +66,7 @@ struct TileFiles {
 // first, so a reader that finds the mesh also finds its texture and heights.
 void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files);
 
-// The file whose presence says a tile was written whole (writeTileFiles writes it last).
-TileFormat lastWrittenFormat(bool high_res_mesh);
+// The files a tile of a layer has, in the order writeTileFiles writes them.
+std::vector<TileFormat> tileFormats(bool high_res_mesh, bool elevation);
 
 }  // namespace terrabake::io

@@ -6,11 +6,13 @@
 #include <chrono>
 #include <set>
 #include <stdexcept>
+#include <string>
 #include <thread>
 
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 
 namespace terrabake::io {
 namespace {
@@ -24,6 +26,9 @@ constexpr int kMbtilesApplicationId = 0x4d504258;
 constexpr int kBusyTimeoutMs = 60000;
 // How often a statement SQLite answered busy at once is tried again.
 constexpr auto kBusyRetry = std::chrono::milliseconds(5);
+// A wait for the write lock longer than this is another program holding the
+// file (a shard holds it for a tile's commit, milliseconds): the log says so.
+constexpr auto kBusyWarnAfter = std::chrono::seconds(2);
 constexpr const char* kDescription =
     "terrabake layer: tangent-space normal maps (PNG) in table tiles, the low-poly glTF meshes they belong to in "
     "table meshes";
@@ -74,6 +79,7 @@ struct MbtilesFile::Impl {
   // Prepared on first use, per table.
   std::array<Statement, 3> insert_tile, select_tile, tile_exists;
   Statement select_metadata, upsert_metadata;
+  bool said_busy = false;  // the warning that another program holds the file, given once
 
   // close_v2 waits for the statements, which are finalised after this body.
   ~Impl() { sqlite3_close_v2(db); }
@@ -171,8 +177,25 @@ struct MbtilesFile::Impl {
     if (sqlite3_open_v2(path.c_str(), &impl->db, flags | SQLITE_OPEN_NOMUTEX, nullptr) != SQLITE_OK) {
       impl->fail("cannot open");
     }
-    sqlite3_busy_timeout(impl->db, kBusyTimeoutMs);
+    impl->waitWhenBusy();
     return impl;
+  }
+
+  // SQLite's busy handler: waits kBusyRetry at a time, up to kBusyTimeoutMs,
+  // as sqlite3_busy_timeout would, and says once when the wait is long.
+  void waitWhenBusy() {
+    sqlite3_busy_handler(db, [](void* self, int calls) -> int {
+      Impl& file = *static_cast<Impl*>(self);
+      const auto waited = kBusyRetry * calls;
+      if (waited >= std::chrono::milliseconds(kBusyTimeoutMs)) return 0;
+      if (waited >= kBusyWarnAfter && !file.said_busy) {
+        file.said_busy = true;
+        log::warning("output: another program holds '" + file.path + "' for writing; waiting for it, up to " +
+                     std::to_string(kBusyTimeoutMs / 1000) + " s");
+      }
+      std::this_thread::sleep_for(kBusyRetry);
+      return 1;
+    }, this);
   }
 
   // One write transaction; rolled back unless committed.
@@ -423,7 +446,7 @@ void MbtilesFile::standAlone() {
   // must not hold this one up, so no waiting here: the busy answer is fine.
   sqlite3_busy_timeout(m_impl->db, 0);
   const int rc = sqlite3_exec(m_impl->db, "PRAGMA journal_mode=DELETE", nullptr, nullptr, nullptr);
-  sqlite3_busy_timeout(m_impl->db, kBusyTimeoutMs);
+  m_impl->waitWhenBusy();
   if (rc != SQLITE_OK && rc != SQLITE_BUSY && rc != SQLITE_LOCKED) {
     m_impl->fail("cannot fold in the write-ahead log");
   }

@@ -283,6 +283,7 @@ PmtilesWriter::PmtilesWriter(std::string path, PmtilesTileType type) : m_path(st
 PmtilesWriter::~PmtilesWriter() {
   if (m_data_fd >= 0) ::close(m_data_fd);
   if (!m_data_path.empty()) ::unlink(m_data_path.c_str());
+  if (!m_archive_path.empty()) ::unlink(m_archive_path.c_str());
 }
 
 std::size_t PmtilesWriter::blobOf(const std::vector<std::uint8_t>& bytes) {
@@ -382,12 +383,19 @@ void PmtilesWriter::finish(const std::string& tilejson, const std::string& job) 
     }
     writeAll(archive.fd, chunk.data(), chunk.size(), archive.path);
     if (::close(archive.fd) != 0) throwIoError("cannot write", archive.path, errno);
-    if (::rename(archive.path.c_str(), m_path.c_str()) != 0) throwIoError("cannot write", m_path, errno);
   } catch (...) {
     ::close(archive.fd);  // EBADF when closed already: harmless
     ::unlink(archive.path.c_str());
     throw;
   }
+  if (!m_archive_path.empty()) ::unlink(m_archive_path.c_str());
+  m_archive_path = archive.path;
+}
+
+void PmtilesWriter::publish() {
+  if (m_archive_path.empty()) throw std::logic_error("PmtilesWriter::publish: no finished archive");
+  if (::rename(m_archive_path.c_str(), m_path.c_str()) != 0) throwIoError("cannot write", m_path, errno);
+  m_archive_path.clear();
 }
 
 PmtilesReader::PmtilesReader(const std::string& path) : m_path(path) {

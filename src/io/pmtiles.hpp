@@ -79,8 +79,10 @@ inline constexpr const char* kPmtilesJobKey = "terrabake_job";
 
 // Writes one archive. Tiles are kept in a hidden temporary file beside
 // `path` as they come (identical tiles once); finish() writes the archive to
-// a second temporary file and renames it to `path`, so `path` never holds a
-// partial archive. Dropped without finish(), it removes its temporary files.
+// a second temporary file and publish() renames it to `path`, so `path`
+// never holds a partial archive, and a layer's archives can all be written
+// before any replaces its old one. Dropped before publish(), it removes its
+// temporary files.
 // Not thread-safe. Errors are InputError naming `path`.
 class PmtilesWriter {
  public:
@@ -99,6 +101,8 @@ class PmtilesWriter {
   // metadata. Throws std::logic_error when no tile was added: an archive
   // must address at least one.
   void finish(const std::string& tilejson, const std::string& job);
+  // Puts the finished archive at `path`. Throws std::logic_error before finish().
+  void publish();
 
  private:
   struct Blob {
@@ -115,6 +119,7 @@ class PmtilesWriter {
   std::vector<Blob> m_blobs;
   std::unordered_multimap<std::uint64_t, std::size_t> m_blobs_by_hash;
   std::unordered_map<std::uint64_t, std::size_t> m_tiles;  // tile id -> blob
+  std::string m_archive_path;  // the finished archive's temporary file, until published
 };
 
 // Reads an archive terrabake wrote (or any PMTiles v3 archive with gzip or

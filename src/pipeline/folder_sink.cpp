@@ -1,3 +1,4 @@
+#include <algorithm>
 #include <cerrno>
 #include <cstring>
 #include <filesystem>
@@ -73,7 +74,8 @@ class RecordLock {
 
 class FolderSink : public TileSink {
  public:
-  FolderSink(const std::string& layer_dir, bool high_res_mesh) : m_dir(layer_dir), m_high_res_mesh(high_res_mesh) {
+  FolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation)
+      : m_dir(layer_dir), m_tile_formats(io::tileFormats(high_res_mesh, elevation)) {
     std::error_code ec;
     fs::create_directories(m_dir, ec);
     if (ec || !fs::is_directory(m_dir)) {
@@ -87,7 +89,6 @@ class FolderSink : public TileSink {
 
   void claim(const std::string& fingerprint, bool force) override {
     const std::string record = (fs::path(m_dir) / io::kJobFile).string();
-    const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
     std::error_code ec;
     if (!fs::exists(record, ec)) {
       // No job recorded: a new layer, or one another tool made. A run that
@@ -99,19 +100,22 @@ class FolderSink : public TileSink {
         throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
                          "', which no terrabake job made; use another output.layer, or --force to write into it");
       }
-      if (io::writeFileExclusively(record, bytes)) return;
     }
-    // Recorded already, maybe by a run that started at the same moment.
-    std::ifstream in(record);
-    const std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    if (recorded == fingerprint) return;
+    // Recorded already maybe, by a run that started at the same moment.
+    if (io::recordJob(m_dir, fingerprint) == fingerprint) return;
     if (!force) refuseDifferentJob(m_dir);
-    io::writeFileAtomically(record, bytes);
+    io::writeFileAtomically(record, std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
   }
 
+  // Every file of the tile, and none empty: one removed by hand is made
+  // again, and so is one a power cut left empty (renamed into place before
+  // the disk held its bytes; no tile file is empty).
   bool hasTile(const TileId& tile) const override {
-    std::error_code ec;
-    return fs::exists(io::tilePath(m_dir, tile, io::lastWrittenFormat(m_high_res_mesh)), ec);
+    return std::all_of(m_tile_formats.begin(), m_tile_formats.end(), [&](io::TileFormat format) {
+      std::error_code ec;
+      const std::uintmax_t size = fs::file_size(io::tilePath(m_dir, tile, format), ec);
+      return !ec && size > 0;
+    });
   }
 
   void write(const TileId& tile, const io::TileFiles& files) override { io::writeTileFiles(m_dir, tile, files); }
@@ -172,13 +176,13 @@ class FolderSink : public TileSink {
   }
 
   std::string m_dir;
-  bool m_high_res_mesh;
+  std::vector<io::TileFormat> m_tile_formats;
 };
 
 }  // namespace
 
-std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh) {
-  return std::make_unique<FolderSink>(layer_dir, high_res_mesh);
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation) {
+  return std::make_unique<FolderSink>(layer_dir, high_res_mesh, elevation);
 }
 
 }  // namespace terrabake::pipeline

@@ -1,5 +1,6 @@
 #include "pipeline/sink_kinds.hpp"
 
+#include <algorithm>
 #include <filesystem>
 #include <mutex>
 
@@ -40,11 +41,14 @@ class MbtilesSink : public TileSink {
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
   }
 
+  // A tile's rows are committed together; every one is looked for, so that
+  // a row deleted by hand is made again.
   bool hasTile(const TileId& tile) const override {
-    // A tile's rows are committed together: the last table written answers for all.
     const std::lock_guard<std::mutex> lock(m_mutex);
-    return m_file->hasTile(m_high_res_mesh ? io::MbtilesTable::kHighResMeshes : io::MbtilesTable::kMeshes,
-                           io::mbtilesKey(tile, m_tms_rows));
+    const io::MbtilesKey key = io::mbtilesKey(tile, m_tms_rows);
+    const std::vector<io::TileFormat> formats = io::tileFormats(m_high_res_mesh, false);
+    return std::all_of(formats.begin(), formats.end(),
+                       [&](io::TileFormat format) { return m_file->hasTile(io::mbtilesTable(format), key); });
   }
 
   void write(const TileId& tile, const io::TileFiles& files) override {

@@ -99,17 +99,20 @@ class PmtilesSink : public TileSink {
     throw std::logic_error("a PMTiles layer keeps no tileset");
   }
 
-  // The normal maps' archive last: whoever finds the layer finds its companions.
+  // Every archive is written before any replaces its old one, so a full
+  // disk leaves the old layer whole; the normal maps' archive is put in
+  // place last: whoever finds the layer finds its companions.
   void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     if (m_writers.at(io::TileFormat::kPng)->tileCount() == 0) {
       log::warning("output: no tile was made, so no PMTiles archive is written ('" + m_path + "')");
       return;
     }
-    for (auto it = m_kinds.rbegin(); it != m_kinds.rend(); ++it) {
-      const std::string& description = it->first == io::TileFormat::kElevationPng ? elevation_tilejson : tilejson;
-      m_writers.at(it->first)->finish(description, m_fingerprint);
+    for (const auto& [format, type] : m_kinds) {
+      const std::string& description = format == io::TileFormat::kElevationPng ? elevation_tilejson : tilejson;
+      m_writers.at(format)->finish(description, m_fingerprint);
     }
+    for (auto it = m_kinds.rbegin(); it != m_kinds.rend(); ++it) m_writers.at(it->first)->publish();
   }
 
   // A run stopped early writes no archive: PMTiles cannot be resumed.

@@ -15,7 +15,7 @@ namespace terrabake::pipeline {
 // The claim() error for a layer another job made.
 [[noreturn]] void refuseDifferentJob(const std::string& location);
 
-std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh);
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation);
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
 // `path`: the normal maps' archive; the others lie beside it (io::pmtilesArchive).
 std::unique_ptr<TileSink> openPmtilesSink(const std::string& path, bool high_res_mesh, bool elevation);

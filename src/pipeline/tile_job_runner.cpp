@@ -188,6 +188,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   summary.interrupted = std::size_t(written + skipped + empty + failed) < count;
   if (summary.interrupted) {
     sink->close();
+    if (job.format == OutputFormat::kPmtiles) summary.written = 0;
   } else {
     if (plan->tileset) writeTileset(*sink, *plan);
     sink->finish(plan->tilejson, plan->elevation_tilejson);
@@ -200,16 +201,17 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
               ": no tile of its own (the job has " + std::to_string(all.size()) + ")");
   } else if (summary.written == 0 && summary.skipped == 0 && summary.failed == 0) {
     // A texel coarser than the DEM's pixels has data where half its
-    // footprint does: a DEM smaller than a texel may give none any.
+    // footprint does: a DEM under two texels across may give none any.
     const tiling::LevelGrid deepest = plan->scheme->levelGrid(plan->max_zoom);
     const double texel_w = deepest.tile_w / plan->scheme->tileSize(), texel_h = deepest.tile_h / plan->scheme->tileSize();
-    const bool under_a_texel = plan->area.max_x - plan->area.min_x < texel_w && plan->area.max_y - plan->area.min_y < texel_h;
+    const bool narrow =
+        plan->area.max_x - plan->area.min_x < 2 * texel_w || plan->area.max_y - plan->area.min_y < 2 * texel_h;
     const std::string reason =
         "no tile written: none of the " + std::to_string(count) + " tiles of the " +
         (options.shard_count > 1 ? "shard" : "job") + " holds a valid DEM sample " +
-        (under_a_texel ? "(the DEM is smaller than a texel of zoom " + std::to_string(plan->max_zoom) +
-                             ", and a texel needs half its area on data: tile deeper zooms)"
-                       : "(every sample is nodata, NaN or implausible there)");
+        (narrow ? "(the DEM is under two texels of zoom " + std::to_string(plan->max_zoom) +
+                      " across, and a texel needs half its area on data: tile deeper zooms)"
+                : "(every sample is nodata, NaN or implausible there)");
     if (options.shard_count > 1) {
       log::warning(reason);  // other shards may still make theirs
     } else {

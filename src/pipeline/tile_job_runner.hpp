@@ -33,7 +33,8 @@ struct RunSummary {
   double seconds = 0;
   // Stopped through RunOptions::stop before every tile was made: the tiles
   // written are whole and the output closed (an MBTiles file folded into one
-  // file), but no tilejson is written; --resume goes on.
+  // file), but no tilejson is written; --resume goes on. A PMTiles layer,
+  // written whole at the end, keeps nothing: `written` is then 0.
   bool interrupted = false;
   // Why nothing was made, when a job (not a shard) wrote no tile, skipped
   // none and failed none: every tile it covers was empty. Empty otherwise.

@@ -12,13 +12,12 @@ void refuseDifferentJob(const std::string& location) {
 
 std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
   const bool high_res_mesh = plan.settings.high_res_mesh;
+  const bool elevation = plan.settings.elevation != Elevation::kNone;
   if (plan.format == OutputFormat::kMbtiles) {
     return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
   }
-  if (plan.format == OutputFormat::kPmtiles) {
-    return openPmtilesSink(plan.location, high_res_mesh, plan.settings.elevation != Elevation::kNone);
-  }
-  return openFolderSink(plan.location, high_res_mesh);
+  if (plan.format == OutputFormat::kPmtiles) return openPmtilesSink(plan.location, high_res_mesh, elevation);
+  return openFolderSink(plan.location, high_res_mesh, elevation);
 }
 
 }  // namespace terrabake::pipeline

@@ -63,6 +63,11 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
     if (!names.insert(job.layer).second) {
       throw UsageError(job_path + ": output.layer: '" + job.layer + "' is the layer of another job in layers");
     }
+    if (job.format != OutputFormat::kFiles) {
+      throw UsageError(job_path + ": output.format: an on-demand layer is a folder of tiles, not '" +
+                       std::string(wordOf(job.format)) + "'; serve the job's " + std::string(wordOf(job.format)) +
+                       " file from the tiles folder instead");
+    }
     layers.push_back(openOnDemandLayer(job, config.tiles_dir, std::size_t(config.queue_size)));
     log::info("layer " + job.layer + ": tiles missing from " + config.tiles_dir + "/" + job.layer +
               " are baked on demand (" + job_path + ")");

@@ -22,13 +22,21 @@ void writeWhenMissing(const fs::path& path, const std::string& text) {
   if (!fs::exists(path)) io::writeTextFileAtomically(path.string(), text);
 }
 
-// Creates the layer folder, its tilejson.json and elevation.json when missing; returns the folder.
+// Creates the layer folder, its job record, tilejson.json and elevation.json
+// when missing; returns the folder. The record lets `terrabake tile --resume`
+// carry the layer on; a folder another job made is refused, as a batch run
+// refuses it, rather than filled with tiles of two jobs.
 fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
   std::error_code ec;
   fs::create_directories(settings.folder, ec);
   if (ec || !fs::is_directory(settings.folder)) {
     throw InputError("layer " + settings.name + ": cannot create folder '" + settings.folder.string() +
                      "': " + (ec ? ec.message() : std::string("a file is in the way")));
+  }
+  if (io::recordJob(settings.folder.string(), settings.job_record) != settings.job_record) {
+    throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
+                     "' was made by a different job (" + io::kJobFile +
+                     "); give this job another output.layer, or move the folder away");
   }
   writeWhenMissing(settings.folder / io::kTileJsonFile, settings.tilejson);
   if (settings.elevation) writeWhenMissing(settings.folder / io::kElevationTileJsonFile, settings.elevation_tilejson);
@@ -136,7 +144,8 @@ TileAnswer OnDemandLayer::answerOf(const BakeOutcome& outcome, io::TileFormat fo
     case BakeOutcome::Status::kEmpty:
       return {TileAnswer::Status::kNotFound, nullptr, "no valid DEM sample in this tile"};
     case BakeOutcome::Status::kFailed:
-      return {TileAnswer::Status::kFailed, nullptr, "the bake failed: " + oneLine(outcome.error)};
+      // The reason names the layer's files: it goes to the server's log only.
+      return {TileAnswer::Status::kFailed, nullptr, "the bake failed (the server's log says why)"};
     case BakeOutcome::Status::kAbandoned:
       break;
   }
@@ -176,6 +185,7 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
   OnDemandLayer::Settings settings{plan->layer_name,
                                    fs::path(tiles_dir) / plan->layer_name,
                                    plan->tilejson,
+                                   plan->fingerprint,
                                    TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->area),
                                    plan->settings.high_res_mesh,
                                    plan->workers,

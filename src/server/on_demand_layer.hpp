@@ -40,6 +40,7 @@ class OnDemandLayer : public LayerSource {
     std::string name;
     std::filesystem::path folder;  // created when missing
     std::string tilejson;          // written to <folder>/tilejson.json when that is missing
+    std::string job_record;        // the job's fingerprint, recorded as a batch run records it
     TileCoverage coverage;
     bool high_res_mesh = false;  // whether bakes make .hires.glb too
     int workers = 1;
@@ -49,8 +50,9 @@ class OnDemandLayer : public LayerSource {
     PlanTileset plan_tileset;        // empty: the layer has no tileset
   };
 
-  // Throws InputError when the folder cannot be made, and whatever a
-  // worker's make_tile() threw (no GL context, unreadable DEM).
+  // Throws InputError when the folder cannot be made, UsageError when a
+  // different job made it, and whatever a worker's make_tile() threw (no GL
+  // context, unreadable DEM).
   OnDemandLayer(Settings settings, const MakeTileFactory& make_tile);
 
   const std::string& name() const override { return m_name; }
