@@ -257,6 +257,12 @@ TEST(Cli, NoSubcommandIsAUsageError) {
   expectOneLineError(r, kExitUsage);
 }
 
+TEST(Cli, AnUnknownCommandIsNamedWithTheNearest) {
+  const RunResult r = runTerrabake({"tiel", "--dem", "dem.tif"});
+  expectOneLineError(r, kExitUsage);
+  EXPECT_TRUE(contains(r.err, "'tiel' is not a command (tile, serve, info); did you mean tile?")) << describe(r);
+}
+
 TEST(Cli, HelpExitsZero) {
   const RunResult r = runTerrabake({"--help"});
   EXPECT_EQ(r.exit_code, kExitOk) << describe(r);

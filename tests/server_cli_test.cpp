@@ -66,6 +66,17 @@ TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
   EXPECT_EQ(process.err().find("error"), std::string::npos) << process.err();
 }
 
+// Layers are found at the start: a folder with none yet is said to have none.
+TEST(ServeCli, ATilesFolderWithoutLayersIsWarnedAbout) {
+  const fs::path dir = caseDir();
+  test::ChildProcess process(serveArgs({"--tiles", dir.string(), "--port", "0"}));
+  ASSERT_FALSE(process.firstLine(kWaitLimit).empty()) << process.err();
+  std::chrono::milliseconds took{};
+  EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
+  EXPECT_NE(process.err().find("warning: tiles: no layer in '" + dir.string() + "'"), std::string::npos)
+      << process.err();
+}
+
 TEST(ServeCli, SigintStopsItToo) {
   const Case c = makeCase();
   test::ChildProcess process(serveArgs({"--tiles", c.tiles.string(), "--port", "0"}));

@@ -32,6 +32,19 @@ std::string flagSuggestion(CLI::App& cli) {
   return "";
 }
 
+// "'bogus' is not a command ..." when the first word left over is where a
+// command belongs; else "".
+std::string unknownCommand(CLI::App& cli) {
+  const std::vector<std::string> left = cli.remaining();
+  if (left.empty() || left.front().rfind('-', 0) == 0 || !cli.get_subcommands().empty()) return "";
+  std::vector<std::string> names;
+  for (const CLI::App* command : cli.get_subcommands({})) names.push_back(command->get_name());
+  std::string list;
+  for (const std::string& name : names) list += (list.empty() ? "" : ", ") + name;
+  const std::string best = terrabake::nearestName(left.front(), {names.begin(), names.end()});
+  return "'" + left.front() + "' is not a command (" + list + ")" + (best.empty() ? "" : "; did you mean " + best + "?");
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -66,7 +79,9 @@ int main(int argc, char** argv) {
               << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   } catch (const CLI::ParseError& e) {
-    std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << " (see terrabake --help)\n";
+    const std::string command = unknownCommand(cli);
+    std::cerr << "terrabake: error: " << shortened(oneLine(command.empty() ? e.what() : command), kMaxMessageBytes)
+              << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   }
   if (verbose) log::setLevel(log::Level::kDebug);

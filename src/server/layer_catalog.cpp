@@ -118,6 +118,10 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
   openFileLayer(io::kPmtilesExtension, [](const std::string& name, const std::string& path) {
     return std::unique_ptr<LayerSource>(std::make_unique<PmtilesLayer>(name, path));
   });
+  if (layers.empty()) {
+    log::warning("tiles: no layer in '" + config.tiles_dir + "' (a folder with a " + io::kTileJsonFile +
+                 ", an .mbtiles or a .pmtiles file, or a job under layers); layers are found when the server starts");
+  }
   return layers;
 }
 
