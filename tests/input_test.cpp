@@ -646,22 +646,27 @@ TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
   EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
 }
 
+// A 50 x 50 hill placed by `gt` in the CRS `crs` names (as
+// OGRSpatialReference::SetFromUserInput reads it).
+fs::path writeDemInCrs(const fs::path& path, const double (&gt)[6], const char* crs) {
+  writeDem(path, 50, 50, gt, hill);
+  std::unique_ptr<GDALDataset> ds(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+  OGRSpatialReference srs;
+  EXPECT_EQ(srs.SetFromUserInput(crs), OGRERR_NONE) << crs;
+  EXPECT_TRUE(ds && ds->SetSpatialRef(&srs) == CE_None) << path;
+  return path;
+}
+
+// `tile` and `info` of `dem` alone.
+std::vector<RunResult> tileAndInfo(const fs::path& dem) {
+  return {run(tileArgs(dem, dem.parent_path() / "out", "layer")), run({"info", dem.string()})};
+}
+
 // A geocentric CRS (EPSG:4978) puts a grid on no surface: refused, for tile
 // and info alike, rather than read as degrees at the pole.
 TEST(Inputs, ADemInAGeocentricCrsIsRefused) {
-  const fs::path dir = caseDir();
   const double gt[6] = {4000000, 100, 0, 700000, 0, -100};
-  writeDem(dir / "ecef.tif", 50, 50, gt, hill);
-  {
-    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "ecef.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
-    ASSERT_NE(ds, nullptr);
-    OGRSpatialReference geocentric;
-    ASSERT_EQ(geocentric.importFromEPSG(4978), OGRERR_NONE);
-    ASSERT_EQ(ds->SetSpatialRef(&geocentric), CE_None);
-  }
-  for (const std::vector<std::string>& args :
-       {tileArgs(dir / "ecef.tif", dir / "out", "ecef"), std::vector<std::string>{"info", (dir / "ecef.tif").string()}}) {
-    const RunResult r = run(args);
+  for (const RunResult& r : tileAndInfo(writeDemInCrs(caseDir() / "ecef.tif", gt, "EPSG:4978"))) {
     EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
     EXPECT_TRUE(contains(r.err, "ecef.tif' is in a geocentric CRS")) << describe(r);
   }
@@ -670,19 +675,8 @@ TEST(Inputs, ADemInAGeocentricCrsIsRefused) {
 // A Mars DEM: PROJ finds no way to the Earth's CRSs, and the frames would be
 // the Earth's anyway; refused by the body's name, not with PROJ's WKT.
 TEST(Inputs, ADemOfAnotherBodyIsRefusedNamingIt) {
-  const fs::path dir = caseDir();
   const double gt[6] = {10, 0.01, 0, 20, 0, -0.01};
-  writeDem(dir / "mars.tif", 50, 50, gt, hill);
-  {
-    std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "mars.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
-    ASSERT_NE(ds, nullptr);
-    OGRSpatialReference mars;
-    ASSERT_EQ(mars.SetFromUserInput("IAU_2015:49900"), OGRERR_NONE);
-    ASSERT_EQ(ds->SetSpatialRef(&mars), CE_None);
-  }
-  for (const std::vector<std::string>& args :
-       {tileArgs(dir / "mars.tif", dir / "out", "mars"), std::vector<std::string>{"info", (dir / "mars.tif").string()}}) {
-    const RunResult r = run(args);
+  for (const RunResult& r : tileAndInfo(writeDemInCrs(caseDir() / "mars.tif", gt, "IAU_2015:49900"))) {
     EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
     EXPECT_TRUE(contains(r.err, "is in a CRS of another body than the Earth (Mars (2015) - Sphere, semi-major axis "
                                 "3396190 m)"))
