@@ -672,6 +672,18 @@ TEST(Inputs, ADemInAGeocentricCrsIsRefused) {
   }
 }
 
+// A GeoTIFF cut short loses its CRS tags first: the message says the file
+// may be damaged, in GDAL's words, rather than ask for a CRS to be assigned.
+TEST(Inputs, AGeoTiffCutShortIsNotTakenForOneWithoutACrs) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {500000, 30, 0, 6650000, 0, -30};
+  writeDem(dir / "cut.tif", 50, 50, gt, hill, 32633);
+  fs::resize_file(dir / "cut.tif", 300);  // within the GeoTIFF keys' text
+  const RunResult r = run({"info", (dir / "cut.tif").string()});
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  EXPECT_TRUE(contains(r.err, "cut.tif' has no CRS GDAL can read; is the file whole? (GDAL: ")) << describe(r);
+}
+
 // A Mars DEM: PROJ finds no way to the Earth's CRSs, and the frames would be
 // the Earth's anyway; refused by the body's name, not with PROJ's WKT.
 TEST(Inputs, ADemOfAnotherBodyIsRefusedNamingIt) {

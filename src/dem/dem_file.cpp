@@ -238,6 +238,12 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   }
   const OGRSpatialReference* srs = ds.GetSpatialRef();
   if (!srs || srs->IsEmpty()) {
+    // A damaged file (cut short, say) loses its CRS tags first: what GDAL
+    // said while opening it tells that apart from a file made without one.
+    if (CPLGetLastErrorType() != CE_None) {
+      throw InputError("dem: " + name + " has no CRS GDAL can read; is the file whole? (GDAL: " + lastGdalError() +
+                       ")");
+    }
     throw InputError("dem: " + name + " has no CRS (assign one, e.g. gdal_edit.py -a_srs EPSG:4326)");
   }
   if (srs->IsGeocentric()) {
