@@ -404,8 +404,8 @@ TEST(Mbtiles, ADifferentJobNeedsForce) {
   EXPECT_EQ(job_row[0].at("value"), config::layerFingerprint(other));
 }
 
-// A file at <dir>/<layer>.mbtiles that terrabake did not write is refused,
-// named, and left as it was.
+// A file at <dir>/<layer>.mbtiles that terrabake did not write is refused
+// as a usage error (the layer needs another name), named, and left as it was.
 TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
   const fs::path dir = caseDir();
   const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
@@ -417,7 +417,7 @@ TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
     try {
       pipeline::runTileJob(job);
       ADD_FAILURE() << "a foreign file was written to";
-    } catch (const InputError& e) {
+    } catch (const UsageError& e) {
       EXPECT_NE(std::string(e.what()).find(file.string()), std::string::npos) << e.what();
     }
     EXPECT_TRUE(readBytes(file) == before) << "a refused run changed the file";

@@ -167,7 +167,7 @@ struct MbtilesFile::Impl {
   }
 
   [[noreturn]] void notOurs(const std::string& why) const {
-    throw InputError("'" + path + "' is not an MBTiles file terrabake wrote: " + why);
+    throw ForeignMbtilesFile("'" + path + "' is not an MBTiles file terrabake wrote: " + why);
   }
 
   static std::unique_ptr<Impl> open(const std::string& path, int flags) {

@@ -12,10 +12,17 @@
 #include <utility>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/types.hpp"
 #include "io/layer_layout.hpp"
 
 namespace terrabake::io {
+
+// A file at an MBTiles layer's path that terrabake did not write: no SQLite
+// database, or one without the tables and job record of a terrabake layer.
+struct ForeignMbtilesFile : InputError {
+  using InputError::InputError;
+};
 
 enum class MbtilesTable { kTiles, kMeshes, kHighResMeshes };
 

@@ -19,6 +19,9 @@ std::unique_ptr<io::MbtilesFile> openFile(const std::string& path, bool high_res
   if (ec) throw InputError("output: cannot create folder '" + folder.string() + "': " + ec.message());
   try {
     return io::MbtilesFile::openForWriting(path, high_res_mesh);
+  } catch (const io::ForeignMbtilesFile& e) {
+    // Left as it is: the layer needs another name, as for a folder another tool made.
+    throw UsageError(std::string("output: ") + e.what() + "; use another output.layer");
   } catch (const InputError& e) {
     throw InputError(std::string("output: ") + e.what());
   }
