@@ -152,6 +152,10 @@ TEST(ServeRoutes, MalformedPathsAreBadRequests) {
   }
   EXPECT_EQ(server::parseRoute(std::string("/viewer/a\0b", 11)).kind, Route::Kind::kBadRequest);
   EXPECT_EQ(server::parseRoute("/viewer/a\nb").kind, Route::Kind::kBadRequest);
+  // A layer name too long for a folder; the answer quotes only its start.
+  const Route long_name = server::parseRoute("/" + std::string(10'000, 'a') + "/tilejson.json");
+  EXPECT_EQ(long_name.kind, Route::Kind::kBadRequest);
+  EXPECT_LT(long_name.problem.size(), 300u) << long_name.problem;
 }
 
 TEST(ServeRoutes, UnknownPathsAreNotFound) {

@@ -6,6 +6,7 @@
 #include <string_view>
 #include <vector>
 
+#include "core/error.hpp"
 #include "core/layer_name.hpp"
 #include "io/tileset.hpp"
 
@@ -133,7 +134,10 @@ Route parseRoute(const std::string& path) {
     }
   }
   if (isReservedName(first)) return notFound("no such file");
-  if (!isLayerName(first)) return bad("'" + first + "' is not a layer name (letters, digits, '.', '_', '-')");
+  if (!isLayerName(first)) {
+    return bad("'" + shortened(first) + "' is not a layer name (at most " + std::to_string(kMaxLayerNameBytes) +
+               " letters, digits, '.', '_', '-')");
+  }
   if (parts.size() == 1) return notFound("no such file; try /" + first + "/tilejson.json");
   if (parts.size() == 2) {
     if (parts[1] == io::kTilesetFile) {
