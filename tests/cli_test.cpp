@@ -263,6 +263,15 @@ TEST(Cli, AnUnknownCommandIsNamedWithTheNearest) {
   EXPECT_TRUE(contains(r.err, "'tiel' is not a command (tile, serve, info); did you mean tile?")) << describe(r);
 }
 
+TEST(Cli, AFlagGivenTwiceOrAStrayWordIsNamed) {
+  const RunResult twice = runTerrabake({"tile", "--dem", "dem.tif", "--workers", "1", "--workers", "257"});
+  expectOneLineError(twice, kExitUsage);
+  EXPECT_TRUE(contains(twice.err, "--workers is given 2 times; give it once")) << describe(twice);
+  const RunResult stray = runTerrabake({"tile", "--dem", "dem.tif", "--backend", "cpu", "stray"});
+  expectOneLineError(stray, kExitUsage);
+  EXPECT_TRUE(contains(stray.err, "not expected: stray")) << describe(stray);
+}
+
 TEST(Cli, HelpExitsZero) {
   const RunResult r = runTerrabake({"--help"});
   EXPECT_EQ(r.exit_code, kExitOk) << describe(r);

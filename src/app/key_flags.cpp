@@ -14,9 +14,12 @@ KeyFlags::KeyFlags(CLI::App* cmd, const std::vector<config::KeyInfo>& keys, cons
     const std::string help = key.description + " (key " + key.name +
                              (key.default_value.empty() ? "" : ", default " + key.default_value) +
                              (list ? "; repeat the flag for more files, the first on top" : "") + ")";
-    // One value a use; a list key's flag may be used again, any other once.
+    // One value a use, and no more (a word after it is an argument of its
+    // own, reported as unexpected); a list key's flag may be used again, any
+    // other once.
     cmd->add_option(key.flag, *flag.texts, help)
         ->expected(1)
+        ->allow_extra_args(false)
         ->multi_option_policy(list ? CLI::MultiOptionPolicy::TakeAll : CLI::MultiOptionPolicy::Throw);
     m_flags.push_back(std::move(flag));
   }

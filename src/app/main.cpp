@@ -45,6 +45,21 @@ std::string unknownCommand(CLI::App& cli) {
   return "'" + left.front() + "' is not a command (" + list + ")" + (best.empty() ? "" : "; did you mean " + best + "?");
 }
 
+// "--workers is given 2 times; ..." for a flag that takes one value and was
+// given more than once; else "".
+std::string repeatedFlag(CLI::App& cli) {
+  std::vector<CLI::App*> apps = cli.get_subcommands();
+  apps.push_back(&cli);
+  for (CLI::App* app : apps) {
+    for (const CLI::Option* option : app->get_options()) {
+      if (option->count() > 1 && option->get_multi_option_policy() == CLI::MultiOptionPolicy::Throw) {
+        return option->get_name() + " is given " + std::to_string(option->count()) + " times; give it once";
+      }
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -79,9 +94,10 @@ int main(int argc, char** argv) {
               << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   } catch (const CLI::ParseError& e) {
-    const std::string command = unknownCommand(cli);
-    std::cerr << "terrabake: error: " << shortened(oneLine(command.empty() ? e.what() : command), kMaxMessageBytes)
-              << " (see terrabake --help)\n";
+    std::string problem = unknownCommand(cli);
+    if (problem.empty()) problem = repeatedFlag(cli);
+    if (problem.empty()) problem = e.what();
+    std::cerr << "terrabake: error: " << shortened(oneLine(problem), kMaxMessageBytes) << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   }
   if (verbose) log::setLevel(log::Level::kDebug);
