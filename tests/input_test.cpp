@@ -842,6 +842,14 @@ TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
     }
     EXPECT_TRUE(west && east) << scheme << ": " << describe(r);
   }
+  // The native grid is the DEM's own, one area: its zoom 0 is one tile (the
+  // plan once took the two pieces of the lon/lat cover, which native tiling
+  // has no place for, and read an empty optional).
+  std::vector<std::string> native_args = tileArgs(dir / "across.tif", dir / "native", "across", "0");
+  native_args.insert(native_args.end(), {"--scheme", "native"});
+  const RunResult native = run(native_args);
+  EXPECT_EQ(native.exit_code, kExitOk) << describe(native);
+  EXPECT_TRUE(contains(native.out, "wrote 1 tiles")) << describe(native);
   // `info` counts the tiles of both pieces, as the job plans them (it once
   // counted whole rows of the world: 3,071 tiles down to zoom 10).
   const RunResult info = run({"info", (dir / "across.tif").string()});

@@ -277,6 +277,46 @@ TEST(ServeHttp, OtherMethodsAreNotAllowed) {
   EXPECT_EQ(del->status, 405);
 }
 
+// A layer across the antimeridian covers tiles at both ends of the grid:
+// its tilejson bounds run west above east, and its plan holds two areas. A
+// batch-made folder and an on-demand layer of the same job both answer the
+// tiles of each side.
+TEST(ServeHttp, ALayerAcrossTheAntimeridianServesBothSides) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "across.tif", tiles = dir / "tiles";
+  test_support::writeGeographicDem(dem, 180.0, 50.0, 0.001, 0.001, 200, 200);
+  config::TileJob job = smallJob(tiles, "batch");
+  job.dems = {dem.string()};
+  job.min_zoom = job.max_zoom = 12;
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+  const std::set<std::string> made = filesUnder(tiles / "batch" / "12");
+  const auto rowOf = [&](int column) {
+    for (const std::string& file : made) {
+      if (file.rfind(std::to_string(column) + "/", 0) == 0 && fs::path(file).extension() == ".png") {
+        return std::stoi(fs::path(file).stem().string());
+      }
+    }
+    return -1;
+  };
+  const TileId west{12, 4095, rowOf(4095)}, east{12, 0, rowOf(0)};
+  ASSERT_GE(west.y, 0);
+  ASSERT_GE(east.y, 0);
+  writeText(dir / "live.yaml", "dem: " + dem.string() + "\noutput:\n  layer: live\ntiling:\n  zoom: 12\n"
+                                "  tile_size: 64\nbake:\n  backend: cpu\n");
+  config::ServeConfig config;
+  config.tiles_dir = tiles.string();
+  config.layer_jobs = {(dir / "live.yaml").string()};
+  config.port = 0;
+  ServerThread running(config);
+  for (const std::string layer : {"batch", "live"}) {
+    for (const TileId& tile : {west, east}) {
+      const auto reply = get(running.port(), tileUrl(layer, tile, "png"));
+      ASSERT_TRUE(reply);
+      EXPECT_EQ(reply->status, 200) << layer << " " << tile.str() << ": " << reply->body;
+    }
+  }
+}
+
 TEST(ServeHttp, MalformedTilePathsAre400) {
   const Case c = makeCase();
   ServerThread running(c.config);

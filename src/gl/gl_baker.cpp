@@ -338,9 +338,14 @@ struct GlBaker::Impl {
     gl.PixelStorei(GL_PACK_ALIGNMENT, 4);
     gl.ReadPixels(0, 0, size, size, GL_RG, GL_FLOAT, nullptr);
     gl.BindBuffer(GL_PIXEL_PACK_BUFFER, 0);
-    slot.done = gl.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
-    gl.Flush();  // start the GPU on it now, not when the next tile is collected
+    // Before the fence: a tile that fails leaves its slot free for the next.
     checkError("bake");
+    slot.done = gl.FenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0);
+    if (!slot.done) {
+      checkError("bake");
+      throw InputError("gl: bake failed (no fence for its read back)");
+    }
+    gl.Flush();  // start the GPU on it now, not when the next tile is collected
   }
 
   // The first pass's draw, a scene at a time where that pays (see

@@ -6,6 +6,7 @@
 // inside it; that relief is taken to be at most the largest step between
 // neighbouring cells around the tile, by which the range is widened.
 #include <optional>
+#include <vector>
 
 #include "core/types.hpp"
 #include "pipeline/layer_plan.hpp"
@@ -18,30 +19,35 @@ struct HeightRange {
   double high_m = 0;  // widened by step_m
   double step_m = 0;  // the largest step between neighbouring cells
   bool holes = false; // some cell has no DEM sample: the tile fills holes
+  double cell = 0;    // the side of the cells it comes from, in the scheme's CRS
 };
 
 class HeightBounds {
  public:
-  // Cells along the longer side of the layer's area: one read of 512 x 512
-  // costs about what a few tiles' reads do, and at the deepest zooms of a
-  // small DEM a cell is a few tiles across.
+  // Cells along the longer side of each of the layer's areas: one read of
+  // 512 x 512 costs about what a few tiles' reads do, and at the deepest
+  // zooms of a small DEM a cell is a few tiles across.
   static constexpr int kCells = 512;
 
-  // Reads the plan's DEM. Throws InputError when it cannot be read.
+  // Reads the plan's DEM over each of its areas (two across the
+  // antimeridian). Throws InputError when it cannot be read.
   explicit HeightBounds(const LayerPlan& plan);
 
   // The heights of the terrain within `extent` (the scheme's CRS), from the
-  // cells it touches and one more around them; nullopt when none of those
-  // cells holds a DEM sample, so the tile there has none either.
+  // cells it touches and one more around them, in the first area where one
+  // of those cells holds a DEM sample; nullopt when none does, so the tile
+  // there has none either.
   std::optional<HeightRange> over(const Extent& extent) const;
 
-  // A cell's side in the scheme's CRS.
-  double cellSize() const { return m_grid.cell_w; }
-
  private:
-  GridSpec m_grid;
-  Raster<float> m_heights;   // NaN where no DEM sample reaches the cell
-  Raster<float> m_backdrop;  // the backdrop at each cell's centre
+  // One area's coarse grid.
+  struct Area {
+    GridSpec grid;
+    Raster<float> heights;   // NaN where no DEM sample reaches the cell
+    Raster<float> backdrop;  // the backdrop at each cell's centre
+    std::optional<HeightRange> over(const Extent& extent) const;
+  };
+  std::vector<Area> m_areas;
 };
 
 }  // namespace terrabake::pipeline

@@ -192,7 +192,8 @@ LayerPlan planLayer(const config::TileJob& job) {
   const std::vector<Extent> lon_lat = lonLatCover(job, *plan.scheme, *dem);
   // lonLatCover found the DEM within the scheme's latitudes: it has an area.
   const std::vector<Extent> dem_areas = demAreas(*plan.scheme, *dem);
-  const bool across = dem_areas.size() > 1 || lon_lat.size() > 1;
+  // The native grid is the DEM's own, one area whatever the longitudes.
+  const bool across = plan.scheme->kind() != SchemeKind::kNative && (dem_areas.size() > 1 || lon_lat.size() > 1);
   const Extent dem_area = dem_areas.front();
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {

@@ -72,7 +72,7 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
   // terrain's heights by its slope: one texel's step, estimated from the
   // cells' largest step and the texel's size in cells (no more than the
   // terrain's relief), over a share of the fill's reach.
-  const double texel_cells = extent.width() / scheme.tileSize() / bounds.cellSize();
+  const double texel_cells = extent.width() / scheme.tileSize() / heights->cell;
   const double texel_step_m =
       std::min(heights->step_m * std::max(1.0, texel_cells), heights->high_m - heights->low_m);
   const double fill_m = heights->holes ? kFillOvershootShare * settings.max_fill_px * texel_step_m : 0.0;

@@ -186,7 +186,7 @@ std::unique_ptr<OnDemandLayer> openOnDemandLayer(const config::TileJob& job, con
                                    fs::path(tiles_dir) / plan->layer_name,
                                    plan->tilejson,
                                    plan->fingerprint,
-                                   TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->area),
+                                   TileCoverage(plan->min_zoom, plan->max_zoom, plan->scheme, plan->areas),
                                    plan->settings.high_res_mesh,
                                    plan->workers,
                                    queue_size,
