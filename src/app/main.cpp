@@ -42,7 +42,8 @@ std::string unknownCommand(CLI::App& cli) {
   std::string list;
   for (const std::string& name : names) list += (list.empty() ? "" : ", ") + name;
   const std::string best = terrabake::nearestName(left.front(), {names.begin(), names.end()});
-  return "'" + left.front() + "' is not a command (" + list + ")" + (best.empty() ? "" : "; did you mean " + best + "?");
+  return "'" + left.front() + "' is not a command (" + list + ")" +
+         (best.empty() ? "" : "; did you mean " + best + "?");
 }
 
 // "--workers is given 2 times; ..." for a flag that takes one value and was

@@ -19,6 +19,7 @@
 #include "core/error.hpp"
 #include "core/layer_name.hpp"
 #include "core/suggestion.hpp"
+#include "core/text.hpp"
 #include "core/types.hpp"
 
 namespace terrabake::config::key_table {
@@ -47,12 +48,6 @@ std::string joinWith(const std::vector<std::string>& values, std::string_view la
     text += values[i];
   }
   return text;
-}
-
-std::string_view trim(std::string_view text) {
-  const size_t first = text.find_first_not_of(" \t");
-  if (first == std::string_view::npos) return {};
-  return text.substr(first, text.find_last_not_of(" \t") - first + 1);
 }
 
 std::optional<int> toInt(std::string_view text) {

@@ -12,7 +12,7 @@ namespace terrabake::config {
 std::string defaultViewerDir();
 
 struct ServeConfig {
-  std::string tiles_dir = "tiles";           // tiles: every subfolder with a tilejson.json is a layer
+  std::string tiles_dir = "tiles";           // tiles: the folder of layers (server/layer_catalog.hpp)
   std::vector<std::string> layer_jobs;       // layers: tile-job files baked on demand
   std::string bind = "127.0.0.1";            // http.bind
   int port = 8080;                           // http.port: 0 = any free port

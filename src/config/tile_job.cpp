@@ -116,7 +116,7 @@ const kt::KeyTable<TileJob>& table() {
        "auto (on with output.tileset)",
        choice(&TileJob::skirts)},
       {"bake.backend", "--backend", "string",
-       "how normals are baked: auto (terrabake picks), osmesa or egl (GL), cpu (reference)",
+       "how normals are baked: auto (terrabake picks), osmesa or egl (GL), cpu (no GL)",
        choice(&TileJob::backend)},
       {"bake.workers", "--workers", "integer", "tiles baked in parallel, 0 = one per core, 0..256",
        number(&TileJob::workers, 0, 256)},

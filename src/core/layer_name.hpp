@@ -1,6 +1,7 @@
 #pragma once
-// The one rule for layer names: a layer is a folder (or <name>.mbtiles) and a
-// URL segment, so its name has no separators and nothing that climbs out.
+// The one rule for layer names: a layer is a folder (or <name>.mbtiles, or
+// <name>.pmtiles) and a URL segment, so its name has no separators and
+// nothing that climbs out.
 #include <algorithm>
 #include <cctype>
 #include <cstddef>

@@ -517,7 +517,7 @@ int DemFile::handles() const {
   return count;
 }
 
-void DemFile::fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) {
+void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) {
   LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs);
   reader.transformer->prepare(grid);
   CPLErrorReset();

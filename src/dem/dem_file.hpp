@@ -36,10 +36,10 @@ class FileMeta {
   const OGRSpatialReference& srs() const { return m_srs; }
   const std::string& srsWkt() const { return m_info.grid.crs; }
   int band() const { return m_band; }
-  // Rows stored south-up, columns east-to-west: read through a mirror.
   // What marks where the file has no data besides nodata (dataset_views.hpp).
   const NoDataMask& mask() const { return m_mask; }
   bool masked() const { return m_mask.any(); }
+  // Rows stored south-up, columns east-to-west: read through a mirror.
   bool flipX() const { return m_flip_x; }
   bool flipY() const { return m_flip_y; }
   const VoidRule& voids() const { return m_voids; }
@@ -100,7 +100,7 @@ class DemFile {
 
   // Resamples the file onto `grid` and writes the result into the texels of
   // `heights` that are still NaN; void samples stay NaN.
-  void fillVoids(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights);
+  void readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights);
 
  private:
   struct Impl;

@@ -364,7 +364,7 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
     DemFile& file = open(i);
     const int before = file.handles();
     if (files.size() == 1 || (window.col1 - window.col0 == grid.width && window.row1 - window.row0 == grid.height)) {
-      file.fillVoids(grid, plan.files[i], heights);
+      file.readIntoMissing(grid, plan.files[i], heights);
     } else {
       // Of a mosaic of many files, each is read onto the part of the grid it
       // reaches only, so a read costs what the files cover, not files x grid.
@@ -379,7 +379,7 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
       for (int r = 0; r < part.height; ++r) {
         for (int c = 0; c < part.width; ++c) sub.at(c, r) = heights.at(window.col0 + c, window.row0 + r);
       }
-      file.fillVoids(part, plan.files[i], sub);
+      file.readIntoMissing(part, plan.files[i], sub);
       for (int r = 0; r < part.height; ++r) {
         for (int c = 0; c < part.width; ++c) heights.at(window.col0 + c, window.row0 + r) = sub.at(c, r);
       }

@@ -8,7 +8,6 @@
 namespace terrabake::geo {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 // The smallest radius of curvature of the WGS84 ellipsoid, a(1 - e^2), along
 // the meridian at the equator: the earth bends no tighter than this, so an
 // edge's sag computed with it is an upper bound.
@@ -64,22 +63,6 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
   r.north = glm::radians(std::min(90.0, north + bow_deg));
   r.min_height_m = low - sag_m;
   r.max_height_m = high;
-  return r;
-}
-
-Region unite(const Region& a, const Region& b) {
-  Region r;
-  if (a.west > a.east || b.west > b.east) {
-    r.west = -kPi;
-    r.east = kPi;
-  } else {
-    r.west = std::min(a.west, b.west);
-    r.east = std::max(a.east, b.east);
-  }
-  r.south = std::min(a.south, b.south);
-  r.north = std::max(a.north, b.north);
-  r.min_height_m = std::min(a.min_height_m, b.min_height_m);
-  r.max_height_m = std::max(a.max_height_m, b.max_height_m);
   return r;
 }
 

@@ -20,8 +20,4 @@ struct Region {
 // away from its ends on the curved earth (below them, and towards a pole).
 Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& frame, double longest_edge_m);
 
-// The smallest region holding both (all longitudes when either crosses the
-// antimeridian, which no tile of the global schemes does).
-Region unite(const Region& a, const Region& b);
-
 }  // namespace terrabake::geo

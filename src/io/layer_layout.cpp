@@ -5,6 +5,7 @@
 #include <iterator>
 
 #include "core/error.hpp"
+#include "core/text.hpp"
 #include "io/tile_files.hpp"
 
 namespace terrabake::io {
@@ -58,10 +59,6 @@ std::string_view pmtilesKind(TileFormat format) {
   return "";
 }
 
-bool endsWith(std::string_view text, std::string_view end) {
-  return text.size() >= end.size() && text.substr(text.size() - end.size()) == end;
-}
-
 }  // namespace
 
 std::string pmtilesArchive(const std::string& normals_archive, TileFormat format) {
@@ -91,7 +88,8 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
 
 std::string recordJob(const std::string& layer_dir, const std::string& fingerprint) {
   const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
-  if (writeFileExclusively(record, std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()))) return fingerprint;
+  const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
+  if (writeFileExclusively(record, bytes)) return fingerprint;
   std::ifstream in(record, std::ios::binary);
   std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");

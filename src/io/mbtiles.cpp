@@ -115,7 +115,7 @@ struct MbtilesFile::Impl {
   sqlite3_stmt* prepared(Statement& slot, const std::string& sql) {
     if (!slot) {
       sqlite3_stmt* statement = nullptr;
-      if (sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr) != SQLITE_OK) fail("cannot read");
+      if (sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr) != SQLITE_OK) fail("cannot prepare a statement");
       slot.reset(statement);
     }
     return slot.get();

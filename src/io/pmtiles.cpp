@@ -418,6 +418,9 @@ PmtilesReader::PmtilesReader(const std::string& path) : m_path(path) {
   } catch (const std::runtime_error& e) {
     ::close(m_fd);
     throw InputError("'" + path + "' is no PMTiles v3 archive terrabake reads: " + e.what());
+  } catch (...) {  // out of memory, say: the destructor does not run for a constructor that throws
+    ::close(m_fd);
+    throw;
   }
 }
 

@@ -92,13 +92,15 @@ class Writer {
  public:
   explicit Writer(int min_zoom) : m_min_zoom(min_zoom) {}
 
-  // Writes the document at `path` whose root is `root` (with its transform
-  // relative to `parent_world`), and those it points to.
-  void writeDocument(const std::string& path, const Node& root, const glm::dmat4& parent_world, bool synthetic) {
+  // Writes the document at `path` whose root is `root`, and those it points
+  // to. A document's root has no transform (its tiles compose with the tile
+  // that points to the document); a synthetic root is none of the layer's
+  // tiles and holds the top zoom's as children.
+  void writeDocument(const std::string& path, const Node& root, bool synthetic) {
     TilesetDocument doc{path, {}};
     const std::size_t index = m_docs.size();
     m_docs.push_back(doc);
-    Json tile = tileJson(path, root, parent_world, /*document_root=*/!synthetic);
+    Json tile = tileJson(path, root, glm::dmat4(1.0), /*document_root=*/!synthetic);
     const Json tileset = {{"asset", {{"version", "1.1"}, {"generator", "terrabake"}}},
                           {"geometricError", root.geometric_error},
                           {"root", tile}};
@@ -126,7 +128,7 @@ class Writer {
       tile["transform"] = matrixJson(glm::inverse(parent_world) * node.world);
       const std::string path = externalTilesetPath(id);
       tile["content"] = {{"uri", relativeUri(doc_path, path)}};
-      writeDocument(path, node, node.world, false);
+      writeDocument(path, node, false);
       return tile;
     }
     if (!document_root) tile["transform"] = matrixJson(glm::inverse(parent_world) * node.world);
@@ -194,7 +196,7 @@ std::vector<TilesetDocument> buildTileset(const std::vector<TilesetTile>& tiles,
   root.geometric_error = std::max(kParentErrorMargin * top_error, regionSizeM(root.region));
 
   Writer writer(min_zoom);
-  writer.writeDocument(kTilesetFile, root, glm::dmat4(1.0), true);
+  writer.writeDocument(kTilesetFile, root, true);
   return writer.take();
 }
 

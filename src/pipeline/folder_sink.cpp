@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/text.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "pipeline/sink_kinds.hpp"
@@ -21,15 +22,6 @@ namespace terrabake::pipeline {
 namespace {
 
 namespace fs = std::filesystem;
-
-// A folder or file name that is a tile number ("12", not "012" or "-1").
-std::optional<int> tileNumber(const std::string& name) {
-  if (name.empty() || name.size() > 9 || (name.size() > 1 && name[0] == '0')) return std::nullopt;
-  for (char c : name) {
-    if (c < '0' || c > '9') return std::nullopt;
-  }
-  return std::stoi(name);
-}
 
 // What a crashed run left: temporary files no live writer holds.
 void removeAbandonedTempFiles(const fs::path& layer) {
@@ -151,7 +143,7 @@ class FolderSink : public TileSink {
         if (!x || !xs->is_directory()) continue;
         for (fs::directory_iterator ys(xs->path(), ec); !ec && ys != end; ys.increment(ec)) {
           const std::string name = ys->path().filename().string();
-          if (name.size() <= extension.size() || name.compare(name.size() - extension.size(), extension.size(), extension) != 0) continue;
+          if (name.size() <= extension.size() || !endsWith(name, extension)) continue;
           const auto y = tileNumber(name.substr(0, name.size() - extension.size()));
           if (!y) continue;
           std::ifstream in(ys->path(), std::ios::binary);

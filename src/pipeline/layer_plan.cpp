@@ -185,7 +185,6 @@ LayerPlan planLayer(const config::TileJob& job) {
   const auto dem = std::make_shared<const dem::DemSource>(job.dems, options);
   for (const std::string& warning : dem->warnings()) log::warning(warning);
   LayerPlan plan;
-  plan.dem_paths = job.dems;
   plan.dem = dem;
   plan.scheme = tiling::makeScheme(job.scheme, job.tile_size, &dem->info().grid);
   plan.settings = tileSettings(job);

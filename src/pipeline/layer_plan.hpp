@@ -38,7 +38,6 @@ struct TileSettings {
 };
 
 struct LayerPlan {
-  std::vector<std::string> dem_paths;  // in priority order
   // The DEM files as the plan learnt them, shared by every worker, which
   // reads through its own DemSource::reader().
   std::shared_ptr<const dem::DemSource> dem;

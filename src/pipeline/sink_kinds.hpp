@@ -10,12 +10,12 @@
 
 namespace terrabake::pipeline {
 
-// `tms_rows`: the scheme's y counts from the south already (geodetic) and is
-// stored as it is; otherwise MBTiles rows are flipped.
 // The claim() error for a layer another job made.
 [[noreturn]] void refuseDifferentJob(const std::string& location);
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation);
+// `tms_rows`: the scheme's y counts from the south already (geodetic) and is
+// stored as it is; otherwise MBTiles rows are flipped.
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);
 // `path`: the normal maps' archive; the others lie beside it (io::pmtilesArchive).
 std::unique_ptr<TileSink> openPmtilesSink(const std::string& path, bool high_res_mesh, bool elevation);

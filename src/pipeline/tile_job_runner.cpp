@@ -52,14 +52,6 @@ void writeTileset(TileSink& sink, const LayerPlan& plan) {
 
 }  // namespace
 
-std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count) {
-  std::vector<TileId> mine;
-  for (std::size_t i = std::size_t(shard - 1); i < tiles.size(); i += std::size_t(shard_count)) {
-    mine.push_back(tiles[i]);
-  }
-  return mine;
-}
-
 RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   const auto start = std::chrono::steady_clock::now();
   if (job.format == OutputFormat::kPmtiles && (options.resume || options.shard_count > 1)) {

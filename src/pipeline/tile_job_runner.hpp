@@ -1,6 +1,6 @@
 #pragma once
 // Runs a `terrabake tile` job: every tile of every requested zoom, on N
-// worker threads, written atomically into <output.dir>/<output.layer>/.
+// worker threads, written whole into the layer's sink (tile_sink.hpp).
 #include <atomic>
 #include <cstdint>
 #include <string>
@@ -45,10 +45,6 @@ struct RunSummary {
 // any work, with its tile count, so a mistyped zoom does not start a run of
 // years. A planet at zoom 13 is 67,108,864 tiles.
 inline constexpr std::uint64_t kMaxTilesPerRun = std::uint64_t(1) << 26;
-
-// The tiles of a job at every zoom, in the order runs make them; a shard
-// makes every shard_count-th of them, so shards never share a tile.
-std::vector<TileId> shardTiles(const std::vector<TileId>& tiles, int shard, int shard_count);
 
 // Throws UsageError / InputError for problems that stop the whole run
 // (unreadable DEM, unwritable output, no GL context, a layer another job

@@ -1,7 +1,8 @@
 #pragma once
-// Where a run's tiles go: a folder of files, or one MBTiles database. Every
-// tile appears whole or not at all, and a layer remembers the job that made
-// it, so a run can resume it and refuse to mix it with another job's tiles.
+// Where a run's tiles go: a folder of files, one MBTiles database, or PMTiles
+// archives written at the run's end. Every tile appears whole or not at all,
+// and a layer remembers the job that made it, so a run can resume it and
+// refuse to mix it with another job's tiles.
 #include <functional>
 #include <memory>
 #include <string>

@@ -117,6 +117,9 @@ void BakeQueue::work(const BakeFactory& make_bake, std::promise<void>& ready) {
     } catch (const std::exception& e) {
       outcome.status = BakeOutcome::Status::kFailed;
       outcome.error = e.what();
+    } catch (...) {  // anything else would end the process from this thread
+      outcome.status = BakeOutcome::Status::kFailed;
+      outcome.error = "an unknown error";
     }
     finish(tile, std::move(outcome));
   }

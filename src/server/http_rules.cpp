@@ -7,6 +7,7 @@
 #include <string_view>
 
 #include "core/fnv1a.hpp"
+#include "core/text.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -33,16 +34,6 @@ constexpr MediaType kMediaTypes[] = {
     {".txt", "text/plain; charset=utf-8"},
     {".pmtiles", "application/vnd.pmtiles"},
 };
-
-bool endsWith(std::string_view text, std::string_view end) {
-  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
-}
-
-std::string_view trim(std::string_view text) {
-  while (!text.empty() && (text.front() == ' ' || text.front() == '\t')) text.remove_prefix(1);
-  while (!text.empty() && (text.back() == ' ' || text.back() == '\t')) text.remove_suffix(1);
-  return text;
-}
 
 }  // namespace
 
@@ -95,7 +86,8 @@ std::string requestPath(const std::string& target) {
 
 namespace {
 
-// Decimal digits as a number; false when empty, not digits, or beyond 2^63.
+// Decimal digits as a number; false when empty, not digits, or more than 18
+// of them (so the value fits).
 bool parseCount(std::string_view text, std::size_t& value) {
   if (text.empty() || text.size() > 18) return false;
   value = 0;

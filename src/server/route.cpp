@@ -8,13 +8,12 @@
 
 #include "core/error.hpp"
 #include "core/layer_name.hpp"
+#include "core/text.hpp"
 #include "io/tileset.hpp"
 
 namespace terrabake::server {
 namespace {
 
-// Nine digits fit an int; a tile number longer than that is no tile of any layer.
-constexpr std::size_t kMaxDigits = 9;
 constexpr std::array<const char*, 4> kReservedNames = {"health", "layers.json", "vendor", "viewer"};
 
 Route bad(std::string problem) {
@@ -47,13 +46,11 @@ bool isSafeSegment(const std::string& segment) {
   });
 }
 
-// Decimal digits only, no sign, no leading zero: one spelling per tile.
+// One spelling per tile: tileNumber's.
 bool parseNumber(const std::string& text, int& value) {
-  if (text.empty() || text.size() > kMaxDigits) return false;
-  if (!std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; })) return false;
-  if (text.size() > 1 && text.front() == '0') return false;
-  value = std::stoi(text);
-  return true;
+  const std::optional<int> number = tileNumber(text);
+  if (number) value = *number;
+  return number.has_value();
 }
 
 std::string join(std::vector<std::string>::const_iterator first, std::vector<std::string>::const_iterator last) {
@@ -147,8 +144,7 @@ Route parseRoute(const std::string& path) {
       return route;
     }
     const std::string_view extension(io::kPmtilesExtension);
-    if (parts[1].size() > extension.size() &&
-        parts[1].compare(parts[1].size() - extension.size(), extension.size(), extension) == 0) {
+    if (parts[1].size() > extension.size() && endsWith(parts[1], extension)) {
       Route route = simple(Route::Kind::kArchive);
       route.layer = first;
       route.file = parts[1];

@@ -26,7 +26,7 @@ struct Route {
     kNotFound,    // 404
   };
   Kind kind = Kind::kNotFound;
-  std::string layer;  // kTileJson, kElevationTileJson, kTile, kTileset
+  std::string layer;  // kTileJson, kElevationTileJson, kTile, kTileset, kArchive
   TileId tile;        // kTile
   io::TileFormat format = io::TileFormat::kPng;
   std::string package;  // kVendorFile: one of vendorPackages()

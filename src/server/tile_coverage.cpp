@@ -25,8 +25,9 @@ TileCoverage coverageOf(const io::TileJsonSummary& tilejson) {
   // Which tiles a global scheme has does not depend on the tile size.
   std::shared_ptr<const tiling::Scheme> scheme = tiling::makeScheme(*tilejson.scheme, tilejson.tile_size);
   const auto [west, south, east, north] = tilejson.bounds_deg;
-  const std::vector<Extent> lon_lat = west <= east ? std::vector<Extent>{{west, south, east, north}}
-                                                   : std::vector<Extent>{{west, south, 180, north}, {-180, south, east, north}};
+  const std::vector<Extent> lon_lat =
+      west <= east ? std::vector<Extent>{{west, south, east, north}}
+                   : std::vector<Extent>{{west, south, 180, north}, {-180, south, east, north}};
   std::vector<Extent> areas;
   for (const Extent& piece : lon_lat) {
     const std::optional<Extent> area = scheme->fromLonLat(piece);
