@@ -8,10 +8,6 @@
 namespace terrabake::geo {
 namespace {
 
-// The smallest radius of curvature of the WGS84 ellipsoid, a(1 - e^2), along
-// the meridian at the equator: the earth bends no tighter than this, so an
-// edge's sag computed with it is an upper bound.
-constexpr double kMinCurvatureRadiusM = 6335439.327;
 // Longitudes this close to ±180° are the antimeridian itself, not past it.
 constexpr double kAntimeridianSlackDeg = 1e-9;
 
@@ -45,10 +41,8 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
     low = std::min(low, g.z);
     high = std::max(high, g.z);
   }
-  // A chord of length L sags L^2 / (8 R) below its ends; seen from the
-  // centre it spans L / R radians and bows at most (L / R)^2 / 8 towards a pole.
-  const double sag_m = longest_edge_m * longest_edge_m / (8 * kMinCurvatureRadiusM);
-  const double bow_deg = glm::degrees(std::pow(longest_edge_m / kMinCurvatureRadiusM, 2) / 8);
+  const double sag_m = chordSagM(longest_edge_m);
+  const double bow_deg = glm::degrees(chordBowRad(longest_edge_m));
 
   double west = origin_lon + min_d, east = origin_lon + max_d;
   if (west < -180 && west > -180 - kAntimeridianSlackDeg) west = -180;

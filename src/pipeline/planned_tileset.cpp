@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "dem/crs_transform.hpp"
+#include "geo/region.hpp"
 #include "pipeline/height_bounds.hpp"
 #include "pipeline/tile_frame.hpp"
 
@@ -18,11 +19,9 @@ namespace terrabake::pipeline {
 namespace {
 
 constexpr double kHalfPi = 1.57079632679489661923;
-// The WGS84 ellipsoid's smallest radius of curvature (along the meridian at
-// the equator) and its largest (across it at the poles): a chord sags no
-// more than with the smallest, and an angle spans no more ground than with
-// the largest.
-constexpr double kMinCurvatureRadiusM = 6335439.327;
+// The WGS84 ellipsoid's largest radius of curvature (across the meridian at
+// the poles): an angle spans no more ground than with it (the smallest,
+// geo::kMinCurvatureRadiusM, bounds how a chord sags).
 constexpr double kMaxCurvatureRadiusM = 6399593.626;
 // The largest angle between the ellipsoid's normal and the direction to the
 // earth's centre (about e^2 / 2, at 45°): a skirt hung towards the centre
@@ -100,9 +99,9 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
                                   : 4 * max_error_m;
     skirt_m = bound + 2 * (texel_m + relief_m);
   }
-  const double sag_m = longest_edge_m * longest_edge_m / (8 * kMinCurvatureRadiusM);
-  const double bow_rad = std::pow(longest_edge_m / kMinCurvatureRadiusM, 2) / 8;
-  const double drift_rad = skirt_m * kMaxDeflectionRad / kMinCurvatureRadiusM;
+  const double sag_m = geo::chordSagM(longest_edge_m);
+  const double bow_rad = geo::chordBowRad(longest_edge_m);
+  const double drift_rad = skirt_m * kMaxDeflectionRad / geo::kMinCurvatureRadiusM;
 
   io::GlbPlacement placement;
   placement.enu_to_ecef = tileFrame(scheme, to_lon_lat, tile).localToEcef();
