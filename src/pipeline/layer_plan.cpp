@@ -255,4 +255,9 @@ TileId TileList::at(std::uint64_t index) const {
   return m_scheme->tileAt(m_ranges[k], index - m_starts[k]);
 }
 
+double skirtErrorBoundM(const TileSettings& settings, int z, double grid_error_m) {
+  if (settings.low_poly_mesh != LowPolyMesh::kAdaptive) return 4 * grid_error_m;
+  return std::max(settings.max_error_m.at(std::size_t(std::max(0, z - 1))), settings.max_error_m.at(std::size_t(z)));
+}
+
 }  // namespace terrabake::pipeline

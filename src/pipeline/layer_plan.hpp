@@ -37,6 +37,12 @@ struct TileSettings {
   Elevation elevation{};           // also encode the tile's heights for MapLibre (none: not)
 };
 
+// The error bound that zoom z's skirts hang below the mesh by, before the
+// texels they add: the larger of z's and the coarser zoom's bounds for an
+// adaptive mesh; for a grid mesh, which has none, four times `grid_error_m`,
+// its own distance to its samples (it grows with the square of a cell's size).
+double skirtErrorBoundM(const TileSettings& settings, int z, double grid_error_m);
+
 struct LayerPlan {
   // The DEM files as the plan learnt them, shared by every worker, which
   // reads through its own DemSource::reader().

@@ -95,9 +95,7 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
     // skirtDepthM: the zoom's and the coarser zoom's bound (a grid's: four
     // times its distance) and two texels, measured between samples, so no
     // longer than a texel on the ground and the tile's relief together.
-    const double bound = adaptive ? std::max(settings.max_error_m.at(std::size_t(std::max(0, tile.z - 1))), max_error_m)
-                                  : 4 * max_error_m;
-    skirt_m = bound + 2 * (texel_m + relief_m);
+    skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * (texel_m + relief_m);
   }
   const double sag_m = geo::chordSagM(longest_edge_m);
   const double bow_rad = geo::chordBowRad(longest_edge_m);

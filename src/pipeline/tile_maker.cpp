@@ -310,12 +310,7 @@ struct TileMaker::Impl {
   double skirtDepthM(const TileId& tile, const mesh::SampleGrid& samples, double max_error_m) const {
     const int mid = samples.apron + samples.tile_size / 2;
     const double texel_m = glm::distance(samples.position.at(mid + 1, mid), samples.position.at(mid, mid));
-    double bound = 4 * max_error_m;
-    if (settings.low_poly_mesh == LowPolyMesh::kAdaptive) {
-      bound = settings.max_error_m.at(std::size_t(std::max(0, tile.z - 1)));
-      bound = std::max(bound, settings.max_error_m.at(std::size_t(tile.z)));
-    }
-    return bound + 2 * texel_m;
+    return skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m;
   }
 };
 
