@@ -1,5 +1,6 @@
 #pragma once
 // Plain value types that cross module boundaries.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -33,6 +34,14 @@ struct Extent {
   double height() const { return max_y - min_y; }
   bool intersects(const Extent& o) const {
     return min_x < o.max_x && o.min_x < max_x && min_y < o.max_y && o.min_y < max_y;
+  }
+  // The smallest extent holding both.
+  Extent united(const Extent& o) const {
+    return {std::min(min_x, o.min_x), std::min(min_y, o.min_y), std::max(max_x, o.max_x), std::max(max_y, o.max_y)};
+  }
+  // The part of both; empty (max below min) where they do not intersect.
+  Extent intersection(const Extent& o) const {
+    return {std::max(min_x, o.min_x), std::max(min_y, o.min_y), std::min(max_x, o.max_x), std::min(max_y, o.max_y)};
   }
 };
 

@@ -73,16 +73,11 @@ std::vector<std::string> expandGlobs(const std::vector<std::string>& paths) {
   return expanded;
 }
 
-Extent unite(const Extent& a, const Extent& b) {
-  return {std::min(a.min_x, b.min_x), std::min(a.min_y, b.min_y), std::max(a.max_x, b.max_x),
-          std::max(a.max_y, b.max_y)};
-}
-
 // The first file's pixel grid, grown to cover every file.
 GridSpec mergedGrid(const std::vector<std::shared_ptr<const FileMeta>>& files) {
   GridSpec grid = files.front()->info().grid;
   Extent all = files.front()->boundsIn(grid.crs);
-  for (std::size_t i = 1; i < files.size(); ++i) all = unite(all, files[i]->boundsIn(grid.crs));
+  for (std::size_t i = 1; i < files.size(); ++i) all = all.united(files[i]->boundsIn(grid.crs));
   const double west = grid.origin_x + std::floor((all.min_x - grid.origin_x) / grid.cell_w) * grid.cell_w;
   const double north = grid.origin_y - std::floor((grid.origin_y - all.max_y) / grid.cell_h) * grid.cell_h;
   grid.width = int(std::ceil((all.max_x - west) / grid.cell_w - 1e-9));
@@ -270,7 +265,7 @@ const DemInfo& DemSource::info() const { return m_shared->info; }
 Extent DemSource::boundsIn(const std::string& crs) const {
   const auto& files = m_shared->files;
   Extent all = files.front()->boundsIn(crs);
-  for (std::size_t i = 1; i < files.size(); ++i) all = unite(all, files[i]->boundsIn(crs));
+  for (std::size_t i = 1; i < files.size(); ++i) all = all.united(files[i]->boundsIn(crs));
   return all;
 }
 

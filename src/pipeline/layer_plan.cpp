@@ -19,11 +19,6 @@ namespace {
 
 constexpr const char* kLonLat = "EPSG:4326";
 
-Extent intersection(const Extent& a, const Extent& b) {
-  return {std::max(a.min_x, b.min_x), std::max(a.min_y, b.min_y), std::min(a.max_x, b.max_x),
-          std::min(a.max_y, b.max_y)};
-}
-
 std::string lonLatText(const Extent& e) {
   char text[128];
   std::snprintf(text, sizeof text, "lon %.8g to %.8g, lat %.8g to %.8g", e.min_x, e.max_x, e.min_y, e.max_y);
@@ -53,15 +48,12 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
   std::vector<Extent> inside;
   for (const Extent& piece : cover) {
     for (const Extent& box_piece : box_pieces) {
-      if (box_piece.intersects(piece)) inside.push_back(intersection(piece, box_piece));
+      if (box_piece.intersects(piece)) inside.push_back(piece.intersection(box_piece));
     }
   }
   if (inside.empty()) {
     Extent all = cover.front();
-    for (const Extent& piece : cover) {
-      all = {std::min(all.min_x, piece.min_x), std::min(all.min_y, piece.min_y), std::max(all.max_x, piece.max_x),
-             std::max(all.max_y, piece.max_y)};
-    }
+    for (const Extent& piece : cover) all = all.united(piece);
     throw NothingToMake("tiling.bbox: " + lonLatText(box) + " does not overlap '" + shortened(dem.info().path) +
                         "' (" + lonLatText(all) + "): nothing to make");
   }
@@ -204,7 +196,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   } else {
     plan.area = job.bbox.empty()
                     ? dem_area
-                    : intersection(dem_area, dem::transformExtent(lon_lat.front(), kLonLat, plan.scheme->crs()));
+                    : dem_area.intersection(dem::transformExtent(lon_lat.front(), kLonLat, plan.scheme->crs()));
     plan.areas = {plan.area};
   }
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {

@@ -67,9 +67,7 @@ bool Scheme::covers(const Extent& area, const TileId& tile) const {
   if (!extent.intersects(area)) return false;
   // tilesCovering over the overlap alone: the same rule for edge cases, at
   // the cost of a handful of tiles instead of a whole zoom.
-  const Extent overlap{std::max(extent.min_x, area.min_x), std::max(extent.min_y, area.min_y),
-                       std::min(extent.max_x, area.max_x), std::min(extent.max_y, area.max_y)};
-  const std::vector<TileId> tiles = tilesCovering(overlap, tile.z);
+  const std::vector<TileId> tiles = tilesCovering(extent.intersection(area), tile.z);
   return std::find(tiles.begin(), tiles.end(), tile) != tiles.end();
 }
 
