@@ -504,7 +504,8 @@ TEST(WholeWorld, HillsAcrossThePolesDecodeToTheirNormalAtEveryTexel) {
 }
 
 TEST(WholeWorld, TilesEitherSideOfTheAntimeridianShareTheirEdge) {
-  const auto dem = test::sharedFixture("hills_world_epsg4326.tif", [](const auto& path) {
+  // A name of its own: a shared fixture is whichever test writes it first.
+  const auto dem = test::sharedFixture("sine_world_epsg4326.tif", [](const auto& path) {
     ts::writeFloatDem(path, 4326, {-180, 0.5, 0, 90, 0, -0.5}, 720, 360, [](double lon, double lat) {
       const double c = std::cos(glm::radians(lat));
       return 3000 * std::sin(2 * glm::radians(lon) + 0.5) * c * c;
