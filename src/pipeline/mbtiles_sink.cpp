@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <filesystem>
 #include <mutex>
+#include <vector>
 
 #include "core/error.hpp"
 #include "io/mbtiles.hpp"
@@ -32,7 +33,10 @@ std::unique_ptr<io::MbtilesFile> openFile(const std::string& path, bool high_res
 class MbtilesSink : public TileSink {
  public:
   MbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows)
-      : m_file(openFile(path, high_res_mesh)), m_high_res_mesh(high_res_mesh), m_tms_rows(tms_rows) {}
+      : m_file(openFile(path, high_res_mesh)),
+        m_high_res_mesh(high_res_mesh),
+        m_tms_rows(tms_rows),
+        m_tile_formats(io::tileFormats(high_res_mesh, false)) {}
 
   std::string location() const override { return m_file->path(); }
 
@@ -49,8 +53,7 @@ class MbtilesSink : public TileSink {
   bool hasTile(const TileId& tile) const override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const io::MbtilesKey key = io::mbtilesKey(tile, m_tms_rows);
-    const std::vector<io::TileFormat> formats = io::tileFormats(m_high_res_mesh, false);
-    return std::all_of(formats.begin(), formats.end(),
+    return std::all_of(m_tile_formats.begin(), m_tile_formats.end(),
                        [&](io::TileFormat format) { return m_file->hasTile(io::mbtilesTable(format), key); });
   }
 
@@ -90,6 +93,7 @@ class MbtilesSink : public TileSink {
   std::unique_ptr<io::MbtilesFile> m_file;
   bool m_high_res_mesh;
   bool m_tms_rows;
+  std::vector<io::TileFormat> m_tile_formats;  // a tile's rows, one per table (MBTiles hold no elevation tiles)
 };
 
 }  // namespace
