@@ -87,18 +87,16 @@ TEST_P(AdaptiveBoundInLayers, EverySampleOfEveryTileIsWithinTheBound) {
     const ts::GlbMesh samples = ts::readGlb(base.string() + ".hires.glb", false);
     const double recorded = low.json["asset"]["extras"]["terrabake"]["max_error_m"].get<double>();
     EXPECT_LE(recorded, bound);
-    double worst = 0, worst_vertical = 0;
+    double worst = 0;
     for (std::size_t k = 0; k < samples.uv.size(); ++k) {
       const glm::dvec2 uv = samples.uv[k];
       if (uv.x >= 1 || uv.y >= 1) continue;  // the next tile's first samples
       const auto surface = ts::surfacePointAt(low, uv);
       ASSERT_TRUE(surface) << "uv " << uv.x << ", " << uv.y << " on no triangle";
       worst = std::max(worst, glm::distance(*surface, samples.position[k]));
-      worst_vertical = std::max(worst_vertical, std::abs(surface->y - samples.position[k].y));
     }
     EXPECT_LE(worst, bound + kFloat32SlackM) << id.z << "/" << id.x << "/" << id.y;
     EXPECT_NEAR(worst, recorded, kFloat32SlackM) << id.z << "/" << id.x << "/" << id.y;
-    EXPECT_LE(worst_vertical, worst + kFloat32SlackM);
   }
 }
 
@@ -152,6 +150,7 @@ TEST_P(AdaptiveCracks, NeighboursShareEveryEdgeVertex) {
   std::printf("%s: %zu tiles, %d shared edges (%d flat, %d rough)\n", name.c_str(), meshes.size(), edges, flat_edges,
               rough_edges);
   EXPECT_GE(edges, 8);
+  EXPECT_GE(flat_edges, 1);
   EXPECT_GE(rough_edges, 1);
 }
 

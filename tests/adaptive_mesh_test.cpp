@@ -122,19 +122,27 @@ TEST(EdgeProfile, KeptPointsHoldEveryPointWithinTheBoundOfItsChord) {
   for (int k = 0; k < 130; ++k) profile.push_back({k * 10.0, 50 * std::sin(k / 9.0) + noise(random), 0});
   const int s = int(profile.size()) - 2;
   auto uvAt = [&](int k) { return k == 0 ? 0.0 : k == s + 1 ? 1.0 : (k - 0.5) / s; };
+  std::size_t kept_before = std::size_t(s);
   for (double bound : {1.0, 10.0, 40.0}) {
     std::vector<int> kept = mesh::keptEdgePoints(profile, bound);
-    EXPECT_EQ(kept, mesh::keptEdgePoints(profile, bound));  // a pure function
+    // A looser bound keeps fewer points (noise of ±30 m leaves some at 40 m),
+    // so the checks below judge points left out, not a profile kept whole.
+    EXPECT_LT(kept.size(), kept_before) << "bound " << bound;
+    EXPECT_GT(kept.size(), 0u) << "bound " << bound;
+    kept_before = kept.size();
     kept.insert(kept.begin(), 0);
     kept.push_back(s + 1);
+    int judged = 0;
     for (std::size_t m = 0; m + 1 < kept.size(); ++m) {
       const int a = kept[m], b = kept[m + 1];
       for (int k = a + 1; k < b; ++k) {
         const double f = (uvAt(k) - uvAt(a)) / (uvAt(b) - uvAt(a));
         EXPECT_LE(glm::distance(profile[std::size_t(k)], glm::mix(profile[std::size_t(a)], profile[std::size_t(b)], f)),
                   bound);
+        ++judged;
       }
     }
+    EXPECT_EQ(judged + int(kept.size()), s + 2) << "every point is kept or judged against its chord";
   }
 }
 

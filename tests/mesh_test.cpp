@@ -19,6 +19,13 @@ namespace {
 // roundings of a unit vector.
 constexpr double kUnitTolerance = 1e-6;
 
+// A unit normal stored as float: its direction is good to about 1e-7 rad,
+// 6e-6 degrees; 1e-4 degrees leaves room for the float arithmetic before it.
+constexpr double kFloatNormalDeg = 1e-4;
+
+// Frames interpolated in double: the same directions to a few ulps.
+constexpr double kDoubleFrameDeg = 1e-6;
+
 double hills(double e, double n) { return 80.0 * std::sin(e / 150.0) * std::cos(n / 110.0); }
 
 TEST(GridLowPolyMesh, FramesAreOrthonormalAndRightHanded) {
@@ -66,17 +73,25 @@ TEST(GridLowPolyMesh, VerticesSitOnTheSurface) {
   EXPECT_NEAR(mesh.position.back().z, 32 * 4.0, 1e-4);
 }
 
-TEST(HighResMesh, OneVertexOnEachTexelCentre) {
+TEST(HighResMesh, OneNormalOnEachTexelCentreFromItsOwnSamples) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildHighResMesh(samples);
-  EXPECT_EQ(mesh.cols, 64);
-  EXPECT_EQ(mesh.rows, 64);
-  EXPECT_EQ(mesh.normal.size(), std::size_t(64 * 64));
+  ASSERT_EQ(mesh.cols, 64);
+  ASSERT_EQ(mesh.rows, 64);
+  ASSERT_EQ(mesh.normal.size(), std::size_t(64 * 64));
+  // Texel (i, j) is sample (apron + i, apron + j): its normal is the central
+  // difference there (docs/CONTRACT.md §4), not a neighbour's.
+  const int a = samples.apron;
+  for (int j = 0; j < 64; j += 7) {
+    for (int i = 0; i < 64; i += 5) {
+      auto p = [&](int di, int dj) { return samples.position.at(a + i + di, a + j + dj); };
+      const glm::dvec3 expected = glm::normalize(glm::cross(p(0, 1) - p(0, -1), p(1, 0) - p(-1, 0)));
+      EXPECT_LT(test::angleDeg(glm::dvec3(mesh.normal[std::size_t(j) * 64 + i]), expected), kFloatNormalDeg)
+          << "texel " << i << ", " << j;
+    }
+  }
 }
 
-// Bands change the order of the grid's triangles, not the triangles: the
-// first band's first row comes first, and a last band narrower than the
-// others is still drawn.
 TEST(GridIndices, SplitsEachCellRowByRowIntoTwoTriangles) {
   // 3 x 2 vertices: two cells, each nw-sw-se and nw-se-ne.
   EXPECT_EQ(mesh::gridIndices(3, 2), (std::vector<std::uint32_t>{0, 3, 4, 0, 4, 1, 1, 4, 5, 1, 5, 2}));
@@ -87,22 +102,30 @@ TEST(HighResMesh, NormalsMatchTheAnalyticSlope) {
   const auto mesh = mesh::buildHighResMesh(test::sampleHeightField(plane, 16, 5, 2.0));
   // Up = (-dh/de, 1, +dh/dn) in glTF axes (Z is south).
   const glm::dvec3 expected = glm::normalize(glm::dvec3(-0.5, 1.0, 0.2));
-  for (const glm::vec3& n : mesh.normal) EXPECT_LT(test::angleDeg(glm::dvec3(n), expected), 1e-4);
+  for (const glm::vec3& n : mesh.normal) EXPECT_LT(test::angleDeg(glm::dvec3(n), expected), kFloatNormalDeg);
 }
 
 TEST(LowPolyFrame, InterpolatesLikeARenderer) {
   auto flat = [](double, double) { return 0.0; };
   auto mesh = mesh::buildLowPolyMesh(test::sampleHeightField(flat, 16, 3, 1.0), 3);
-  // Tilt one vertex's normal; at that vertex the frame is exactly it, half way
-  // along an edge it is the normalised mean.
-  mesh.normal[4] = glm::normalize(glm::vec3(1, 1, 0));  // centre vertex (1, 1)
+  // Tilt one vertex's normal and turn its tangent; at that vertex the frame
+  // is exactly them, half way along an edge it is their normalised means.
+  mesh.normal[4] = glm::normalize(glm::vec3(1, 1, 0.5));  // centre vertex (1, 1)
+  mesh.tangent[4] = glm::vec4(glm::normalize(glm::vec3(1, -0.4, 0.6)), 1);
   const auto at_vertex = mesh::lowPolyFrameAt(mesh, {0.5, 0.5});
-  EXPECT_LT(test::angleDeg(at_vertex.n, glm::dvec3(mesh.normal[4])), 1e-6);
+  EXPECT_LT(test::angleDeg(at_vertex.n, glm::dvec3(mesh.normal[4])), kDoubleFrameDeg);
   const auto half_way = mesh::lowPolyFrameAt(mesh, {0.25, 0.5});  // between (0, 1) and (1, 1)
   const glm::dvec3 expected = glm::normalize(glm::dvec3(0, 1, 0) + glm::dvec3(mesh.normal[4]));
-  EXPECT_LT(test::angleDeg(half_way.n, expected), 1e-6);
-  // b follows w * cross(n, t) even where n and t are no longer orthogonal.
-  EXPECT_LT(test::angleDeg(half_way.b, glm::cross(half_way.n, half_way.t)), 1e-9);
+  EXPECT_LT(test::angleDeg(half_way.n, expected), kDoubleFrameDeg);
+  // The bitangent is each vertex's w * cross(n, t), interpolated and then
+  // normalised (docs/CONTRACT.md §4), not the cross product of the
+  // interpolated n and t: with this tilt the two differ.
+  auto bitangent = [&](int v) {
+    return double(mesh.tangent[v].w) * glm::cross(glm::dvec3(mesh.normal[v]), glm::dvec3(mesh.tangent[v]));
+  };
+  const glm::dvec3 renderers = glm::normalize(0.5 * bitangent(3) + 0.5 * bitangent(4));
+  EXPECT_LT(test::angleDeg(half_way.b, renderers), kDoubleFrameDeg);
+  EXPECT_GT(test::angleDeg(glm::cross(half_way.n, half_way.t), renderers), 1.0);
 }
 
 TEST(Apron, CoversTheLowPolyNeighbourCell) {

@@ -160,12 +160,18 @@ TEST(Pipeline, FallbackDemFillsTheVoidsOfTheFirst) {
 }
 
 TEST(Pipeline, GlobsExpandInSortedOrder) {
-  const auto dir = test::testOutput("pipeline/glob_inputs");
-  std::filesystem::create_directories(dir);
-  std::filesystem::copy_file(demWithVoid(), dir / "a.tif", std::filesystem::copy_options::overwrite_existing);
-  std::filesystem::copy_file(geographicFallback(), dir / "b.tif", std::filesystem::copy_options::overwrite_existing);
+  const auto dir = test::caseDir();
+  // Made in reverse order, so a listing in the order of creation would fail.
+  const std::vector<std::string> names = {"e.tif", "d.tif", "c.tif", "b.tif", "a.tif"};
+  for (std::size_t k = 0; k < names.size(); ++k) {
+    std::filesystem::copy_file(k % 2 ? geographicFallback() : demWithVoid(), dir / names[k]);
+  }
   const dem::DemSource dem({(dir / "*.tif").string()});
-  EXPECT_EQ(dem.info().path, (dir / "a.tif").string() + ", " + (dir / "b.tif").string());
+  std::string sorted;
+  for (auto name = names.rbegin(); name != names.rend(); ++name) {
+    sorted += (sorted.empty() ? "" : ", ") + (dir / *name).string();
+  }
+  EXPECT_EQ(dem.info().path, sorted);
   EXPECT_THROW(dem::DemSource({(dir / "*.hgt").string()}), InputError);
 }
 

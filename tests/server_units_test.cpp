@@ -260,6 +260,7 @@ TEST(ServeConfig, LimitsAndThePublicUrl) {
   for (const char* url : {"https://tiles.example.org/", "http://127.0.0.1:8080", "https://a.example/b/c/", "http://[::1]:80/"}) {
     EXPECT_NO_THROW(config::applyOverride(config, "server.public_url", {url}, "--public-url")) << url;
     EXPECT_NO_THROW(config::validate(config, "test")) << url;
+    EXPECT_EQ(config.public_url.rfind(url, 0), 0u) << url << " became " << config.public_url;
   }
   for (const char* url : {"tiles.example.org", "ftp://x/", "https://", "https://x/?q=1", "https://x/\"<script>",
                           "javascript:alert(1)"}) {

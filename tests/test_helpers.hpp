@@ -14,6 +14,7 @@
 #include <functional>
 #include <map>
 #include <set>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -43,6 +44,8 @@ inline std::filesystem::path caseDir() {
 
 // A generated input shared by several test cases, made once. Cases may run in
 // parallel processes, so the file appears atomically under its final name.
+// A writer whose assertion failed leaves nothing under that name: every later
+// case of the run would otherwise read its half-written file.
 inline std::filesystem::path sharedFixture(const std::string& name,
                                            const std::function<void(const std::filesystem::path&)>& write) {
   const auto dir = testOutput("fixtures");
@@ -51,6 +54,10 @@ inline std::filesystem::path sharedFixture(const std::string& name,
   if (!std::filesystem::exists(path)) {
     const auto temp = dir / (name + ".tmp" + std::to_string(::getpid()));
     write(temp);
+    if (::testing::Test::HasFatalFailure() || !std::filesystem::exists(temp)) {
+      std::filesystem::remove(temp);
+      throw std::runtime_error("test fixture " + name + " was not written");
+    }
     std::filesystem::rename(temp, path);
   }
   return path;

@@ -31,6 +31,19 @@ using json = nlohmann::json;
 constexpr int kMinZoom = 8, kMaxZoom = 14;
 static_assert(kMaxZoom - kMinZoom >= io::kTilesetLevelsPerFile);
 
+// A batch run's region holds its meshes' heights exactly (the ceiling to the
+// millimetre of float32 vertices) and is widened below them only by how far
+// a straight edge across the tile can bow on the curved earth: at most the
+// chord sag d^2 / 8R of the shallowest tile's diagonal, here a zoom-8 Web
+// Mercator tile at the DEM's 60° N (78 km a side, 240 m), with a quarter
+// more for the tile's span of latitudes and the ellipsoid's curvature.
+constexpr double kCeilingSlackM = 0.01;
+double floorSlackM() {
+  const double side_m = 2 * M_PI * 6378137.0 * std::cos(60.0 * M_PI / 180) / double(1 << kMinZoom);
+  const double diagonal_m = std::sqrt(2.0) * side_m;
+  return 1.25 * diagonal_m * diagonal_m / (8 * 6371000.0);
+}
+
 json readJson(const fs::path& path) {
   std::ifstream in(path);
   std::stringstream text;
@@ -68,6 +81,10 @@ TEST(Tileset, FollowsTheStructuralRulesOf3DTiles) {
   ASSERT_FALSE(on_disk.empty());
   for (const TileId& id : on_disk) EXPECT_EQ(walk.meshes_seen[id], 1) << id.str() << " is not in the tileset once";
   EXPECT_EQ(walk.meshes_seen.size(), on_disk.size());
+  RecordProperty("loosest_floor_m", std::to_string(walk.loosest_floor_m));
+  RecordProperty("loosest_ceiling_m", std::to_string(walk.loosest_ceiling_m));
+  EXPECT_LT(walk.loosest_ceiling_m, kCeilingSlackM) << "a region's ceiling is its meshes' highest point";
+  EXPECT_LT(walk.loosest_floor_m, floorSlackM()) << "a region's floor lies a chord's sag below its meshes at most";
 
   const json tilejson = readJson(layer / "tilejson.json");
   EXPECT_EQ(tilejson["terrabake"]["tileset"], "./tileset.json");

@@ -93,14 +93,16 @@ class TilesetWalk {
     const nlohmann::json& root = doc.at("root");
     EXPECT_GT(root.at("geometricError").get<double>(), 0) << "a root of error 0 never refines into its tiles";
     EXPECT_GE(doc.at("geometricError").get<double>(), root.at("geometricError").get<double>());
-    visit(root, "", glm::dmat4(1.0), std::nullopt, 0);
+    HeightSpan all;
+    visit(root, "", glm::dmat4(1.0), std::nullopt, 0, all);
   }
 
   std::map<TileId, int> meshes_seen;  // how often each .glb is some tile's content
   int external_tilesets = 0;
   int deepest_leaf_errors_nonzero = 0;
-  // The largest amount by which a mesh's lowest point lies above its tile's
-  // region's floor, and its highest point below the ceiling: how loose the regions are.
+  // The largest amount by which the lowest point of a tile's mesh and its
+  // descendants' lies above the tile's region's floor, and their highest
+  // point below the ceiling: how loose the regions are.
   double loosest_floor_m = 0;
   double loosest_ceiling_m = 0;
 
@@ -110,10 +112,33 @@ class TilesetWalk {
     double error;
   };
 
+  // The heights of the meshes under a tile, itself included.
+  struct HeightSpan {
+    double low = 1e300, high = -1e300;
+    void add(const HeightSpan& other) {
+      low = std::min(low, other.low);
+      high = std::max(high, other.high);
+    }
+  };
+
   void visit(const nlohmann::json& tile, const std::filesystem::path& doc_dir, const glm::dmat4& parent_world,
-             const std::optional<Parent>& parent, int depth) {
+             const std::optional<Parent>& parent, int depth, HeightSpan& heights_above) {
     ASSERT_LT(depth, 64) << "the tree is deeper than any pyramid";
     const TilesetRegion region = regionOf(tile);
+    HeightSpan heights;
+    // Runs on every way out of this tile, the assertions' early returns included.
+    struct Fold {
+      const TilesetRegion& region;
+      HeightSpan& heights;
+      HeightSpan& above;
+      TilesetWalk& walk;
+      ~Fold() {
+        if (heights.low > heights.high) return;  // no mesh under this tile
+        walk.loosest_floor_m = std::max(walk.loosest_floor_m, heights.low - region.low);
+        walk.loosest_ceiling_m = std::max(walk.loosest_ceiling_m, region.high - heights.high);
+        above.add(heights);
+      }
+    } fold{region, heights, heights_above, *this};
     const double error = tile.at("geometricError").get<double>();
     EXPECT_LE(region.west, region.east);
     EXPECT_LE(region.south, region.north);
@@ -140,22 +165,22 @@ class TilesetWalk {
         EXPECT_TRUE(inside(region, same) && inside(same, region));
         EXPECT_EQ(root.at("geometricError").get<double>(), error);
         const glm::dmat4 root_world = root.contains("transform") ? world * matrixOf(root["transform"]) : world;
-        checkContent(root, relative.parent_path(), root_world, region);
+        checkContent(root, relative.parent_path(), root_world, region, heights);
         for (const nlohmann::json& child : root.value("children", nlohmann::json::array())) {
-          visit(child, relative.parent_path(), root_world, Parent{region, error}, depth + 1);
+          visit(child, relative.parent_path(), root_world, Parent{region, error}, depth + 1, heights);
         }
         return;
       }
-      checkContent(tile, doc_dir, world, region);
+      checkContent(tile, doc_dir, world, region, heights);
     }
     for (const nlohmann::json& child : tile.value("children", nlohmann::json::array())) {
-      visit(child, doc_dir, world, Parent{region, error}, depth + 1);
+      visit(child, doc_dir, world, Parent{region, error}, depth + 1, heights);
     }
   }
 
   // The tile's .glb lies inside its region, where its transform puts it.
   void checkContent(const nlohmann::json& tile, const std::filesystem::path& doc_dir, const glm::dmat4& world,
-                    const TilesetRegion& region) {
+                    const TilesetRegion& region, HeightSpan& heights) {
     const std::filesystem::path relative =
         (doc_dir / tile.at("content").at("uri").get<std::string>()).lexically_normal();
     ASSERT_TRUE(m_fetch(relative.generic_string())) << relative << " from " << doc_dir << " does not resolve";
@@ -178,8 +203,7 @@ class TilesetWalk {
     }
     EXPECT_LT(worst_m, kTransformToleranceM) << relative << ": the composed transforms miss enu_to_ecef";
     EXPECT_TRUE(inside(region, seen)) << relative << ": a vertex lies outside the tile's region";
-    loosest_floor_m = std::max(loosest_floor_m, seen.low - region.low);
-    loosest_ceiling_m = std::max(loosest_ceiling_m, region.high - seen.high);
+    heights.add({seen.low, seen.high});
   }
 
   std::filesystem::path m_layer;
