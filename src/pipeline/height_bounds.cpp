@@ -2,8 +2,37 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace terrabake::pipeline {
+namespace {
+
+// Each cell's lowest and highest fine cell, and the largest step from a fine
+// cell inside it to its east and south neighbours.
+void keepFineDetail(const Raster<float>& fine, double scale, Raster<float>& low, Raster<float>& high,
+                    Raster<float>& step) {
+  const int k = HeightBounds::kFinePerCell;
+  for (int fr = 0; fr < fine.height; ++fr) {
+    for (int fc = 0; fc < fine.width; ++fc) {
+      const float h = fine.at(fc, fr);
+      if (std::isnan(h)) continue;
+      const int c = fc / k, r = fr / k;
+      const float m = float(h * scale);
+      low.at(c, r) = std::isnan(low.at(c, r)) ? m : std::min(low.at(c, r), m);
+      high.at(c, r) = std::isnan(high.at(c, r)) ? m : std::max(high.at(c, r), m);
+      float largest = step.at(c, r);
+      if (fc + 1 < fine.width && !std::isnan(fine.at(fc + 1, fr))) {
+        largest = std::max(largest, float(std::abs(fine.at(fc + 1, fr) * scale - m)));
+      }
+      if (fr + 1 < fine.height && !std::isnan(fine.at(fc, fr + 1))) {
+        largest = std::max(largest, float(std::abs(fine.at(fc, fr + 1) * scale - m)));
+      }
+      step.at(c, r) = largest;
+    }
+  }
+}
+
+}  // namespace
 
 HeightBounds::HeightBounds(const LayerPlan& plan) {
   const dem::DemSource reader = plan.dem->reader();
@@ -25,6 +54,14 @@ HeightBounds::HeightBounds(const LayerPlan& plan) {
         a.backdrop.at(c, r) = float(plan.backdrop->heightAt(a.grid.centreX(c), a.grid.centreY(r)) * scale);
       }
     }
+    GridSpec fine = a.grid;
+    fine.cell_w = fine.cell_h = cell / kFinePerCell;
+    fine.width = a.grid.width * kFinePerCell;
+    fine.height = a.grid.height * kFinePerCell;
+    a.fine_low = Raster<float>(a.grid.width, a.grid.height, std::numeric_limits<float>::quiet_NaN());
+    a.fine_high = a.fine_low;
+    a.fine_step = Raster<float>(a.grid.width, a.grid.height, 0.0f);
+    keepFineDetail(reader.read(fine, reader.planFor(fine)), scale, a.fine_low, a.fine_high, a.fine_step);
   }
 }
 
@@ -41,12 +78,15 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
   const int c0 = std::max(0, column(extent.min_x) - 1), c1 = std::min(grid.width - 1, column(extent.max_x) + 1);
   const int r0 = std::max(0, row(extent.max_y) - 1), r1 = std::min(grid.height - 1, row(extent.min_y) + 1);
   if (c0 > c1 || r0 > r1) return std::nullopt;
+  // A cell without fine detail (a hole: the backdrop's height) hides the
+  // relief up to its neighbours, so its steps to them widen the range.
+  const auto coarse = [&](int c, int r) { return std::isnan(heights.at(c, r)) || std::isnan(fine_low.at(c, r)); };
   const auto height = [&](int c, int r) {
     const float h = heights.at(c, r);
     return std::isnan(h) ? double(backdrop.at(c, r)) : double(h);
   };
   bool any_sample = false, any_hole = false;
-  double low = height(c0, r0), high = low, step = 0;
+  double low = height(c0, r0), high = low, step = 0, coarse_step = 0;
   for (int r = r0; r <= r1; ++r) {
     for (int c = c0; c <= c1; ++c) {
       any_sample = any_sample || !std::isnan(heights.at(c, r));
@@ -54,12 +94,22 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
       const double h = height(c, r);
       low = std::min(low, h);
       high = std::max(high, h);
-      if (c > c0) step = std::max(step, std::abs(h - height(c - 1, r)));
-      if (r > r0) step = std::max(step, std::abs(h - height(c, r - 1)));
+      if (!std::isnan(fine_low.at(c, r))) {
+        low = std::min(low, double(fine_low.at(c, r)));
+        high = std::max(high, double(fine_high.at(c, r)));
+        step = std::max(step, double(fine_step.at(c, r)));
+      }
+      if (c > c0 && (coarse(c, r) || coarse(c - 1, r))) {
+        coarse_step = std::max(coarse_step, std::abs(h - height(c - 1, r)));
+      }
+      if (r > r0 && (coarse(c, r) || coarse(c, r - 1))) {
+        coarse_step = std::max(coarse_step, std::abs(h - height(c, r - 1)));
+      }
     }
   }
   if (!any_sample) return std::nullopt;
-  return HeightRange{low - step, high + step, step, any_hole, grid.cell_w};
+  const double hidden = std::max(step, coarse_step);
+  return HeightRange{low - hidden, high + hidden, step, any_hole, grid.cell_w / kFinePerCell};
 }
 
 }  // namespace terrabake::pipeline

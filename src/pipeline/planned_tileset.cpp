@@ -11,6 +11,7 @@
 
 #include "core/error.hpp"
 #include "dem/crs_transform.hpp"
+#include "dem/fill_holes.hpp"
 #include "geo/region.hpp"
 #include "pipeline/height_bounds.hpp"
 #include "pipeline/tile_frame.hpp"
@@ -65,13 +66,25 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
   const tiling::Scheme& scheme = *plan.scheme;
   const TileSettings& settings = plan.settings;
   const Extent extent = scheme.tileExtent(tile);
-  const std::optional<HeightRange> heights = bounds.over(extent);
+  std::optional<HeightRange> heights = bounds.over(extent);
   if (!heights) return std::nullopt;
+  const double texel = extent.width() / scheme.tileSize();
+  if (heights->holes) {
+    // The surface carried into the tile's holes starts from data samples up
+    // to the fill's reach away, at their heights and with their slopes.
+    const double reach = dem::continuationReach(settings.max_fill_px) * texel;
+    const Extent around{extent.min_x - reach, extent.min_y - reach, extent.max_x + reach, extent.max_y + reach};
+    if (const std::optional<HeightRange> near = bounds.over(around)) {
+      heights->low_m = std::min(heights->low_m, near->low_m);
+      heights->high_m = std::max(heights->high_m, near->high_m);
+      heights->step_m = std::max(heights->step_m, near->step_m);
+    }
+  }
   // Where the tile fills holes, the surface carried into them goes beyond the
   // terrain's heights by its slope: one texel's step, estimated from the
-  // cells' largest step and the texel's size in cells (no more than the
-  // terrain's relief), over a share of the fill's reach.
-  const double texel_cells = extent.width() / scheme.tileSize() / heights->cell;
+  // fine cells' largest step and the texel's size in fine cells (no more
+  // than the terrain's relief), over a share of the fill's reach.
+  const double texel_cells = texel / heights->cell;
   const double texel_step_m =
       std::min(heights->step_m * std::max(1.0, texel_cells), heights->high_m - heights->low_m);
   const double fill_m = heights->holes ? kFillOvershootShare * settings.max_fill_px * texel_step_m : 0.0;
@@ -93,9 +106,8 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
   double skirt_m = 0;
   if (settings.skirts) {
     // skirtDepthM: the zoom's and the coarser zoom's bound (a grid's: four
-    // times its distance) and two texels, measured between samples, so no
-    // longer than a texel on the ground and the tile's relief together.
-    skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * (texel_m + relief_m);
+    // times its distance) and two texels on the ground.
+    skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m;
   }
   const double sag_m = geo::chordSagM(longest_edge_m);
   const double bow_rad = geo::chordBowRad(longest_edge_m);

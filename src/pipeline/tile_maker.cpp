@@ -306,10 +306,13 @@ struct TileMaker::Impl {
   // How far skirts hang: the larger of this zoom's and the coarser zoom's
   // error bounds (a grid mesh has none: four times its own distance, as the
   // error grows with the square of a cell's size), plus one texel of the
-  // coarser zoom, by which the two zooms' samples of the terrain differ.
+  // coarser zoom, by which the two zooms' samples of the terrain differ:
+  // two of this zoom's texels on the ground at the tile's middle, which a
+  // planned tileset bounds from the tile's extent alone.
   double skirtDepthM(const TileId& tile, const mesh::SampleGrid& samples, double max_error_m) const {
     const int mid = samples.apron + samples.tile_size / 2;
-    const double texel_m = glm::distance(samples.position.at(mid + 1, mid), samples.position.at(mid, mid));
+    const glm::dvec3 east = samples.position.at(mid + 1, mid) - samples.position.at(mid, mid);
+    const double texel_m = std::hypot(east.x, east.z);  // glTF axes: y is up
     return skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m;
   }
 };
