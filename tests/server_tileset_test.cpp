@@ -5,6 +5,7 @@
 // tiles a batch run makes; it is cached as a folder layer's is.
 #include <gtest/gtest.h>
 
+#include <cmath>
 #include <filesystem>
 #include <optional>
 #include <set>
@@ -75,6 +76,50 @@ TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
   for (const auto& [id, count] : walk.meshes_seen) named.insert(id);
   EXPECT_EQ(named, made);
   EXPECT_EQ(meshesOnDisk(layer), made) << "every tile the walk fetched was baked and written";
+}
+
+// Hills 100 m high on a slope rising 5 m in 100 eastwards, with a void in
+// their middle, in EPSG:3857: past the DEM's corners the backdrop runs
+// towards the mean of the whole DEM, away from the heights of the corner's
+// own cells, and the tiles over the void carry the slopes on into it. The
+// void's edges run half way across zoom-15 tiles, so that every tile the
+// plan keeps has data (a tile with none answers 404).
+fs::path slopingHillsWithAVoid() {
+  return sharedFixture("sloping_hills_void_3857.tif", [](const fs::path& path) {
+    constexpr double kWest = 1107200, kNorth = 5866840, kPixel = 20, kCentreX = 1113200, kCentreY = 5860840;
+    constexpr double kHalfWorldM = 20037508.342789244, kTile15 = 2 * kHalfWorldM / 32768;
+    constexpr int kPixels = 600;
+    test_support::writeFloatDem(path, 3857, {kWest, kPixel, 0, kNorth, 0, -kPixel}, kPixels, kPixels,
+                                [&](double x, double y) {
+                                  const double column = (x + kHalfWorldM) / kTile15, row = (kHalfWorldM - y) / kTile15;
+                                  if (column > 17292.5 && column < 17295.5 && row > 11589.5 && row < 11592.5) {
+                                    return double(NAN);
+                                  }
+                                  const double dx = x - kCentreX, dy = y - kCentreY;
+                                  return 800 + 100 * std::sin(2 * M_PI * dx / 3000) * std::cos(2 * M_PI * dy / 2500) +
+                                         0.05 * dx;
+                                });
+  });
+}
+
+TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
+  const fs::path dir = caseDir();
+  config::ServeConfig config = fakeConfig(dir);
+  const fs::path job = dir / "plane.yaml";
+  writeText(job, "dem: " + slopingHillsWithAVoid().string() +
+                     "\noutput:\n  layer: plane\n  tileset: true\ntiling:\n  zoom: [13, 15]\n  tile_size: 64\n"
+                     "bake:\n  backend: cpu\n  workers: 2\n");
+  config.layer_jobs = {job.string()};
+  ServerThread running(config);
+  TilesetWalk walk(fs::path(config.tiles_dir) / "plane", 15, [&](const std::string& path) -> std::optional<std::string> {
+    const auto reply = get(running.port(), "/plane/" + path);
+    if (!reply || reply->status != 200) return std::nullopt;
+    return reply->body;
+  });
+  walk.run();  // every baked mesh inside its tile's region
+  EXPECT_GT(walk.meshes_seen.size(), 150u);
+  RecordProperty("loosest_floor_m", std::to_string(walk.loosest_floor_m));
+  RecordProperty("loosest_ceiling_m", std::to_string(walk.loosest_ceiling_m));
 }
 
 // The first external tileset a tileset's tile names, depth first.

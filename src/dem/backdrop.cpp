@@ -15,6 +15,11 @@ namespace {
 constexpr int kCells = 256;
 // Margin around the DEM, as a share of its size, before the edge value holds.
 constexpr double kMargin = 0.5;
+// Catmull-Rom's negative weights sum to at most 0.125 along one axis (half
+// way between cells), so over the 16 cells of a point, whose weights are
+// products, to at most ((1 + 2 * 0.125)^2 - 1) / 2: a height lies within
+// that share of its cells' spread beyond their lowest and highest.
+constexpr double kCubicOvershootShare = 0.28125;
 // Catmull-Rom weights of the four cells around a point a fraction t past the
 // second: the backdrop is smooth in slope too (bilinear would crease it at
 // every cell line).
@@ -66,6 +71,20 @@ float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
     }
   }
   return float(sum);
+}
+
+Backdrop::Range Backdrop::rangeOver(const Extent& extent) const {
+  const Taps west = tapsAtX(extent.min_x), east = tapsAtX(extent.max_x);
+  const Taps north = tapsAtY(extent.max_y), south = tapsAtY(extent.min_y);
+  float low = m_heights.at(west.cell[0], north.cell[0]), high = low;
+  for (int r = north.cell[0]; r <= south.cell[3]; ++r) {
+    for (int c = west.cell[0]; c <= east.cell[3]; ++c) {
+      low = std::min(low, m_heights.at(c, r));
+      high = std::max(high, m_heights.at(c, r));
+    }
+  }
+  const float overshoot = float(kCubicOvershootShare * (high - low));
+  return {low - overshoot, high + overshoot};
 }
 
 Backdrop::Taps Backdrop::tapsAtX(double x) const {

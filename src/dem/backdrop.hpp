@@ -28,6 +28,14 @@ class Backdrop {
   // row are found once.
   Raster<float> heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const;
 
+  // The lowest and highest heightAt within `extent` (the tiling CRS) can
+  // take: the cells its taps reach, widened by how far Catmull-Rom's
+  // negative weights can carry a value past them.
+  struct Range {
+    float low = 0, high = 0;
+  };
+  Range rangeOver(const Extent& extent) const;
+
  private:
   // Catmull-Rom weights of the four cells round a position along one axis,
   // and those cells, clamped to the grid.

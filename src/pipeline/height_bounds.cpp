@@ -34,9 +34,9 @@ void keepFineDetail(const Raster<float>& fine, double scale, Raster<float>& low,
 
 }  // namespace
 
-HeightBounds::HeightBounds(const LayerPlan& plan) {
+HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m_scale(plan.settings.height_scale) {
   const dem::DemSource reader = plan.dem->reader();
-  const double scale = plan.settings.height_scale;
+  const double scale = m_scale;
   for (const Extent& area : plan.areas) {
     Area& a = m_areas.emplace_back();
     const double cell = std::max(area.width(), area.height()) / kCells;
@@ -67,7 +67,15 @@ HeightBounds::HeightBounds(const LayerPlan& plan) {
 
 std::optional<HeightRange> HeightBounds::over(const Extent& extent) const {
   for (const Area& area : m_areas) {
-    if (std::optional<HeightRange> range = area.over(extent)) return range;
+    std::optional<HeightRange> range = area.over(extent);
+    if (!range) continue;
+    if (range->holes) {
+      const dem::Backdrop::Range backdrop = m_backdrop->rangeOver(extent);
+      const double a = backdrop.low * m_scale, b = backdrop.high * m_scale;
+      range->low_m = std::min({range->low_m, a, b});
+      range->high_m = std::max({range->high_m, a, b});
+    }
+    return range;
   }
   return std::nullopt;
 }
@@ -78,6 +86,10 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
   const int c0 = std::max(0, column(extent.min_x) - 1), c1 = std::min(grid.width - 1, column(extent.max_x) + 1);
   const int r0 = std::max(0, row(extent.max_y) - 1), r1 = std::min(grid.height - 1, row(extent.min_y) + 1);
   if (c0 > c1 || r0 > r1) return std::nullopt;
+  // Past the area there is no DEM sample: holes, whatever the cells say.
+  const bool past_area = extent.min_x < grid.origin_x || extent.max_y > grid.origin_y ||
+                         extent.max_x > grid.origin_x + grid.width * grid.cell_w ||
+                         extent.min_y < grid.origin_y - grid.height * grid.cell_h;
   // A cell without fine detail (a hole: the backdrop's height) hides the
   // relief up to its neighbours, so its steps to them widen the range.
   const auto coarse = [&](int c, int r) { return std::isnan(heights.at(c, r)) || std::isnan(fine_low.at(c, r)); };
@@ -85,7 +97,7 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
     const float h = heights.at(c, r);
     return std::isnan(h) ? double(backdrop.at(c, r)) : double(h);
   };
-  bool any_sample = false, any_hole = false;
+  bool any_sample = false, any_hole = past_area;
   double low = height(c0, r0), high = low, step = 0, coarse_step = 0;
   for (int r = r0; r <= r1; ++r) {
     for (int c = c0; c <= c1; ++c) {

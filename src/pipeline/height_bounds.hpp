@@ -7,6 +7,7 @@
 // highest fine cell and the largest step between neighbouring fine cells,
 // so that a tile's range and its texels' steps come from the terrain's
 // detail rather than from the coarse means' steps.
+#include <memory>
 #include <optional>
 #include <vector>
 
@@ -40,7 +41,8 @@ class HeightBounds {
   // The heights of the terrain within `extent` (the scheme's CRS), from the
   // cells it touches and one more around them, in the first area where one
   // of those cells holds a DEM sample; nullopt when none does, so the tile
-  // there has none either.
+  // there has none either. Where the extent has holes (or reaches past the
+  // area), the backdrop's heights anywhere in it count too.
   std::optional<HeightRange> over(const Extent& extent) const;
 
  private:
@@ -55,6 +57,8 @@ class HeightBounds {
     std::optional<HeightRange> over(const Extent& extent) const;
   };
   std::vector<Area> m_areas;
+  std::shared_ptr<const dem::Backdrop> m_backdrop;
+  double m_scale = 1;  // heights.z_scale times exaggeration
 };
 
 }  // namespace terrabake::pipeline
