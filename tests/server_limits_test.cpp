@@ -324,6 +324,12 @@ TEST(ServeLimits, ASlowDownloadGoesOnAndAStalledOneIsClosed) {
 // within a second is a refusal, with room for a loaded test machine's stalls.
 constexpr double kRefusedAtOnceMs = 1000;
 
+// During a flood of requests for unbaked tiles, a 503 and a cached tile are
+// each answered from memory without waiting for a bake: sub-millisecond
+// work whose p99 stays under 20 ms on the loaded 2-core machine; 50 ms
+// leaves room for its stalls, where waiting for a bake would take seconds.
+constexpr double kAnsweredFromMemoryP99Ms = 50;
+
 TEST(ServeLimits, ConnectionsBeyondTheLimitAreRefusedAtOnce) {
   World world;
   world.config.max_connections = 16;
@@ -441,10 +447,11 @@ TEST(ServeLimits, AFloodOfTilesToBakeIsRefusedAtOnceWhileCachedTilesAnswer) {
   EXPECT_EQ(statuses[1200], waiting);
   EXPECT_EQ(counters.rejected, std::uint64_t(kFlood - waiting));
   EXPECT_TRUE(retry_after);
-  EXPECT_LT(percentile(refused_ms, 0.99), 50) << "p99 of the 503s, in ms";
+  EXPECT_LT(percentile(refused_ms, 0.99), kAnsweredFromMemoryP99Ms) << "p99 of the 503s, in ms";
   EXPECT_EQ(cached_wrong, 0);
   ASSERT_GE(cached_ms.size(), 10u) << "cached tiles asked during the flood";
-  EXPECT_LT(percentile(cached_ms, 0.99), 50) << "p99 of " << cached_ms.size() << " cached tiles during the flood, in ms";
+  EXPECT_LT(percentile(cached_ms, 0.99), kAnsweredFromMemoryP99Ms)
+      << "p99 of " << cached_ms.size() << " cached tiles during the flood, in ms";
 }
 
 TEST(ServeLimits, DuplicateRequestsShareOneBakeAndAreNotRefused) {
