@@ -7,11 +7,10 @@
 namespace terrabake::pipeline {
 namespace {
 
-// Each cell's lowest and highest fine cell, and the largest step from a fine
-// cell inside it to its east and south neighbours.
-void keepFineDetail(const Raster<float>& fine, double scale, Raster<float>& low, Raster<float>& high,
+// Each cell's lowest and highest fine cell (k x k of them a cell), and the
+// largest step from a fine cell inside it to its east and south neighbours.
+void keepFineDetail(const Raster<float>& fine, int k, double scale, Raster<float>& low, Raster<float>& high,
                     Raster<float>& step) {
-  const int k = HeightBounds::kFinePerCell;
   for (int fr = 0; fr < fine.height; ++fr) {
     for (int fc = 0; fc < fine.width; ++fc) {
       const float h = fine.at(fc, fr);
@@ -58,10 +57,22 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
     fine.cell_w = fine.cell_h = cell / kFinePerCell;
     fine.width = a.grid.width * kFinePerCell;
     fine.height = a.grid.height * kFinePerCell;
+    dem::ReadPlan fine_plan = reader.planFor(fine);
+    // A level too large for reduced levels is read decimated: sixteen times
+    // the coarse read's pixels of it would take seconds (18 s against 0.8 for
+    // 40960^2), so such a DEM keeps the coarse cells as their own detail.
+    const bool decimated = std::any_of(fine_plan.files.begin(), fine_plan.files.end(),
+                                       [](const dem::FilePlan& file) { return file.decimate > 1; });
     a.fine_low = Raster<float>(a.grid.width, a.grid.height, std::numeric_limits<float>::quiet_NaN());
     a.fine_high = a.fine_low;
     a.fine_step = Raster<float>(a.grid.width, a.grid.height, 0.0f);
-    keepFineDetail(reader.read(fine, reader.planFor(fine)), scale, a.fine_low, a.fine_high, a.fine_step);
+    if (decimated) {
+      a.fine_per_cell = 1;
+      keepFineDetail(a.heights, 1, 1.0, a.fine_low, a.fine_high, a.fine_step);  // already scaled
+    } else {
+      a.fine_per_cell = kFinePerCell;
+      keepFineDetail(reader.read(fine, fine_plan), kFinePerCell, scale, a.fine_low, a.fine_high, a.fine_step);
+    }
   }
 }
 
@@ -121,7 +132,7 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
   }
   if (!any_sample) return std::nullopt;
   const double hidden = std::max(step, coarse_step);
-  return HeightRange{low - hidden, high + hidden, step, any_hole, grid.cell_w / kFinePerCell};
+  return HeightRange{low - hidden, high + hidden, step, any_hole, grid.cell_w / fine_per_cell};
 }
 
 }  // namespace terrabake::pipeline

@@ -30,7 +30,8 @@ class HeightBounds {
   // Cells along the longer side of each of the layer's areas: one read of
   // 512 x 512 costs about what a few tiles' reads do, and at the deepest
   // zooms of a small DEM a cell is a few tiles across. The fine read, 2048 x
-  // 2048, is kept only as each cell's lowest, highest and largest step.
+  // 2048, is kept only as each cell's lowest, highest and largest step; a
+  // DEM whose fine read would be decimated (see dem::FilePlan) skips it.
   static constexpr int kCells = 512;
   static constexpr int kFinePerCell = 4;
 
@@ -54,6 +55,7 @@ class HeightBounds {
     Raster<float> fine_low;   // the lowest fine cell inside; NaN where none has a sample
     Raster<float> fine_high;  // the highest
     Raster<float> fine_step;  // the largest step between fine neighbours from inside (0 where none)
+    int fine_per_cell = kFinePerCell;  // 1 where the fine read would be too slow (the coarse cells alone)
     std::optional<HeightRange> over(const Extent& extent) const;
   };
   std::vector<Area> m_areas;
