@@ -122,6 +122,28 @@ TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
   RecordProperty("loosest_ceiling_m", std::to_string(walk.loosest_ceiling_m));
 }
 
+// A tiling.bbox inside the DEM: the tiles along the box's edge read the
+// terrain past it, which a region must hold too, and with no hole fill
+// (max_fill_px 0) nothing else widens their range.
+TEST(ServeOnDemandTileset, RegionsHoldTheTerrainPastABboxEdge) {
+  const fs::path dir = caseDir();
+  config::ServeConfig config = fakeConfig(dir);
+  const fs::path job = dir / "box.yaml";
+  writeText(job, "dem: " + (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string() +
+                     "\noutput:\n  layer: box\n  tileset: true\ntiling:\n  zoom: [12, 14]\n  tile_size: 64\n"
+                     "  bbox: [9.95, 46.45, 10.05, 46.55]\nnodata:\n  max_fill_px: 0\n"
+                     "bake:\n  backend: cpu\n  workers: 2\n");
+  config.layer_jobs = {job.string()};
+  ServerThread running(config);
+  TilesetWalk walk(fs::path(config.tiles_dir) / "box", 14, [&](const std::string& path) -> std::optional<std::string> {
+    const auto reply = get(running.port(), "/box/" + path);
+    if (!reply || reply->status != 200) return std::nullopt;
+    return reply->body;
+  });
+  walk.run();  // every baked mesh inside its tile's region
+  EXPECT_GT(walk.meshes_seen.size(), 20u);
+}
+
 // The first external tileset a tileset's tile names, depth first.
 std::optional<std::string> firstExternal(const Json& tile) {
   if (tile.contains("content")) {

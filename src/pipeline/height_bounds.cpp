@@ -2,20 +2,29 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
+#include <vector>
+
+#include "pipeline/zoom_choice.hpp"
 
 namespace terrabake::pipeline {
 namespace {
 
-// Each cell's lowest and highest fine cell (k x k of them a cell), and the
-// largest step from a fine cell inside it to its east and south neighbours.
+// Each cell's lowest and highest fine cell (k x k of them a cell), the
+// largest step from a fine cell inside it to its east and south neighbours,
+// and whether a fine cell inside it is a void (a hole the bake fills, which
+// a cell's mean over mostly data hides).
 void keepFineDetail(const Raster<float>& fine, int k, double scale, Raster<float>& low, Raster<float>& high,
-                    Raster<float>& step) {
+                    Raster<float>& step, Raster<std::uint8_t>& voids) {
   for (int fr = 0; fr < fine.height; ++fr) {
     for (int fc = 0; fc < fine.width; ++fc) {
       const float h = fine.at(fc, fr);
-      if (std::isnan(h)) continue;
       const int c = fc / k, r = fr / k;
+      if (std::isnan(h)) {
+        voids.at(c, r) = 1;
+        continue;
+      }
       const float m = float(h * scale);
       low.at(c, r) = std::isnan(low.at(c, r)) ? m : std::min(low.at(c, r), m);
       high.at(c, r) = std::isnan(high.at(c, r)) ? m : std::max(high.at(c, r), m);
@@ -31,12 +40,32 @@ void keepFineDetail(const Raster<float>& fine, int k, double scale, Raster<float
   }
 }
 
+// The plan's areas, each as far as the DEM reaches under its tiles: a
+// tiling.bbox cuts an area, but the tiles along its edge read the DEM past
+// it, up to a tile of the shallowest zoom further.
+std::vector<Extent> areasUnderTiles(const LayerPlan& plan) {
+  std::vector<Extent> areas = plan.areas;
+  if (areas.size() != 1) return areas;  // across the antimeridian: the plan's own sides
+  const Extent dem_area = demAreas(*plan.scheme, *plan.dem).front();
+  const Extent& area = areas.front();
+  if (area.min_x == dem_area.min_x && area.min_y == dem_area.min_y && area.max_x == dem_area.max_x &&
+      area.max_y == dem_area.max_y) {
+    return areas;
+  }
+  const tiling::TileRange range = plan.scheme->rangeCovering(area, plan.min_zoom);
+  const Extent tile = plan.scheme->tileExtent(plan.scheme->tileAt(range, 0));
+  const Extent grown{area.min_x - tile.width(), area.min_y - tile.height(), area.max_x + tile.width(),
+                     area.max_y + tile.height()};
+  areas.front() = dem_area.intersection(grown);
+  return areas;
+}
+
 }  // namespace
 
 HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m_scale(plan.settings.height_scale) {
   const dem::DemSource reader = plan.dem->reader();
   const double scale = m_scale;
-  for (const Extent& area : plan.areas) {
+  for (const Extent& area : areasUnderTiles(plan)) {
     Area& a = m_areas.emplace_back();
     const double cell = std::max(area.width(), area.height()) / kCells;
     a.grid.crs = plan.scheme->crs();
@@ -66,12 +95,14 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
     a.fine_low = Raster<float>(a.grid.width, a.grid.height, std::numeric_limits<float>::quiet_NaN());
     a.fine_high = a.fine_low;
     a.fine_step = Raster<float>(a.grid.width, a.grid.height, 0.0f);
+    a.fine_voids = Raster<std::uint8_t>(a.grid.width, a.grid.height, 0);
     if (decimated) {
       a.fine_per_cell = 1;
-      keepFineDetail(a.heights, 1, 1.0, a.fine_low, a.fine_high, a.fine_step);  // already scaled
+      keepFineDetail(a.heights, 1, 1.0, a.fine_low, a.fine_high, a.fine_step, a.fine_voids);  // already scaled
     } else {
       a.fine_per_cell = kFinePerCell;
-      keepFineDetail(reader.read(fine, fine_plan), kFinePerCell, scale, a.fine_low, a.fine_high, a.fine_step);
+      keepFineDetail(reader.read(fine, fine_plan), kFinePerCell, scale, a.fine_low, a.fine_high, a.fine_step,
+                     a.fine_voids);
     }
   }
 }
@@ -97,7 +128,8 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
   const int c0 = std::max(0, column(extent.min_x) - 1), c1 = std::min(grid.width - 1, column(extent.max_x) + 1);
   const int r0 = std::max(0, row(extent.max_y) - 1), r1 = std::min(grid.height - 1, row(extent.min_y) + 1);
   if (c0 > c1 || r0 > r1) return std::nullopt;
-  // Past the area there is no DEM sample: holes, whatever the cells say.
+  // Past the grid (the DEM as far as it lies under the tiles) there is no
+  // DEM sample: holes, whatever the cells say.
   const bool past_area = extent.min_x < grid.origin_x || extent.max_y > grid.origin_y ||
                          extent.max_x > grid.origin_x + grid.width * grid.cell_w ||
                          extent.min_y < grid.origin_y - grid.height * grid.cell_h;
@@ -112,8 +144,8 @@ std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const 
   double low = height(c0, r0), high = low, step = 0, coarse_step = 0;
   for (int r = r0; r <= r1; ++r) {
     for (int c = c0; c <= c1; ++c) {
-      any_sample = any_sample || !std::isnan(heights.at(c, r));
-      any_hole = any_hole || std::isnan(heights.at(c, r));
+      any_sample = any_sample || !std::isnan(heights.at(c, r)) || !std::isnan(fine_low.at(c, r));
+      any_hole = any_hole || std::isnan(heights.at(c, r)) || fine_voids.at(c, r);
       const double h = height(c, r);
       low = std::min(low, h);
       high = std::max(high, h);

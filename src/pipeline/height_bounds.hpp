@@ -7,6 +7,7 @@
 // highest fine cell and the largest step between neighbouring fine cells,
 // so that a tile's range and its texels' steps come from the terrain's
 // detail rather than from the coarse means' steps.
+#include <cstdint>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -55,6 +56,7 @@ class HeightBounds {
     Raster<float> fine_low;   // the lowest fine cell inside; NaN where none has a sample
     Raster<float> fine_high;  // the highest
     Raster<float> fine_step;  // the largest step between fine neighbours from inside (0 where none)
+    Raster<std::uint8_t> fine_voids;  // 1 where a fine cell inside is a void
     int fine_per_cell = kFinePerCell;  // 1 where the fine read would be too slow (the coarse cells alone)
     std::optional<HeightRange> over(const Extent& extent) const;
   };

@@ -106,8 +106,11 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
   double skirt_m = 0;
   if (settings.skirts) {
     // skirtDepthM: the zoom's and the coarser zoom's bound (a grid's: four
-    // times its distance) and two texels on the ground.
-    skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m;
+    // times its distance) and two texels across the ground, measured between
+    // samples at their heights, where a texel spans (R + h) / R of its ground
+    // size (twice that share here, for the frame's tilt away from the middle).
+    const double at_height = 1 + 2 * std::max(0.0, high_m) / geo::kMinCurvatureRadiusM;
+    skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m * at_height;
   }
   const double sag_m = geo::chordSagM(longest_edge_m);
   const double bow_rad = geo::chordBowRad(longest_edge_m);
