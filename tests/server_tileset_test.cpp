@@ -28,15 +28,35 @@ using Json = nlohmann::json;
 constexpr int kMinZoom = 8, kMaxZoom = 14;
 static_assert(kMaxZoom - kMinZoom >= io::kTilesetLevelsPerFile);
 
+// A serve config whose one on-demand layer is `layer`, made by the job
+// file text `job` (which names the layer too).
+config::ServeConfig onDemandConfig(const fs::path& dir, const std::string& layer, const std::string& job) {
+  config::ServeConfig config = fakeConfig(dir);
+  const fs::path file = dir / (layer + ".yaml");
+  writeText(file, job);
+  config.layer_jobs = {file.string()};
+  return config;
+}
+
 // The on-demand layer "live" over the small DEM, with output.tileset as given.
 config::ServeConfig liveConfig(const fs::path& dir, bool tileset) {
-  config::ServeConfig config = fakeConfig(dir);
-  const fs::path job = dir / "live.yaml";
-  writeText(job, "dem: " + smallDem().string() + "\noutput:\n  layer: live\n  tileset: " +
-                     (tileset ? "true" : "false") + "\ntiling:\n  zoom: [" + std::to_string(kMinZoom) + ", " +
-                     std::to_string(kMaxZoom) + "]\n  tile_size: 32\nbake:\n  backend: cpu\n  workers: 2\n");
-  config.layer_jobs = {job.string()};
-  return config;
+  return onDemandConfig(dir, "live",
+                        "dem: " + smallDem().string() + "\noutput:\n  layer: live\n  tileset: " +
+                            (tileset ? "true" : "false") + "\ntiling:\n  zoom: [" + std::to_string(kMinZoom) + ", " +
+                            std::to_string(kMaxZoom) + "]\n  tile_size: 32\nbake:\n  backend: cpu\n  workers: 2\n");
+}
+
+// A walk of a served layer's tileset as a viewer fetches it over HTTP; an
+// on-demand layer bakes each content it names when asked for it.
+TilesetWalk httpWalk(const ServerThread& running, const config::ServeConfig& config, const std::string& layer,
+                     int deepest_zoom) {
+  const int port = running.port();
+  return TilesetWalk(fs::path(config.tiles_dir) / layer, deepest_zoom,
+                     [port, layer](const std::string& path) -> std::optional<std::string> {
+                       const auto reply = get(port, "/" + layer + "/" + path);
+                       if (!reply || reply->status != 200) return std::nullopt;
+                       return reply->body;
+                     });
 }
 
 TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
@@ -52,11 +72,7 @@ TEST(ServeOnDemandTileset, EveryTileBakesWhereTheTilesetPutsIt) {
       << "the tileset is planned without baking a tile";
 
   const fs::path layer = fs::path(config.tiles_dir) / "live";
-  TilesetWalk walk(layer, kMaxZoom, [&](const std::string& path) -> std::optional<std::string> {
-    const auto reply = get(running.port(), "/live/" + path);
-    if (!reply || reply->status != 200) return std::nullopt;
-    return reply->body;
-  });
+  TilesetWalk walk = httpWalk(running, config, "live", kMaxZoom);
   walk.run();
   EXPECT_GT(walk.external_tilesets, 0) << "seven levels continue in external tilesets";
   EXPECT_EQ(walk.deepest_leaf_errors_nonzero, 0) << "the deepest zoom's tiles are the terrain itself";
@@ -103,19 +119,13 @@ fs::path slopingHillsWithAVoid() {
 }
 
 TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
-  const fs::path dir = caseDir();
-  config::ServeConfig config = fakeConfig(dir);
-  const fs::path job = dir / "plane.yaml";
-  writeText(job, "dem: " + slopingHillsWithAVoid().string() +
-                     "\noutput:\n  layer: plane\n  tileset: true\ntiling:\n  zoom: [13, 15]\n  tile_size: 64\n"
-                     "bake:\n  backend: cpu\n  workers: 2\n");
-  config.layer_jobs = {job.string()};
+  const config::ServeConfig config =
+      onDemandConfig(caseDir(), "hills",
+                     "dem: " + slopingHillsWithAVoid().string() +
+                         "\noutput:\n  layer: hills\n  tileset: true\ntiling:\n  zoom: [13, 15]\n  tile_size: 64\n"
+                         "bake:\n  backend: cpu\n  workers: 2\n");
   ServerThread running(config);
-  TilesetWalk walk(fs::path(config.tiles_dir) / "plane", 15, [&](const std::string& path) -> std::optional<std::string> {
-    const auto reply = get(running.port(), "/plane/" + path);
-    if (!reply || reply->status != 200) return std::nullopt;
-    return reply->body;
-  });
+  TilesetWalk walk = httpWalk(running, config, "hills", 15);
   walk.run();  // every baked mesh inside its tile's region
   EXPECT_GT(walk.meshes_seen.size(), 150u);
   RecordProperty("loosest_floor_m", std::to_string(walk.loosest_floor_m));
@@ -126,20 +136,14 @@ TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
 // terrain past it, which a region must hold too, and with no hole fill
 // (max_fill_px 0) nothing else widens their range.
 TEST(ServeOnDemandTileset, RegionsHoldTheTerrainPastABboxEdge) {
-  const fs::path dir = caseDir();
-  config::ServeConfig config = fakeConfig(dir);
-  const fs::path job = dir / "box.yaml";
-  writeText(job, "dem: " + (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string() +
-                     "\noutput:\n  layer: box\n  tileset: true\ntiling:\n  zoom: [12, 14]\n  tile_size: 64\n"
-                     "  bbox: [9.95, 46.45, 10.05, 46.55]\nnodata:\n  max_fill_px: 0\n"
-                     "bake:\n  backend: cpu\n  workers: 2\n");
-  config.layer_jobs = {job.string()};
+  const config::ServeConfig config =
+      onDemandConfig(caseDir(), "box",
+                     "dem: " + (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string() +
+                         "\noutput:\n  layer: box\n  tileset: true\ntiling:\n  zoom: [12, 14]\n  tile_size: 64\n"
+                         "  bbox: [9.95, 46.45, 10.05, 46.55]\nnodata:\n  max_fill_px: 0\n"
+                         "bake:\n  backend: cpu\n  workers: 2\n");
   ServerThread running(config);
-  TilesetWalk walk(fs::path(config.tiles_dir) / "box", 14, [&](const std::string& path) -> std::optional<std::string> {
-    const auto reply = get(running.port(), "/box/" + path);
-    if (!reply || reply->status != 200) return std::nullopt;
-    return reply->body;
-  });
+  TilesetWalk walk = httpWalk(running, config, "box", 14);
   walk.run();  // every baked mesh inside its tile's region
   EXPECT_GT(walk.meshes_seen.size(), 20u);
 }
