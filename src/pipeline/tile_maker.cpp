@@ -307,8 +307,8 @@ struct TileMaker::Impl {
   // error bounds (a grid mesh has none: four times its own distance, as the
   // error grows with the square of a cell's size), plus one texel of the
   // coarser zoom, by which the two zooms' samples of the terrain differ:
-  // two of this zoom's texels on the ground at the tile's middle, which a
-  // planned tileset bounds from the tile's extent alone.
+  // two of this zoom's texels, the horizontal distance between the tile's
+  // middle samples, which a planned tileset bounds from the tile's extent.
   double skirtDepthM(const TileId& tile, const mesh::SampleGrid& samples, double max_error_m) const {
     const int mid = samples.apron + samples.tile_size / 2;
     const glm::dvec3 east = samples.position.at(mid + 1, mid) - samples.position.at(mid, mid);
