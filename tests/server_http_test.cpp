@@ -14,6 +14,7 @@
 #include <atomic>
 #include <cstdint>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <optional>
 #include <set>
@@ -177,6 +178,27 @@ TEST(ServeHttp, StaticTilesWithTypesValidatorsAndCaching) {
     EXPECT_EQ(head->get_header_value("ETag"), etag);
     EXPECT_EQ(head->get_header_value("Content-Length"), std::to_string(reply->body.size()));
   }
+}
+
+// Tile files are renamed into place without a sync, so a power cut may
+// leave one empty: that is no tile, and an on-demand layer bakes it again.
+TEST(ServeHttp, AnEmptyTileFileIsNoTile) {
+  const Case c = makeCase();
+  const TileId tile = c.someTile();
+  const fs::path static_png = c.tiles / "static" / (tile.str() + ".png");
+  const std::string made = readBytes(static_png);
+  std::ofstream(static_png, std::ios::trunc).close();
+  const fs::path live_png = c.tiles / "live" / (tile.str() + ".png");
+  fs::create_directories(live_png.parent_path());
+  std::ofstream(live_png).close();
+  ServerThread running(c.config);
+
+  EXPECT_EQ(statusOf(running.port(), tileUrl("static", tile, "png")), 404);
+  const auto baked = get(running.port(), tileUrl("live", tile, "png"));
+  ASSERT_TRUE(baked);
+  EXPECT_EQ(baked->status, 200);
+  EXPECT_EQ(baked->body, made) << "baked again, with the bytes a batch run writes";
+  EXPECT_EQ(readBytes(live_png), made);
 }
 
 TEST(ServeHttp, HeadSendsHeadersOnly) {

@@ -43,6 +43,9 @@ TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const
   }
   std::optional<FileContent> file = m_folder.read(io::relativeTilePath(tile, format));
   if (!file) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
+  // A power cut can leave a renamed tile file empty (files are not synced);
+  // `terrabake tile --resume` makes it again. It is no tile until then.
+  if (file->bytes.empty()) return {TileAnswer::Status::kNotFound, nullptr, "an empty tile file"};
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
 }
 

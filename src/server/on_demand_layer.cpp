@@ -107,7 +107,10 @@ TileAnswer OnDemandLayer::tile(const TileId& tile, io::TileFormat format, const 
   BakeQueue::Ticket ticket;
   do {
     const std::uint64_t finished = m_queue.finishedCount();
-    if (std::optional<FileContent> file = m_folder.read(relative)) {
+    // An empty file (a power cut after its rename) is baked again, as
+    // `terrabake tile --resume` would.
+    std::optional<FileContent> file = m_folder.read(relative);
+    if (file && !file->bytes.empty()) {
       return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(*file)), {}};
     }
     if (format == io::TileFormat::kHighResGlb && !m_high_res_mesh) {
