@@ -38,12 +38,20 @@ config::ServeConfig onDemandConfig(const fs::path& dir, const std::string& layer
   return config;
 }
 
+// A tile job's text: `dem` into the layer `layer`, zooms `min_zoom` to
+// `max_zoom` in tiles of `tile_size`, `more_tiling` lines under tiling:,
+// then `more` (whole sections), baked on the CPU by two workers.
+std::string jobText(const fs::path& dem, const std::string& layer, bool tileset, int min_zoom, int max_zoom,
+                    int tile_size, const std::string& more_tiling = "", const std::string& more = "") {
+  return "dem: " + dem.string() + "\noutput:\n  layer: " + layer + "\n  tileset: " + (tileset ? "true" : "false") +
+         "\ntiling:\n  zoom: [" + std::to_string(min_zoom) + ", " + std::to_string(max_zoom) +
+         "]\n  tile_size: " + std::to_string(tile_size) + "\n" + more_tiling + more +
+         "bake:\n  backend: cpu\n  workers: 2\n";
+}
+
 // The on-demand layer "live" over the small DEM, with output.tileset as given.
 config::ServeConfig liveConfig(const fs::path& dir, bool tileset) {
-  return onDemandConfig(dir, "live",
-                        "dem: " + smallDem().string() + "\noutput:\n  layer: live\n  tileset: " +
-                            (tileset ? "true" : "false") + "\ntiling:\n  zoom: [" + std::to_string(kMinZoom) + ", " +
-                            std::to_string(kMaxZoom) + "]\n  tile_size: 32\nbake:\n  backend: cpu\n  workers: 2\n");
+  return onDemandConfig(dir, "live", jobText(smallDem(), "live", tileset, kMinZoom, kMaxZoom, 32));
 }
 
 // A walk of a served layer's tileset as a viewer fetches it over HTTP; an
@@ -120,10 +128,7 @@ fs::path slopingHillsWithAVoid() {
 
 TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
   const config::ServeConfig config =
-      onDemandConfig(caseDir(), "hills",
-                     "dem: " + slopingHillsWithAVoid().string() +
-                         "\noutput:\n  layer: hills\n  tileset: true\ntiling:\n  zoom: [13, 15]\n  tile_size: 64\n"
-                         "bake:\n  backend: cpu\n  workers: 2\n");
+      onDemandConfig(caseDir(), "hills", jobText(slopingHillsWithAVoid(), "hills", true, 13, 15, 64));
   ServerThread running(config);
   TilesetWalk walk = httpWalk(running, config, "hills", 15);
   walk.run();  // every baked mesh inside its tile's region
@@ -136,12 +141,11 @@ TEST(ServeOnDemandTileset, RegionsHoldTheMeshesPastTheDemsEdgeAndOverItsVoids) {
 // terrain past it, which a region must hold too, and with no hole fill
 // (max_fill_px 0) nothing else widens their range.
 TEST(ServeOnDemandTileset, RegionsHoldTheTerrainPastABboxEdge) {
+  const fs::path sample = fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif";
   const config::ServeConfig config =
       onDemandConfig(caseDir(), "box",
-                     "dem: " + (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string() +
-                         "\noutput:\n  layer: box\n  tileset: true\ntiling:\n  zoom: [12, 14]\n  tile_size: 64\n"
-                         "  bbox: [9.95, 46.45, 10.05, 46.55]\nnodata:\n  max_fill_px: 0\n"
-                         "bake:\n  backend: cpu\n  workers: 2\n");
+                     jobText(sample, "box", true, 12, 14, 64, "  bbox: [9.95, 46.45, 10.05, 46.55]\n",
+                             "nodata:\n  max_fill_px: 0\n"));
   ServerThread running(config);
   TilesetWalk walk = httpWalk(running, config, "box", 14);
   walk.run();  // every baked mesh inside its tile's region

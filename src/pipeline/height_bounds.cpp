@@ -6,8 +6,6 @@
 #include <limits>
 #include <vector>
 
-#include "pipeline/zoom_choice.hpp"
-
 namespace terrabake::pipeline {
 namespace {
 
@@ -46,17 +44,13 @@ void keepFineDetail(const Raster<float>& fine, int k, double scale, Raster<float
 std::vector<Extent> areasUnderTiles(const LayerPlan& plan) {
   std::vector<Extent> areas = plan.areas;
   if (areas.size() != 1) return areas;  // across the antimeridian: the plan's own sides
-  const Extent dem_area = demAreas(*plan.scheme, *plan.dem).front();
   const Extent& area = areas.front();
-  if (area.min_x == dem_area.min_x && area.min_y == dem_area.min_y && area.max_x == dem_area.max_x &&
-      area.max_y == dem_area.max_y) {
-    return areas;
-  }
   const tiling::TileRange range = plan.scheme->rangeCovering(area, plan.min_zoom);
   const Extent tile = plan.scheme->tileExtent(plan.scheme->tileAt(range, 0));
   const Extent grown{area.min_x - tile.width(), area.min_y - tile.height(), area.max_x + tile.width(),
                      area.max_y + tile.height()};
-  areas.front() = dem_area.intersection(grown);
+  // Without a bbox the area is the DEM's, and this gives it back.
+  areas.front() = plan.dem_area.intersection(grown);
   return areas;
 }
 
@@ -64,7 +58,6 @@ std::vector<Extent> areasUnderTiles(const LayerPlan& plan) {
 
 HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m_scale(plan.settings.height_scale) {
   const dem::DemSource reader = plan.dem->reader();
-  const double scale = m_scale;
   for (const Extent& area : areasUnderTiles(plan)) {
     Area& a = m_areas.emplace_back();
     const double cell = std::max(area.width(), area.height()) / kCells;
@@ -78,8 +71,8 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
     a.backdrop = Raster<float>(a.grid.width, a.grid.height);
     for (int r = 0; r < a.grid.height; ++r) {
       for (int c = 0; c < a.grid.width; ++c) {
-        a.heights.at(c, r) = float(a.heights.at(c, r) * scale);
-        a.backdrop.at(c, r) = float(plan.backdrop->heightAt(a.grid.centreX(c), a.grid.centreY(r)) * scale);
+        a.heights.at(c, r) = float(a.heights.at(c, r) * m_scale);
+        a.backdrop.at(c, r) = float(plan.backdrop->heightAt(a.grid.centreX(c), a.grid.centreY(r)) * m_scale);
       }
     }
     GridSpec fine = a.grid;
@@ -101,7 +94,7 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
       keepFineDetail(a.heights, 1, 1.0, a.fine_low, a.fine_high, a.fine_step, a.fine_voids);  // already scaled
     } else {
       a.fine_per_cell = kFinePerCell;
-      keepFineDetail(reader.read(fine, fine_plan), kFinePerCell, scale, a.fine_low, a.fine_high, a.fine_step,
+      keepFineDetail(reader.read(fine, fine_plan), kFinePerCell, m_scale, a.fine_low, a.fine_high, a.fine_step,
                      a.fine_voids);
     }
   }

@@ -186,6 +186,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   // The native grid is the DEM's own, one area whatever the longitudes.
   const bool across = plan.scheme->kind() != SchemeKind::kNative && (dem_areas.size() > 1 || lon_lat.size() > 1);
   const Extent dem_area = dem_areas.front();
+  plan.dem_area = dem_area;
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);

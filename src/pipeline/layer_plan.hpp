@@ -51,6 +51,7 @@ struct LayerPlan {
   int min_zoom = 0;  // the job's zooms, "auto" resolved
   int max_zoom = 0;
   Extent area;  // what the run covers in the scheme's CRS: the DEM's extent, within tiling.bbox
+  Extent dem_area;  // the DEM's extent in the scheme's CRS, which tiles along a bbox's edge read past it
   // The same as one or more boxes: two for a DEM across the antimeridian,
   // one each side, so the run makes only the tiles it covers.
   std::vector<Extent> areas;
