@@ -23,6 +23,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "child_process.hpp"
 #include "test_helpers.hpp"
 
@@ -841,6 +843,15 @@ TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
       east = east || name.rfind("12/0/", 0) == 0;
     }
     EXPECT_TRUE(west && east) << scheme << ": " << describe(r);
+    // tilejson's bounds cross the antimeridian as TileJSON writes it: west
+    // above east, and the centre half way along, wrapped.
+    const auto tilejson = nlohmann::json::parse(test::readBytes(dir / scheme / "across" / "tilejson.json"));
+    const double span = kHillPixels * kHillPixelDeg;
+    EXPECT_NEAR(tilejson.at("bounds").at(0).get<double>(), 179.9, 1e-9) << scheme;
+    EXPECT_NEAR(tilejson.at("bounds").at(1).get<double>(), 50 - span, 1e-9) << scheme;
+    EXPECT_NEAR(tilejson.at("bounds").at(2).get<double>(), 179.9 + span - 360, 1e-9) << scheme;
+    EXPECT_NEAR(tilejson.at("bounds").at(3).get<double>(), 50, 1e-9) << scheme;
+    EXPECT_NEAR(tilejson.at("center").at(0).get<double>(), 179.9 + span / 2 - 360, 1e-9) << scheme;
   }
   // The native grid is the DEM's own, one area: its zoom 0 is one tile (the
   // plan once took the two pieces of the lon/lat cover, which native tiling
