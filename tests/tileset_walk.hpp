@@ -25,6 +25,7 @@
 #include "core/types.hpp"
 #include "io/tileset.hpp"
 #include "support/glb_reader.hpp"
+#include "test_helpers.hpp"
 
 namespace terrabake::test {
 
@@ -36,6 +37,11 @@ constexpr double kTransformToleranceM = 1e-3;
 // 1.6e-10 rad on the ground.
 constexpr double kRegionToleranceRad = 1e-9;
 constexpr double kRegionToleranceM = 2e-3;
+// A texel's ground size from a mesh's span of longitudes, on a sphere of the
+// earth's mean radius: the mesh's vertices reach the tile's edges, and the
+// ellipsoid's radius of curvature differs from the mean by under 0.5 %.
+constexpr double kMeanEarthRadiusM = 6371008.8;
+constexpr double kTexelSizeRelative = 0.005;
 
 // The tiles whose low-poly .glb lies in a layer folder ({z}/{x}/{y}.glb).
 inline std::set<TileId> meshesOnDisk(const std::filesystem::path& layer) {
@@ -204,6 +210,28 @@ class TilesetWalk {
     EXPECT_LT(worst_m, kTransformToleranceM) << relative << ": the composed transforms miss enu_to_ecef";
     EXPECT_TRUE(inside(region, seen)) << relative << ": a vertex lies outside the tile's region";
     heights.add({seen.low, seen.high});
+    // A tile with children states at least the mesh's own distance to the
+    // samples and the ground size of its widest texel: the mesh's span of
+    // longitudes where it lies nearest the equator, over the texels a side.
+    if (!tile.contains("children") || tile.at("children").empty()) return;
+    const double error = tile.at("geometricError").get<double>();
+    const double mesh_error_m = mesh.json.at("asset").at("extras").at("terrabake").at("max_error_m").get<double>();
+    const double widest_cos = seen.south <= 0 && seen.north >= 0
+                                  ? 1.0
+                                  : std::max(std::cos(seen.south), std::cos(seen.north));
+    const double texel_m = (seen.east - seen.west) * widest_cos * kMeanEarthRadiusM / pngWidth(m_layer / relative);
+    EXPECT_GE(error, mesh_error_m) << relative << ": geometricError under the mesh's own distance";
+    EXPECT_GE(error, texel_m * (1 - kTexelSizeRelative)) << relative << ": geometricError under a texel's size";
+  }
+
+  // The width of the normal map beside a .glb, from its PNG header.
+  static int pngWidth(std::filesystem::path glb) {
+    const std::string bytes = readBytes(glb.replace_extension(".png"));
+    EXPECT_GE(bytes.size(), 24u) << glb;
+    if (bytes.size() < 24) return 1;
+    int width = 0;
+    for (int k = 16; k < 20; ++k) width = width * 256 + static_cast<unsigned char>(bytes[std::size_t(k)]);
+    return width;
   }
 
   std::filesystem::path m_layer;
