@@ -5,9 +5,11 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <map>
+#include <set>
 #include <vector>
 
 #include "layer_check.hpp"
@@ -77,6 +79,13 @@ struct Place {
   double edge_texels = 0;
 };
 
+// GDAL's transformer is interpolated on a lattice: within this much of the
+// DEM's edge a texel centre may fall on either side.
+constexpr double kEdgeAmbiguityTexels = 1e-3;
+// A texel centre this near a triangle's edge counts as on it: float32 UVs
+// round by 1e-5 texels in these tiles, and the contract counts the edge in.
+constexpr double kOnTriangleEdgeTexels = 1e-4;
+
 // A layer of the edge DEM read back, every texel placed against the DEM.
 class EdgeLayer {
  public:
@@ -91,13 +100,13 @@ class EdgeLayer {
     double height(int i, int j) const { return high.position[std::size_t(j) * (size() + 1) + i].y; }
   };
 
-  explicit EdgeLayer(const config::TileJob& job) : m_geometry(edgeDem()) {
-    const auto layer = test::layerDir(job);
+  explicit EdgeLayer(const config::TileJob& job) : m_layer(test::layerDir(job)), m_geometry(edgeDem()) {
+    const auto& layer = m_layer;
     const int zoom = job.min_zoom;
     for (const auto& column : std::filesystem::directory_iterator(layer / std::to_string(zoom))) {
       const int x = std::stoi(column.path().filename().string());
       for (const auto& file : std::filesystem::directory_iterator(column.path())) {
-        if (file.path().extension() != ".png") continue;
+        if (file.path().extension() != ".png" || file.path().stem().has_extension()) continue;  // not {y}.elevation.png
         const TileId id{zoom, x, std::stoi(file.path().stem().string())};
         const auto base = layer / std::to_string(zoom) / std::to_string(x) / file.path().stem();
         Tile tile{test::readTile(layer, id), ts::readGlb(base.string() + ".hires.glb", false), {}};
@@ -112,6 +121,11 @@ class EdgeLayer {
 
   const std::map<TileId, Tile>& tiles() const { return m_tiles; }
 
+  // The bytes of one of the layer's files beside tile `id`'s ("{y}" + suffix).
+  std::string fileBeside(const TileId& id, const std::string& suffix) const {
+    return test::readBytes(m_layer / std::to_string(id.z) / std::to_string(id.x) / (std::to_string(id.y) + suffix));
+  }
+
   // A point of a tile in texel coordinates (texel (i, j)'s centre at (i, j)).
   Place place(const TileId& tile, int size, double i, double j) const {
     const glm::dvec2 px = m_geometry.pixelOf(test::webMercatorTexelLonLat(tile, size, i, j));
@@ -121,6 +135,7 @@ class EdgeLayer {
   }
 
  private:
+  std::filesystem::path m_layer;
   test::DemGeometry m_geometry;
   std::map<TileId, Tile> m_tiles;
 };
@@ -129,7 +144,9 @@ config::TileJob edgeJob(const std::string& name, int zoom, NodataSurface surface
   config::TileJob job = test::tileJob(edgeDem(), "dem_edge/" + name, SchemeKind::kWebMercator, zoom, zoom);
   job.bits = 16;
   job.high_res_mesh = true;
+  job.elevation = Elevation::kTerrarium;  // cut's are continue's (docs/CONTRACT.md §3)
   job.nodata_surface = surface;
+  std::filesystem::remove_all(test::layerDir(job));  // each run bakes it afresh, whatever an earlier build left
   return job;
 }
 
@@ -271,15 +288,65 @@ INSTANTIATE_TEST_SUITE_P(InterpolatedAndAveraged, DemEdge, ::testing::Values(kIn
 
 // The cut's alpha is judged where texels are as fine as the pixels, where a
 // texel has data exactly when its centre lies on the DEM.
+// With `cut`, the low-poly mesh keeps `continue`'s vertices, and its index
+// buffer keeps exactly the triangles that hold a texel centre with data (on
+// their edges included) or have a vertex in the square of a texel with data
+// (docs/CONTRACT.md §5): judged from the DEM's own geometry, texels whose
+// centre lies too near the DEM's edge to tell (kEdgeAmbiguityTexels) aside.
+void expectCutKeepsTheContractsTriangles(const TileId& id, const EdgeLayer::Tile& cut,
+                                         const EdgeLayer::Tile& continued) {
+  const ts::GlbMesh& mesh = cut.decoded.glb;
+  const ts::GlbMesh& full = continued.decoded.glb;
+  ASSERT_EQ(mesh.position, full.position) << id.str() << ": cut moved or dropped vertices";
+  std::set<std::array<std::uint32_t, 3>> kept;
+  for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+    kept.insert({mesh.indices[t], mesh.indices[t + 1], mesh.indices[t + 2]});
+  }
+  const int size = cut.size();
+  // Texel (i, j): +1 data, -1 none, 0 too near the DEM's edge to tell.
+  auto data = [&](int i, int j) {
+    if (i < 0 || j < 0 || i >= size || j >= size) return -1;  // another tile's texel: not this tile's data
+    const Place& p = cut.at(i, j);
+    return p.edge_texels < kEdgeAmbiguityTexels ? 0 : p.has_data ? 1 : -1;
+  };
+  int judged = 0;
+  for (std::size_t t = 0; t + 2 < full.indices.size(); t += 3) {
+    glm::dvec2 v[3];
+    for (int k = 0; k < 3; ++k) v[k] = full.uv[full.indices[t + std::size_t(k)]] * double(size) - 0.5;
+    int holds = -1;  // the best of the texels that count for this triangle
+    const glm::dvec2 lo = glm::min(v[0], glm::min(v[1], v[2])), hi = glm::max(v[0], glm::max(v[1], v[2]));
+    for (int j = int(std::ceil(lo.y - kOnTriangleEdgeTexels)); j <= int(std::floor(hi.y + kOnTriangleEdgeTexels)); ++j) {
+      for (int i = int(std::ceil(lo.x - kOnTriangleEdgeTexels)); i <= int(std::floor(hi.x + kOnTriangleEdgeTexels));
+           ++i) {
+        // Twice the signed areas of the texel centre with each edge, over the whole's.
+        const glm::dvec2 q(i, j);
+        const auto cross = [](glm::dvec2 a, glm::dvec2 b) { return a.x * b.y - a.y * b.x; };
+        const double whole = cross(v[1] - v[0], v[2] - v[0]);
+        const double w0 = cross(v[1] - q, v[2] - q) / whole, w1 = cross(v[2] - q, v[0] - q) / whole;
+        if (std::min({w0, w1, 1 - w0 - w1}) >= -kOnTriangleEdgeTexels) holds = std::max(holds, data(i, j));
+      }
+    }
+    for (const glm::dvec2& corner : v) {
+      for (int j = int(std::ceil(corner.y - 0.5)); j <= int(std::floor(corner.y + 0.5)); ++j) {
+        for (int i = int(std::ceil(corner.x - 0.5)); i <= int(std::floor(corner.x + 0.5)); ++i) {
+          holds = std::max(holds, data(i, j));
+        }
+      }
+    }
+    if (holds == 0) continue;
+    const bool is_kept = kept.count({full.indices[t], full.indices[t + 1], full.indices[t + 2]}) > 0;
+    EXPECT_EQ(is_kept, holds > 0) << id.str() << " triangle " << t / 3;
+    ++judged;
+  }
+  EXPECT_GT(judged, 0) << id.str();
+}
+
 TEST(DemEdgeCut, DrawsNothingWhereTheDemHasNoSample) {
   const config::TileJob job = edgeJob("cut", kInterpolatedZoom, NodataSurface::kCut);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
   const EdgeLayer cut(job);
   const EdgeLayer& continued = continuedLayer(kInterpolatedZoom);
   ASSERT_EQ(cut.tiles().size(), continued.tiles().size());
-  // GDAL's transformer is interpolated on a lattice: within this much of the
-  // edge a texel centre may fall on either side.
-  constexpr double kEdgeAmbiguityTexels = 1e-3;
   int dropped = 0;
   for (const auto& [id, tile] : cut.tiles()) {
     const ts::PngImage& png = tile.decoded.png;
@@ -319,6 +386,13 @@ TEST(DemEdgeCut, DrawsNothingWhereTheDemHasNoSample) {
     }
   }
   EXPECT_GT(dropped, 1000);
+  for (const auto& [id, tile] : cut.tiles()) {
+    expectCutKeepsTheContractsTriangles(id, tile, continued.tiles().at(id));
+    const std::string elevation = cut.fileBeside(id, ".elevation.png");
+    EXPECT_FALSE(elevation.empty()) << id.str();
+    EXPECT_EQ(elevation, continued.fileBeside(id, ".elevation.png"))
+        << id.str() << ": the elevation tile under cut differs from continue's";
+  }
   const std::string tilejson = test::readBytes(test::layerDir(job) / "tilejson.json");
   EXPECT_NE(tilejson.find("\"nodata_surface\": \"cut\""), std::string::npos);
   EXPECT_NE(tilejson.find("\"alpha\": true"), std::string::npos);
