@@ -110,6 +110,14 @@ TEST(Resume, KilledRunResumesToTheUninterruptedLayer) {
     EXPECT_EQ(bytes, expected.at(path)) << "partial file under a final name: " << path;
   }
   EXPECT_LT(final_files, expected.size());
+  // Images go into place before their mesh, and tilejson.json when a run
+  // finishes (docs/CONTRACT.md §1): whoever finds a mesh finds its image.
+  EXPECT_FALSE(partial.count("tilejson.json")) << "a killed run left a tilejson";
+  for (const auto& [path, bytes] : partial) {
+    const fs::path file(path);
+    if (file.extension() != ".glb" || file.filename().string().front() == '.') continue;
+    EXPECT_TRUE(partial.count(fs::path(file).replace_extension(".png").generic_string())) << path << " without its image";
+  }
 
   std::vector<std::string> resume_args = jobArgs(crash_dir);
   resume_args.push_back("--resume");
