@@ -577,9 +577,22 @@ TEST(TileJson, HasTheTileJsonAndTerrabakeFields) {
   // A layer with skirts and a tileset says so.
   info.skirts = true;
   info.tileset = true;
-  const json t = json::parse(io::tileJson(info));
+  info.elevation = terrabake::Elevation::kTerrarium;
+  const std::string with_all = io::tileJson(info);
+  const json t = json::parse(with_all);
   EXPECT_EQ(t["terrabake"]["low_poly"]["skirts"], true);
   EXPECT_EQ(t["terrabake"]["tileset"], "./tileset.json");
+
+  // Keys in the contract's order (§6), which json::parse does not keep: each
+  // key's first place in the text comes after the one before it.
+  std::size_t last = 0;
+  for (const char* key : {"tilejson", "name", "scheme", "tiles", "minzoom", "maxzoom", "bounds", "center",
+                          "terrabake", "version", "tile_size", "bits", "green", "alpha", "nodata_surface",
+                          "z_scale", "exaggeration", "mesh", "low_poly", "sources", "tileset", "elevation"}) {
+    const std::size_t at = with_all.find(std::string("\"") + key + "\":", last);
+    ASSERT_NE(at, std::string::npos) << key << " missing or out of order:\n" << with_all;
+    last = at;
+  }
 }
 
 TEST(TileJson, ReadsBackWhatItWrote) {

@@ -2,7 +2,8 @@
 // Walks a layer's 3D Tiles tileset (docs/CONTRACT.md §8) as a viewer does,
 // through whatever serves the layer's files (its folder, a server): every
 // content URI resolves, each tile's region holds its children's and every
-// point of its own mesh, geometricError falls strictly down the tree, and
+// point of its own mesh, geometricError falls strictly down the tree (and
+// holds its mesh's distance and texel size), a file holds six levels, and
 // the transforms composed from the root place each mesh where its
 // enu_to_ecef says. Shared by tileset_test and server_tileset_test.
 #include <gtest/gtest.h>
@@ -100,7 +101,7 @@ class TilesetWalk {
     EXPECT_GT(root.at("geometricError").get<double>(), 0) << "a root of error 0 never refines into its tiles";
     EXPECT_GE(doc.at("geometricError").get<double>(), root.at("geometricError").get<double>());
     HeightSpan all;
-    visit(root, "", glm::dmat4(1.0), std::nullopt, 0, all);
+    visit(root, "", glm::dmat4(1.0), std::nullopt, 0, 0, all);
   }
 
   std::map<TileId, int> meshes_seen;  // how often each .glb is some tile's content
@@ -127,8 +128,10 @@ class TilesetWalk {
     }
   };
 
+  // `depth` counts levels from the root, `file_level` the tiles with a mesh
+  // above this one in the file that holds it.
   void visit(const nlohmann::json& tile, const std::filesystem::path& doc_dir, const glm::dmat4& parent_world,
-             const std::optional<Parent>& parent, int depth, HeightSpan& heights_above) {
+             const std::optional<Parent>& parent, int depth, int file_level, HeightSpan& heights_above) {
     ASSERT_LT(depth, 64) << "the tree is deeper than any pyramid";
     const TilesetRegion region = regionOf(tile);
     HeightSpan heights;
@@ -170,17 +173,25 @@ class TilesetWalk {
         const TilesetRegion same = regionOf(root);
         EXPECT_TRUE(inside(region, same) && inside(same, region));
         EXPECT_EQ(root.at("geometricError").get<double>(), error);
-        const glm::dmat4 root_world = root.contains("transform") ? world * matrixOf(root["transform"]) : world;
-        checkContent(root, relative.parent_path(), root_world, region, heights);
+        EXPECT_EQ(file_level, io::kTilesetLevelsPerFile) << uri << ": an external tileset not after a file's levels";
+        EXPECT_FALSE(root.contains("transform")) << uri << ": its root is placed by the referring tile alone";
+        const std::string mesh_uri = root.at("content").at("uri");
+        const std::filesystem::path mesh_path = (relative.parent_path() / mesh_uri).lexically_normal();
+        EXPECT_EQ(relative, std::filesystem::path("tilesets") / mesh_path.parent_path() /
+                                (mesh_path.stem().string() + ".json"))
+            << "an external tileset is tilesets/{z}/{x}/{y}.json of its root's tile";
+        checkContent(root, relative.parent_path(), world, region, heights);
         for (const nlohmann::json& child : root.value("children", nlohmann::json::array())) {
-          visit(child, relative.parent_path(), root_world, Parent{region, error}, depth + 1, heights);
+          visit(child, relative.parent_path(), world, Parent{region, error}, depth + 1, 1, heights);
         }
         return;
       }
+      EXPECT_LT(file_level, io::kTilesetLevelsPerFile) << uri << ": a file holds at most that many levels";
       checkContent(tile, doc_dir, world, region, heights);
     }
+    const int below = file_level + (tile.contains("content") ? 1 : 0);
     for (const nlohmann::json& child : tile.value("children", nlohmann::json::array())) {
-      visit(child, doc_dir, world, Parent{region, error}, depth + 1, heights);
+      visit(child, doc_dir, world, Parent{region, error}, depth + 1, below, heights);
     }
   }
 
