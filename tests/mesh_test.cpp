@@ -49,8 +49,21 @@ TEST(GridLowPolyMesh, FramesAreOrthonormalAndRightHanded) {
 TEST(GridLowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
-  EXPECT_EQ(mesh.uv.front(), glm::vec2(0, 0));
-  EXPECT_EQ(mesh.uv.back(), glm::vec2(1, 1));
+  // Vertex (c, r) is vertex r * grid + c, at UV (c / (grid - 1), r / (grid - 1))
+  // (docs/CONTRACT.md §5), where four samples meet: the mean of the four.
+  ASSERT_EQ(mesh.uv.size(), 81u);
+  const int apron = samples.apron;
+  for (int r = 0; r < 9; ++r) {
+    for (int c = 0; c < 9; ++c) {
+      const std::size_t k = std::size_t(r) * 9 + std::size_t(c);
+      EXPECT_EQ(mesh.uv[k], glm::vec2(float(c / 8.0), float(r / 8.0))) << "vertex " << c << ", " << r;
+      const int x = apron + 8 * c, y = apron + 8 * r;
+      const glm::dvec3 corner = (samples.position.at(x - 1, y - 1) + samples.position.at(x, y - 1) +
+                                 samples.position.at(x - 1, y) + samples.position.at(x, y)) / 4.0;
+      EXPECT_LT(glm::length(glm::dvec3(mesh.position[k]) - corner), 1e-3) << "vertex " << c << ", " << r;
+    }
+  }
+  EXPECT_EQ(mesh.indices, mesh::gridIndices(9, 9));
   ASSERT_EQ(mesh.indices.size(), 8u * 8u * 6u);
   for (std::size_t i = 0; i < mesh.indices.size(); i += 3) {
     const glm::dvec3 a(mesh.position[mesh.indices[i]]), b(mesh.position[mesh.indices[i + 1]]),
