@@ -110,6 +110,11 @@ TEST(Pmtiles, NpmPmtilesReadsTheFolderLayoutsBytesFromEveryArchive) {
   const auto metadata = nlohmann::json::parse(reader.metadata());
   EXPECT_EQ(metadata.at("terrabake").at("elevation").at("encoding"), "terrarium");
   EXPECT_EQ(metadata.at(io::kPmtilesJobKey), config::layerFingerprint(archive_job));
+  // The elevation archive's is the layer's elevation.json, with the job.
+  auto elevation = nlohmann::json::parse(io::PmtilesReader((dir / "layer.elevation.pmtiles").string()).metadata());
+  EXPECT_EQ(elevation.at(io::kPmtilesJobKey), config::layerFingerprint(archive_job));
+  elevation.erase(io::kPmtilesJobKey);
+  EXPECT_EQ(elevation, nlohmann::json::parse(test::readBytes(folder / "elevation.json")));
 }
 
 TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {

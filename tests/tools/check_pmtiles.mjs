@@ -49,6 +49,7 @@ for (const [name, offset, length] of [
   if (offset < 127 || offset + length > file.length) fail(`${name} lies outside the file`);
 }
 if (raw.internalCompression !== 2) fail("directories are not gzip-compressed");
+if (raw.tileCompression !== 1) fail("tiles are not marked as stored uncompressed");
 
 // Directory decoding written from the spec (§4.2), not the package's.
 function decodeDirectory(bytes) {
