@@ -77,6 +77,25 @@ TEST(EncodeNormalMap, ATexelWithoutANormalIsWrittenFlat) {
             (std::vector<std::uint16_t>{128, 128, 255, 128, 128, 255, 128, 128, 255, 255, 128, 128}));
 }
 
+// docs/CONTRACT.md §3, value by value: components under 1e-6 become 0, then
+// round((c * 0.5 + 0.5) * M) with halves rounding up, never truncating;
+// green down stores -y. Known answers worked out by hand.
+TEST(EncodeNormalMap, RoundsHalvesUpAndSnapsOnlyTinyComponents) {
+  const bake::NormalMap map{2,
+                            {{-0.5e-6f, 0.5e-6f, 1},     // snapped: 127.5 rounds up to 128 both ways
+                             {-2e-6f, 2e-6f, 1},         // not snapped: 127.49974 and 127.50026
+                             {0.91f, -0.91f, 0.3f},      // 243.525, 11.475, 165.75: truncation gives 243, 11, 165
+                             {1.0000001f, -1.0000001f, 0}}};  // past the unit range: held to it
+  EXPECT_EQ(bake::encodeNormalMap(map, 8, Green::kUp).pixels,
+            (std::vector<std::uint16_t>{128, 128, 255, 127, 128, 255, 244, 11, 166, 255, 0, 128}));
+  // 16 bits: 62585.926, 2949.074 and 42597.750.
+  const bake::NormalMap wide{1, {{0.91f, -0.91f, 0.3f}}};
+  EXPECT_EQ(bake::encodeNormalMap(wide, 16, Green::kUp).pixels, (std::vector<std::uint16_t>{62586, 2949, 42598}));
+  // Green down stores -y: 0.3 goes in as -0.3, 89.25.
+  const bake::NormalMap tilted{1, {{0, 0.3f, 0.95f}}};
+  EXPECT_EQ(bake::encodeNormalMap(tilted, 8, Green::kDown).pixels, (std::vector<std::uint16_t>{128, 89, 249}));
+}
+
 TEST_P(BakerKnownAnswers, IdenticalFlatMeshesGiveStraightUp) {
   TERRABAKE_BAKER_OR_SKIP(baker, GetParam());
   auto flat = [](double, double) { return 250.0; };
