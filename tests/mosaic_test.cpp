@@ -54,11 +54,14 @@ std::filesystem::path analyticDem() {
   return test::analyticUtmDem(1024);
 }
 
-// Mean angle between decoded normals of texel columns c0 and c1 (possibly of
-// two tiles), over all rows.
-double meanColumnStepDeg(const test::DecodedTile& a, int c0, const test::DecodedTile& b, int c1) {
+// Mean angle between decoded normals of texel columns (or rows) k0 and k1,
+// possibly of two tiles, over the whole column (row).
+double meanLineStepDeg(const test::DecodedTile& a, int k0, const test::DecodedTile& b, int k1, bool columns) {
   double sum = 0;
-  for (int j = 0; j < a.png.height; ++j) sum += test::angleBetweenDeg(*a.ecefNormal(c0, j), *b.ecefNormal(c1, j));
+  for (int along = 0; along < a.png.height; ++along) {
+    sum += columns ? test::angleBetweenDeg(*a.ecefNormal(k0, along), *b.ecefNormal(k1, along))
+                   : test::angleBetweenDeg(*a.ecefNormal(along, k0), *b.ecefNormal(along, k1));
+  }
   return sum / a.png.height;
 }
 
@@ -130,17 +133,25 @@ TEST_P(Mosaic, TwoByTwoBlockMatchesOneTileAtTheSameTexelSize) {
   test::expectSharedEdge(block[0][0].glb, block[1][0].glb, false);
   test::expectSharedEdge(block[0][1].glb, block[1][1].glb, false);
 
-  // Across the seam the normal field changes no more than between two
-  // neighbouring columns inside the tiles it joins.
-  const double seam = meanColumnStepDeg(block[0][0], kSmallSize - 1, block[0][1], 0);
-  double interior_worst = 0;
-  for (const test::DecodedTile* tile : {&block[0][0], &block[0][1]}) {
-    for (int c = 0; c + 1 < kSmallSize; ++c) {
-      interior_worst = std::max(interior_worst, meanColumnStepDeg(*tile, c, *tile, c + 1));
+  // Across each of the four seams the normal field changes no more than
+  // between two neighbouring columns (rows) inside the tiles it joins.
+  struct Seam {
+    const test::DecodedTile &first, &second;  // west and east, or north and south
+    bool vertical;
+  };
+  for (const Seam& seam : {Seam{block[0][0], block[0][1], true}, Seam{block[1][0], block[1][1], true},
+                           Seam{block[0][0], block[1][0], false}, Seam{block[0][1], block[1][1], false}}) {
+    const double across = meanLineStepDeg(seam.first, kSmallSize - 1, seam.second, 0, seam.vertical);
+    double interior_worst = 0;
+    for (const test::DecodedTile* tile : {&seam.first, &seam.second}) {
+      for (int k = 0; k + 1 < kSmallSize; ++k) {
+        interior_worst = std::max(interior_worst, meanLineStepDeg(*tile, k, *tile, k + 1, seam.vertical));
+      }
     }
+    std::printf("%s seam step %.4f deg, largest interior step %.4f deg\n", seam.vertical ? "vertical" : "horizontal",
+                across, interior_worst);
+    EXPECT_LE(across, interior_worst + kMaxSeamExcessDeg) << (seam.vertical ? "vertical" : "horizontal") << " seam";
   }
-  std::printf("seam step %.4f deg, largest interior column step %.4f deg\n", seam, interior_worst);
-  EXPECT_LE(seam, interior_worst + kMaxSeamExcessDeg);
 }
 
 // Zoom 12 reads the DEM by interpolation (19 m texels from 30 m pixels at 60
