@@ -6,9 +6,12 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <sys/wait.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
@@ -317,6 +320,22 @@ TEST(Cli, SmallRunWritesPairsAndTileJson) {
   EXPECT_EQ(tiles, (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
   // Nothing outside the layer folder.
   for (const std::string& name : filesUnder(out)) EXPECT_EQ(name.rfind("ok/", 0), 0u) << name;
+}
+
+// A run started with its standard streams closed (a service manager, `cmd
+// >&- 2>&-`) writes its tiles: the files it opens must not take those
+// numbers, where the log would go into them.
+TEST(Cli, ClosedStandardStreamsTakeNoFileOfTheRun) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::string command = TERRABAKE_EXE;
+  for (const std::string& arg : smallRunArgs(dem, out)) command += " '" + arg + "'";
+  const int status = std::system((command + " >&- 2>&-").c_str());
+  ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
+  EXPECT_EQ(WEXITSTATUS(status), kExitOk);
+  EXPECT_EQ(checkLayer(out / "ok"), (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
 }
 
 TEST(Cli, SampleConfigRuns) {

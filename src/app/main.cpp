@@ -1,4 +1,8 @@
+#include <fcntl.h>
 #include <malloc.h>
+#include <unistd.h>
+
+#include <cerrno>
 
 #include <exception>
 #include <iostream>
@@ -61,10 +65,23 @@ std::string repeatedFlag(CLI::App& cli) {
   return "";
 }
 
+// Opens /dev/null on any of standard input, output and error that is closed,
+// so that no file the run opens later takes their numbers: a pipe or a tile
+// file there would receive the log.
+void openClosedStandardStreams() {
+  for (int fd = 0; fd <= 2; ++fd) {
+    if (::fcntl(fd, F_GETFD) != -1 || errno != EBADF) continue;
+    const int null = ::open("/dev/null", fd == 0 ? O_RDONLY : O_WRONLY);
+    // open takes the lowest free number, which is fd; anything else is not ours to keep.
+    if (null != fd && null >= 0) ::close(null);
+  }
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   using namespace terrabake;
+  openClosedStandardStreams();
   // A tile's buffers (sample grids, meshes, images: 0.1 to 10 MiB each) are
   // made and freed for every tile. Kept on the heap rather than mapped and
   // unmapped each time, they cost no fresh pages: measured on 324 tiles, the
