@@ -272,6 +272,42 @@ TEST(Pmtiles, AKilledRunLeavesNoArchiveUnderAFinalName) {
   EXPECT_EQ(names, (std::set<std::string>{"layer.meshes.pmtiles", "layer.pmtiles"}));
 }
 
+// Every archive a run would replace is checked before it starts, the
+// companions as well as the normal maps': a file no terrabake job made is
+// refused even with --force and left as it was; one of another job only
+// without --force.
+TEST(Pmtiles, ForeignFilesAtAnyArchivesPathAreRefusedAndLeftAlone) {
+  config::TileJob job = coastJob("pmtiles_foreign", OutputFormat::kPmtiles);
+  job.min_zoom = job.max_zoom = 9;
+  const fs::path dir = job.output_dir;
+  fs::remove_all(dir);
+  for (const std::string companion : {"layer.meshes.pmtiles", "layer.hires.pmtiles", "layer.elevation.pmtiles"}) {
+    test::writeText(dir / companion, "precious\n");
+    for (const bool force : {false, true}) {
+      pipeline::RunOptions options;
+      options.force = force;
+      try {
+        pipeline::runTileJob(job, options);
+        ADD_FAILURE() << companion << (force ? " with --force" : "") << " was not refused";
+      } catch (const UsageError& e) {
+        EXPECT_NE(std::string(e.what()).find((dir / companion).string()), std::string::npos) << e.what();
+      }
+      EXPECT_EQ(test::readBytes(dir / companion), "precious\n") << companion;
+      EXPECT_EQ(test::filesUnder(dir), std::set<std::string>{companion}) << "a refused run left files";
+    }
+    fs::remove(dir / companion);
+  }
+  // A companion of another job: refused, then replaced with --force.
+  config::TileJob other = job;
+  other.bits = 16;
+  ASSERT_GT(pipeline::runTileJob(other).written, 0);
+  fs::remove(dir / "layer.pmtiles");
+  EXPECT_THROW(pipeline::runTileJob(job), UsageError);
+  pipeline::RunOptions force;
+  force.force = true;
+  EXPECT_GT(pipeline::runTileJob(job, force).written, 0);
+}
+
 TEST(Pmtiles, ResumeAndShardsAreRefused) {
   config::TileJob job = coastJob("pmtiles_refused", OutputFormat::kPmtiles);
   pipeline::RunOptions resume;

@@ -1,6 +1,7 @@
 #include <filesystem>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <stdexcept>
 
 #include <nlohmann/json.hpp>
@@ -32,6 +33,20 @@ void removeAbandonedTempFiles(const fs::path& folder, const std::vector<std::str
   }
 }
 
+// The job an archive's metadata records; nullopt for a file that is no
+// PMTiles archive or records none.
+std::optional<std::string> recordedJob(const std::string& archive) {
+  try {
+    const io::PmtilesReader reader(archive);
+    const auto metadata = nlohmann::json::parse(reader.metadata(), nullptr, false);
+    const auto job = metadata.is_object() ? metadata.find(io::kPmtilesJobKey) : metadata.end();
+    if (job == metadata.end() || !job->is_string()) return std::nullopt;
+    return job->get<std::string>();
+  } catch (const InputError&) {
+    return std::nullopt;
+  }
+}
+
 // One PMTiles archive per kind of tile, written whole when the run finishes
 // (config/README.md, "PMTiles"). Tiles wait in temporary files meanwhile.
 class PmtilesSink : public TileSink {
@@ -59,26 +74,24 @@ class PmtilesSink : public TileSink {
 
   std::string location() const override { return m_path; }
 
-  // The archive records its job in the metadata; there is nothing to claim
-  // before the run ends, so an existing archive of another job is refused
-  // here and replaced only with `force`.
+  // Each archive records its job in the metadata; there is nothing to claim
+  // before the run ends, so every archive the run would replace is checked
+  // here, the companions as well as the normal maps': a file no terrabake job
+  // made is refused, `force` or not, and an archive of another job is
+  // replaced only with `force`.
   void claim(const std::string& fingerprint, bool force) override {
     m_fingerprint = fingerprint;
-    std::error_code ec;
-    if (!fs::exists(m_path, ec) || force) return;
-    std::string recorded;
-    try {
-      const io::PmtilesReader reader(m_path);
-      const auto metadata = nlohmann::json::parse(reader.metadata(), nullptr, false);
-      const auto job = metadata.is_object() ? metadata.find(io::kPmtilesJobKey) : metadata.end();
-      if (job == metadata.end() || !job->is_string()) throw InputError("no job recorded");
-      recorded = job->get<std::string>();
-    } catch (const InputError&) {
-      throw UsageError("output: '" + m_path +
-                       "' is no PMTiles archive a terrabake job made; use another output.layer, or --force to "
-                       "replace it");
+    for (const auto& [format, type] : m_kinds) {
+      const std::string archive = io::pmtilesArchive(m_path, format);
+      std::error_code ec;
+      if (!fs::exists(archive, ec)) continue;
+      const std::optional<std::string> recorded = recordedJob(archive);
+      if (!recorded) {
+        throw UsageError("output: '" + archive +
+                         "' is no PMTiles archive a terrabake job made; use another output.layer");
+      }
+      if (*recorded != fingerprint && !force) refuseDifferentJob(archive);
     }
-    if (recorded != fingerprint) refuseDifferentJob(m_path);
   }
 
   bool hasTile(const TileId& tile) const override {
