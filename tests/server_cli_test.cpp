@@ -126,6 +126,23 @@ TEST(ServeCli, AnOnDemandLayerInAFolderOfAnotherJobIsRefused) {
   EXPECT_EQ(process.out(), "");
 }
 
+// A folder another tool made (no job record, files of its own) is left as it
+// was, as `terrabake tile` leaves it: its files would be served as tiles.
+TEST(ServeCli, AnOnDemandLayerInAFolderOfAnotherToolIsRefusedAndLeftAlone) {
+  const Case c = makeCase();
+  writeText(c.tiles / "live" / "10" / "539" / "361.png", "not a png\n");
+  const std::set<std::string> before = filesUnder(c.tiles / "live");
+  const fs::path config = c.dir / "serve.yaml";
+  writeText(config, "layers: [live.yaml]\n");
+  test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
+  EXPECT_EQ(process.wait(kStopLimit), 2) << process.err();
+  EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
+  EXPECT_NE(process.err().find((c.tiles / "live").string() + "' holds '10', which no terrabake job made"),
+            std::string::npos)
+      << process.err();
+  EXPECT_EQ(filesUnder(c.tiles / "live"), before);
+}
+
 // An on-demand layer is a folder; a job that writes one file is not baked as one.
 TEST(ServeCli, AnOnDemandJobWritingAnArchiveIsAUsageError) {
   const fs::path dir = caseDir();

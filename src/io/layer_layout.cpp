@@ -90,10 +90,29 @@ std::string recordJob(const std::string& layer_dir, const std::string& fingerpri
   const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
   const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
   if (writeFileExclusively(record, bytes)) return fingerprint;
+  std::error_code ec;
+  if (std::filesystem::is_directory(record, ec)) throw InputError("'" + record + "' is a folder, not a job record");
   std::ifstream in(record, std::ios::binary);
   std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
   if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
   return recorded;
+}
+
+std::optional<std::string> foreignEntry(const std::string& layer_dir) {
+  namespace fs = std::filesystem;
+  const fs::path record = fs::path(layer_dir) / kJobFile;
+  std::error_code ec;
+  if (fs::exists(record, ec)) return std::nullopt;
+  std::optional<std::string> found;
+  for (fs::directory_iterator it(layer_dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    if (name.front() != '.') {
+      found = name;
+      break;
+    }
+  }
+  if (found && fs::exists(record, ec)) return std::nullopt;
+  return found;
 }
 
 std::vector<TileFormat> tileFormats(bool high_res_mesh, bool elevation) {

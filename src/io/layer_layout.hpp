@@ -34,6 +34,14 @@ inline constexpr const char* kJobFile = "terrabake-job.txt";
 // several writers racing, exactly one records); returns what the record holds.
 // Throws InputError naming the record when it cannot be written or read.
 std::string recordJob(const std::string& layer_dir, const std::string& fingerprint);
+
+// A visible entry of a layer folder that records no job, which a folder only
+// terrabake wrote into would not have (hidden files are writers' temporary
+// files): the first one found, or nullopt. A writer that starts at the same
+// moment may record its job while this looks, and then write tiles: what it
+// writes comes after its record, so an entry found is another tool's only
+// while there is still no record, which this checks last.
+std::optional<std::string> foreignEntry(const std::string& layer_dir);
 // With output.elevation: the tilejson of the elevation tiles, a raster-dem source.
 inline constexpr const char* kElevationTileJsonFile = "elevation.json";
 // A layer stored as one file is "<layer>.mbtiles" beside the layer folders.

@@ -80,23 +80,15 @@ class FolderSink : public TileSink {
   std::string location() const override { return m_dir; }
 
   void claim(const std::string& fingerprint, bool force) override {
-    const std::string record = (fs::path(m_dir) / io::kJobFile).string();
-    std::error_code ec;
-    if (!fs::exists(record, ec)) {
-      // No job recorded: a new layer, or one another tool made. A run that
-      // starts at the same moment (a shard) may record its job while this
-      // one looks, and then write tiles: what it writes comes after its
-      // record, so a file found is another tool's only while there is
-      // still no record.
-      if (const std::optional<std::string> found = foreignFile(); found && !force && !fs::exists(record, ec)) {
-        throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
-                         "', which no terrabake job made; use another output.layer, or --force to write into it");
-      }
+    if (const std::optional<std::string> found = io::foreignEntry(m_dir); found && !force) {
+      throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
+                       "', which no terrabake job made; use another output.layer, or --force to write into it");
     }
     // Recorded already maybe, by a run that started at the same moment.
     if (io::recordJob(m_dir, fingerprint) == fingerprint) return;
     if (!force) refuseDifferentJob(m_dir);
-    io::writeFileAtomically(record, std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+    io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
+                            std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
   }
 
   // Every file of the tile, and none empty: one removed by hand is made
@@ -154,17 +146,6 @@ class FolderSink : public TileSink {
       }
     }
     if (ec) throw InputError("output: cannot list '" + m_dir + "': " + ec.message());
-  }
-
-  // A visible entry of the folder, which a layer without a job record should
-  // not have; hidden files are temporary files of writers.
-  std::optional<std::string> foreignFile() const {
-    std::error_code ec;
-    for (fs::directory_iterator it(m_dir, ec), end; !ec && it != end; it.increment(ec)) {
-      const std::string name = it->path().filename().string();
-      if (name.front() != '.') return name;
-    }
-    return std::nullopt;
   }
 
   std::string m_dir;

@@ -24,14 +24,18 @@ void writeWhenMissing(const fs::path& path, const std::string& text) {
 
 // Creates the layer folder, its job record, tilejson.json and elevation.json
 // when missing; returns the folder. The record lets `terrabake tile --resume`
-// carry the layer on; a folder another job made is refused, as a batch run
-// refuses it, rather than filled with tiles of two jobs.
+// carry the layer on; a folder another job or another tool made is refused,
+// as a batch run refuses it, rather than filled with tiles of two jobs.
 fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
   std::error_code ec;
   fs::create_directories(settings.folder, ec);
   if (ec || !fs::is_directory(settings.folder)) {
     throw InputError("layer " + settings.name + ": cannot create folder '" + settings.folder.string() +
                      "': " + (ec ? ec.message() : std::string("a file is in the way")));
+  }
+  if (const std::optional<std::string> found = io::foreignEntry(settings.folder.string())) {
+    throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() + "' holds '" + *found +
+                     "', which no terrabake job made; give this job another output.layer, or move the folder away");
   }
   if (io::recordJob(settings.folder.string(), settings.job_record) != settings.job_record) {
     throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
