@@ -218,6 +218,37 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   EXPECT_EQ(other->status, 404) << "only the layer's own archives";
 }
 
+// An archive whose tiles cannot be read (cut short after the server opened
+// it) answers 500 saying only that; the reason, which names the archive's
+// path, goes to the server's log, as a failed bake's does.
+TEST(Pmtiles, AnUnreadableTileIsA500ThatNamesNoLocalPath) {
+  const fs::path tiles_dir = test::caseDir() / "tiles";
+  config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
+  job.output_dir = tiles_dir.string();
+  job.layer = "cut";
+  job.min_zoom = job.max_zoom = 10;
+  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  const fs::path archive = tiles_dir / "cut.pmtiles";
+  const std::uint64_t data_offset = io::PmtilesReader(archive.string()).header().data_offset;
+
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (tiles_dir / "no_viewer").string();
+  const test::ServerThread server(config);
+  fs::resize_file(archive, data_offset);
+  const auto tilejson = nlohmann::json::parse(test::get(server.port(), "/cut/tilejson.json")->body);
+  // The tile under the layer's centre.
+  const double lon = tilejson.at("center").at(0).get<double>(), lat = tilejson.at("center").at(1).get<double>() * M_PI / 180;
+  const TileId tile{10, int(std::floor((lon + 180) / 360 * 1024)),
+                    int(std::floor((1 - std::asinh(std::tan(lat)) / M_PI) / 2 * 1024))};
+  const auto answer = test::get(server.port(), "/cut/" + io::relativeTilePath(tile, io::TileFormat::kPng));
+  ASSERT_TRUE(answer);
+  EXPECT_EQ(answer->status, 500);
+  EXPECT_EQ(answer->body.find(tiles_dir.string()), std::string::npos) << answer->body;
+  EXPECT_NE(answer->body.find("the server's log says why"), std::string::npos) << answer->body;
+}
+
 TEST(Pmtiles, FlatSeaIsStoredOnceSoTheArchiveIsSmallerThanTheFolder) {
   config::TileJob folder_job = coastJob("pmtiles_dedup_folder", OutputFormat::kFiles);
   config::TileJob archive_job = coastJob("pmtiles_dedup_archive", OutputFormat::kPmtiles);

@@ -3,6 +3,7 @@
 // run wrote, a folder filled on demand from the DEM, or an MBTiles file.
 // The HTTP side sees only this interface.
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <memory>
 #include <optional>
@@ -33,6 +34,11 @@ inline TileAnswer archivedTileAnswer(std::optional<std::string> bytes) {
   if (!bytes) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
   return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(hashTaggedContent(std::move(*bytes))), {}};
 }
+
+// What an archive that could not be read gives: the reason, which names
+// the archive's path, goes to the server's log, and the answer says only
+// that the read failed.
+TileAnswer unreadableTileAnswer(const std::string& layer, const TileId& tile, const std::exception& error);
 
 // On-demand bakes since start; all zero for layers that never bake.
 struct BakeCounters {

@@ -48,7 +48,7 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
     bytes = file->readTile(io::mbtilesTable(format), io::mbtilesKey(tile, m_tms_rows));
     giveBack(std::move(file));  // not after a failure: that connection may be broken
   } catch (const std::exception& e) {
-    return {TileAnswer::Status::kFailed, nullptr, oneLine(e.what())};
+    return unreadableTileAnswer(m_name, tile, e);
   }
   return archivedTileAnswer(std::move(bytes));
 }

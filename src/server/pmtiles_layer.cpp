@@ -67,7 +67,7 @@ TileAnswer PmtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   try {
     bytes = reader->second->tile(tile);
   } catch (const std::exception& e) {
-    return {TileAnswer::Status::kFailed, nullptr, oneLine(e.what())};
+    return unreadableTileAnswer(m_name, tile, e);
   }
   return archivedTileAnswer(std::move(bytes));
 }
