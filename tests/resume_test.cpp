@@ -329,6 +329,16 @@ TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   args.push_back("--force");
   test::ChildProcess forced(args);
   EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();
+  // --resume keeps none of the other job's tiles: all are made again, at 16 bits.
+  EXPECT_EQ(summaryCount(forced.out(), "skipped"), 0) << forced.out();
+  EXPECT_EQ(summaryCount(forced.out(), "wrote"), summaryCount(first.out(), "wrote")) << forced.out();
+  int pngs = 0;
+  for (const auto& entry : fs::recursive_directory_iterator(dir / "layer")) {
+    if (entry.path().extension() != ".png") continue;
+    EXPECT_EQ(test::readBytes(entry.path()).at(24), 16) << entry.path() << ": the PNG header's bit depth";
+    ++pngs;
+  }
+  EXPECT_GT(pngs, 0);
 }
 
 TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {

@@ -79,16 +79,18 @@ class FolderSink : public TileSink {
 
   std::string location() const override { return m_dir; }
 
-  void claim(const std::string& fingerprint, bool force) override {
-    if (const std::optional<std::string> found = io::foreignEntry(m_dir); found && !force) {
+  bool claim(const std::string& fingerprint, bool force) override {
+    const std::optional<std::string> found = io::foreignEntry(m_dir);
+    if (found && !force) {
       throw UsageError("output: folder '" + m_dir + "' holds '" + *found +
                        "', which no terrabake job made; use another output.layer, or --force to write into it");
     }
     // Recorded already maybe, by a run that started at the same moment.
-    if (io::recordJob(m_dir, fingerprint) == fingerprint) return;
+    if (io::recordJob(m_dir, fingerprint) == fingerprint) return !found;
     if (!force) refuseDifferentJob(m_dir);
     io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+    return false;
   }
 
   // Every file of the tile, and none empty: one removed by hand is made

@@ -40,12 +40,13 @@ class MbtilesSink : public TileSink {
 
   std::string location() const override { return m_file->path(); }
 
-  void claim(const std::string& fingerprint, bool force) override {
+  bool claim(const std::string& fingerprint, bool force) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
-    if (recorded.empty() || recorded == fingerprint) return;
+    if (recorded.empty() || recorded == fingerprint) return true;
     if (!force) refuseDifferentJob(m_file->path());
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
+    return false;
   }
 
   // A tile's rows are committed together; every one is looked for, so that

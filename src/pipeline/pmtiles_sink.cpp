@@ -79,7 +79,7 @@ class PmtilesSink : public TileSink {
   // here, the companions as well as the normal maps': a file no terrabake job
   // made is refused, `force` or not, and an archive of another job is
   // replaced only with `force`.
-  void claim(const std::string& fingerprint, bool force) override {
+  bool claim(const std::string& fingerprint, bool force) override {
     m_fingerprint = fingerprint;
     for (const auto& [format, type] : m_kinds) {
       const std::string archive = io::pmtilesArchive(m_path, format);
@@ -92,6 +92,7 @@ class PmtilesSink : public TileSink {
       }
       if (*recorded != fingerprint && !force) refuseDifferentJob(archive);
     }
+    return true;  // nothing is kept from an old archive: each run writes its own
   }
 
   bool hasTile(const TileId& tile) const override {

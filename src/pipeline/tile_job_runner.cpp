@@ -75,7 +75,11 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
                      " in one run; narrow it with --bbox or --zoom, or split it with --shard");
   }
   const std::unique_ptr<TileSink> sink = openSink(*plan);
-  sink->claim(plan->fingerprint, options.force);
+  const bool resumable = sink->claim(plan->fingerprint, options.force);
+  if (options.resume && !resumable) {
+    log::warning("--resume: the layer held another job's tiles (--force), so every tile is made again");
+  }
+  const bool skip_held_tiles = options.resume && resumable;
   RunSummary summary;
   summary.layer_dir = sink->location();
   // Logged only now, so a run that cannot start prints its one error line alone.
@@ -125,7 +129,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
       if (options.stop && *options.stop) break;
       const TileId tile = tileOf(i);
       try {
-        if (options.resume && sink->hasTile(tile)) {
+        if (skip_held_tiles && sink->hasTile(tile)) {
           ++skipped;
         } else if (const auto files = maker->make(tile)) {
           const auto write_start = std::chrono::steady_clock::now();

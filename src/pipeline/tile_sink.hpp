@@ -24,7 +24,9 @@ class TileSink {
   // written, atomically: of two different jobs started together into one new
   // layer exactly one gets it. Throws UsageError when the layer was made by a
   // different job, or holds files no terrabake job recorded, unless `force`.
-  virtual void claim(const std::string& fingerprint, bool force) = 0;
+  // Returns whether the tiles the layer holds are this job's: false when
+  // `force` took it over, so that --resume keeps none of them.
+  virtual bool claim(const std::string& fingerprint, bool force) = 0;
   // True when every file of the tile is there (what --resume skips).
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
