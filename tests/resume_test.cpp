@@ -464,6 +464,33 @@ TEST(Shards, TilesetWritersTakeTurns) {
   EXPECT_EQ(test::readBytes(tileset), expected);
 }
 
+// A stop signal ends the wait for that turn: the run stops as one stopped
+// before its end (exit 130, no tileset written), not once the turn comes.
+TEST(Shards, AStopSignalEndsTheWaitForTheTilesetsTurn) {
+  const fs::path out = freshDir("tileset_turn_stopped");
+  std::vector<std::string> args = jobArgs(out);
+  args.insert(args.end(), {"--tileset", "true"});
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const fs::path tileset = out / "layer" / "tileset.json";
+  fs::remove(tileset);
+
+  const int record = ::open((out / "layer" / "terrabake-job.txt").c_str(), O_RDONLY | O_CLOEXEC);
+  ASSERT_GE(record, 0);
+  ASSERT_EQ(::flock(record, LOCK_EX), 0);
+  args.push_back("--resume");
+  test::ChildProcess waiting(args);
+  // Past the 2 s after which the wait says so.
+  std::this_thread::sleep_for(kTurnWait + std::chrono::seconds(1));
+  ASSERT_TRUE(waiting.running()) << waiting.err();
+  waiting.signal(SIGINT);
+  const int code = waiting.wait(kRunLimit);
+  ::close(record);
+  EXPECT_EQ(code, 130) << waiting.err();
+  EXPECT_NE(waiting.err().find("waiting for it"), std::string::npos) << waiting.err();
+  EXPECT_FALSE(fs::exists(tileset));
+}
+
 TEST(Shards, BadShardIsAUsageError) {
   test::ChildProcess bad({"tile", "--dem", demForRuns().string(), "--zoom", "11", "--shard", "4/3"});
   EXPECT_EQ(bad.wait(kRunLimit), 2);

@@ -1,10 +1,13 @@
 #include <algorithm>
+#include <atomic>
 #include <cerrno>
+#include <chrono>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <iterator>
 #include <optional>
+#include <thread>
 #include <utility>
 
 #include <fcntl.h>
@@ -36,13 +39,32 @@ void removeAbandonedTempFiles(const fs::path& layer) {
 // An exclusive lock on a file, held while this lives.
 class RecordLock {
  public:
-  // Waits for the lock. Where the file cannot be locked, the run writes
+  // How often a wait for the lock looks again, and how long it waits before
+  // it says so.
+  static constexpr auto kRetry = std::chrono::milliseconds(50);
+  static constexpr auto kSayAfter = std::chrono::seconds(2);
+
+  // Waits for the lock until `stop` (may be null) turns true; then nullopt,
+  // and `stopped` is set. Where the file cannot be locked, the run writes
   // without a turn and a warning says so.
-  static std::optional<RecordLock> take(const std::string& path) {
+  static std::optional<RecordLock> take(const std::string& path, const std::atomic<bool>* stop, bool& stopped) {
+    stopped = false;
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
     if (fd >= 0) {
+      const auto start = std::chrono::steady_clock::now();
+      bool said = false;
       int result;
-      while ((result = ::flock(fd, LOCK_EX)) != 0 && errno == EINTR) {
+      while ((result = ::flock(fd, LOCK_EX | LOCK_NB)) != 0 && (errno == EWOULDBLOCK || errno == EINTR)) {
+        if (stop && *stop) {
+          ::close(fd);
+          stopped = true;
+          return std::nullopt;
+        }
+        if (!said && std::chrono::steady_clock::now() - start >= kSayAfter) {
+          said = true;
+          log::info("output: another run holds '" + path + "' to write the tileset; waiting for it");
+        }
+        std::this_thread::sleep_for(kRetry);
       }
       if (result == 0) return RecordLock(fd);
     }
@@ -66,8 +88,8 @@ class RecordLock {
 
 class FolderSink : public TileSink {
  public:
-  FolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation)
-      : m_dir(layer_dir), m_tile_formats(io::tileFormats(high_res_mesh, elevation)) {
+  FolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation, const std::atomic<bool>* stop)
+      : m_dir(layer_dir), m_tile_formats(io::tileFormats(high_res_mesh, elevation)), m_stop(stop) {
     std::error_code ec;
     fs::create_directories(m_dir, ec);
     if (ec || !fs::is_directory(m_dir)) {
@@ -110,7 +132,9 @@ class FolderSink : public TileSink {
   // has (flock: between processes, on NFS too, and let go however the run
   // ends).
   bool rewriteTileset(const MeshVisitor& visit, const TilesetDocuments& documents) override {
-    const std::optional<RecordLock> turn = RecordLock::take((fs::path(m_dir) / io::kJobFile).string());
+    bool stopped = false;
+    const std::optional<RecordLock> turn = RecordLock::take((fs::path(m_dir) / io::kJobFile).string(), m_stop, stopped);
+    if (stopped) return false;
     forEachMesh(visit);
     for (const io::TilesetDocument& doc : documents()) {
       io::writeTextFileAtomically((fs::path(m_dir) / doc.path).string(), doc.json);
@@ -152,12 +176,14 @@ class FolderSink : public TileSink {
 
   std::string m_dir;
   std::vector<io::TileFormat> m_tile_formats;
+  const std::atomic<bool>* m_stop;  // ends the wait for the tileset's turn
 };
 
 }  // namespace
 
-std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation) {
-  return std::make_unique<FolderSink>(layer_dir, high_res_mesh, elevation);
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation,
+                                         const std::atomic<bool>* stop) {
+  return std::make_unique<FolderSink>(layer_dir, high_res_mesh, elevation, stop);
 }
 
 }  // namespace terrabake::pipeline

@@ -3,6 +3,7 @@
 // (folder_sink.cpp), one MBTiles file (mbtiles_sink.cpp; config/README.md,
 // "MBTiles"), or PMTiles archives (pmtiles_sink.cpp; "PMTiles"). Internal to
 // the pipeline module.
+#include <atomic>
 #include <memory>
 #include <string>
 
@@ -13,7 +14,8 @@ namespace terrabake::pipeline {
 // The claim() error for a layer another job made.
 [[noreturn]] void refuseDifferentJob(const std::string& location);
 
-std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation);
+std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation,
+                                         const std::atomic<bool>* stop);
 // `tms_rows`: the scheme's y counts from the south already (geodetic) and is
 // stored as it is; otherwise MBTiles rows are flipped.
 std::unique_ptr<TileSink> openMbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows);

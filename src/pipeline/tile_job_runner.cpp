@@ -74,7 +74,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
                      std::to_string(kMaxTilesPerRun) +
                      " in one run; narrow it with --bbox or --zoom, or split it with --shard");
   }
-  const std::unique_ptr<TileSink> sink = openSink(*plan);
+  const std::unique_ptr<TileSink> sink = openSink(*plan, options.stop);
   const bool resumable = sink->claim(plan->fingerprint, options.force);
   if (options.resume && !resumable) {
     log::warning("--resume: the layer held another job's tiles (--force), so every tile is made again");
@@ -182,11 +182,16 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   summary.empty = empty;
   summary.failed = failed;
   summary.interrupted = std::size_t(written + skipped + empty + failed) < count;
+  if (!summary.interrupted && plan->tileset) {
+    writeTileset(*sink, *plan);
+    // A stop while the run waited for its turn at the tileset ends it as
+    // one stopped before its end: no tilejson, --resume finishes the layer.
+    summary.interrupted = options.stop && *options.stop;
+  }
   if (summary.interrupted) {
     sink->close();
     if (job.format == OutputFormat::kPmtiles) summary.written = 0;
   } else {
-    if (plan->tileset) writeTileset(*sink, *plan);
     sink->finish(plan->tilejson, plan->elevation_tilejson);
   }
   summary.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

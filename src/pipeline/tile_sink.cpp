@@ -10,14 +10,14 @@ void refuseDifferentJob(const std::string& location) {
                    "' was made by a different job; use another output.layer, or --force to overwrite it");
 }
 
-std::unique_ptr<TileSink> openSink(const LayerPlan& plan) {
+std::unique_ptr<TileSink> openSink(const LayerPlan& plan, const std::atomic<bool>* stop) {
   const bool high_res_mesh = plan.settings.high_res_mesh;
   const bool elevation = plan.settings.elevation != Elevation::kNone;
   if (plan.format == OutputFormat::kMbtiles) {
     return openMbtilesSink(plan.location, high_res_mesh, plan.scheme->tmsRows());
   }
   if (plan.format == OutputFormat::kPmtiles) return openPmtilesSink(plan.location, high_res_mesh, elevation);
-  return openFolderSink(plan.location, high_res_mesh, elevation);
+  return openFolderSink(plan.location, high_res_mesh, elevation, stop);
 }
 
 }  // namespace terrabake::pipeline

@@ -3,6 +3,7 @@
 // archives written at the run's end. Every tile appears whole or not at all,
 // and a layer remembers the job that made it, so a run can resume it and
 // refuse to mix it with another job's tiles.
+#include <atomic>
 #include <functional>
 #include <memory>
 #include <string>
@@ -59,7 +60,9 @@ class TileSink {
 // order unless the scheme counts from the south already). A crashed run may
 // leave hidden temporary files in a folder; opening it removes those no live
 // writer holds. Throws InputError naming the folder or file when it cannot be
-// created, or an MBTiles file exists that terrabake did not write.
-std::unique_ptr<TileSink> openSink(const LayerPlan& plan);
+// created, or an MBTiles file exists that terrabake did not write. `stop`
+// (may be null), once true, ends a folder's wait for its turn at the
+// tileset: rewriteTileset then writes nothing.
+std::unique_ptr<TileSink> openSink(const LayerPlan& plan, const std::atomic<bool>* stop = nullptr);
 
 }  // namespace terrabake::pipeline
