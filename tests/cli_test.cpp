@@ -338,6 +338,28 @@ TEST(Cli, ClosedStandardStreamsTakeNoFileOfTheRun) {
   EXPECT_EQ(checkLayer(out / "ok"), (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
 }
 
+// A run that cannot start baking (here: EGL finds no driver) fails with exit
+// 3 and leaves no layer behind, whose job record would refuse the corrected
+// rerun (another backend is another job) as a different job.
+TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  args.back() = "egl";
+  // Leaks of the driver loader on its failure path are not this test's.
+  std::string command =
+      "ASAN_OPTIONS=detect_leaks=0 __EGL_VENDOR_LIBRARY_DIRS=/nonexistent LIBGL_DRIVERS_PATH=/nonexistent " TERRABAKE_EXE;
+  for (const std::string& arg : args) command += " '" + arg + "'";
+  const int status = std::system((command + " >/dev/null 2>&1").c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), kExitInput);
+  EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";
+  const RunResult rerun = runTerrabake(smallRunArgs(dem, out));
+  EXPECT_EQ(rerun.exit_code, kExitOk) << describe(rerun);
+}
+
 TEST(Cli, SampleConfigRuns) {
   const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
   ASSERT_TRUE(fs::exists(fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif"));

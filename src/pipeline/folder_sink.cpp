@@ -91,7 +91,7 @@ class FolderSink : public TileSink {
   FolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation, const std::atomic<bool>* stop)
       : m_dir(layer_dir), m_tile_formats(io::tileFormats(high_res_mesh, elevation)), m_stop(stop) {
     std::error_code ec;
-    fs::create_directories(m_dir, ec);
+    m_created = fs::create_directories(m_dir, ec);
     if (ec || !fs::is_directory(m_dir)) {
       throw InputError("output: cannot create folder '" + m_dir + "': " +
                        (ec ? ec.message() : std::string("a file is in the way")));
@@ -113,6 +113,18 @@ class FolderSink : public TileSink {
     io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
     return false;
+  }
+
+  // The folder, made by this run, holds the record alone (hidden files are
+  // writers' temporary files, removing the folder fails while it has any).
+  void releaseUnusedClaim() override {
+    if (!m_created) return;
+    std::error_code ec;
+    for (fs::directory_iterator it(m_dir, ec), end; !ec && it != end; it.increment(ec)) {
+      if (it->path().filename() != io::kJobFile) return;
+    }
+    fs::remove(fs::path(m_dir) / io::kJobFile, ec);
+    fs::remove(m_dir, ec);
   }
 
   // Every file of the tile, and none empty: one removed by hand is made
@@ -177,6 +189,7 @@ class FolderSink : public TileSink {
   std::string m_dir;
   std::vector<io::TileFormat> m_tile_formats;
   const std::atomic<bool>* m_stop;  // ends the wait for the tileset's turn
+  bool m_created = false;          // the folder did not exist before this run
 };
 
 }  // namespace

@@ -33,7 +33,8 @@ std::unique_ptr<io::MbtilesFile> openFile(const std::string& path, bool high_res
 class MbtilesSink : public TileSink {
  public:
   MbtilesSink(const std::string& path, bool high_res_mesh, bool tms_rows)
-      : m_file(openFile(path, high_res_mesh)),
+      : m_created(!fs::exists(path)),
+        m_file(openFile(path, high_res_mesh)),
         m_high_res_mesh(high_res_mesh),
         m_tms_rows(tms_rows),
         m_tile_formats(io::tileFormats(high_res_mesh, false)) {}
@@ -77,6 +78,22 @@ class MbtilesSink : public TileSink {
     return rows.empty() || m_file->replaceTilesetDocuments(rows, meshes);
   }
 
+  // The file, made by this run, holds no tile (a run of the same job that
+  // joined it may have written some).
+  void releaseUnusedClaim() override {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    if (!m_created) return;
+    bool holds_tiles = false;
+    for (const io::MbtilesTable table : {io::MbtilesTable::kTiles, io::MbtilesTable::kMeshes}) {
+      m_file->forEachTile(table, [&](const io::MbtilesKey&, const std::vector<std::uint8_t>&) { holds_tiles = true; });
+    }
+    if (holds_tiles) return;
+    const std::string path = m_file->path();
+    m_file.reset();  // closed, so that SQLite's own files go with it
+    std::error_code ignored;
+    for (const char* suffix : {"", "-wal", "-shm", "-journal"}) fs::remove(path + suffix, ignored);
+  }
+
   // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
   void finish(const std::string& tilejson, const std::string& /*elevation_tilejson*/) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
@@ -91,6 +108,7 @@ class MbtilesSink : public TileSink {
 
  private:
   mutable std::mutex m_mutex;
+  bool m_created;  // the file did not exist before this run
   std::unique_ptr<io::MbtilesFile> m_file;
   bool m_high_res_mesh;
   bool m_tms_rows;

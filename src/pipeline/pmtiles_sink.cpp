@@ -95,6 +95,10 @@ class PmtilesSink : public TileSink {
     return true;  // nothing is kept from an old archive: each run writes its own
   }
 
+  // Nothing to undo: the claim is checked, not recorded, and a run that
+  // fails writes no archive.
+  void releaseUnusedClaim() override {}
+
   bool hasTile(const TileId& tile) const override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     return m_writers.at(io::TileFormat::kGlb)->has(tile);

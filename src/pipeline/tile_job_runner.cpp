@@ -161,7 +161,12 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   for (int i = 0; i < workers; ++i) threads.emplace_back(worker);
   for (auto& t : threads) t.join();
   progress.finish();
-  if (fatal) std::rethrow_exception(fatal);
+  if (fatal) {
+    // A run that could not start (no GL context, say) leaves no claim
+    // behind: its corrected rerun is another job.
+    if (written == 0) sink->releaseUnusedClaim();
+    std::rethrow_exception(fatal);
+  }
   if (storage_refused) {
     try {
       sink->close();  // itself refused, perhaps: what it says comes before the reason

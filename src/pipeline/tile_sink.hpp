@@ -28,6 +28,10 @@ class TileSink {
   // Returns whether the tiles the layer holds are this job's: false when
   // `force` took it over, so that --resume keeps none of them.
   virtual bool claim(const std::string& fingerprint, bool force) = 0;
+  // Undoes a claim this run made on a layer it created, when the run failed
+  // before writing anything there: nothing of the layer is left. A layer
+  // that was there before, or holds anything else, is left as it is.
+  virtual void releaseUnusedClaim() = 0;
   // True when every file of the tile is there (what --resume skips).
   virtual bool hasTile(const TileId& tile) const = 0;
   // Thread-safe; the tile appears whole or not at all.
