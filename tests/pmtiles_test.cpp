@@ -6,6 +6,10 @@
 // root would outgrow 16 KiB; a damaged archive is refused, naming it.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <csignal>
 #include <cstdio>
 #include <filesystem>
@@ -337,6 +341,31 @@ TEST(Pmtiles, ForeignFilesAtAnyArchivesPathAreRefusedAndLeftAlone) {
   pipeline::RunOptions force;
   force.force = true;
   EXPECT_GT(pipeline::runTileJob(job, force).written, 0);
+}
+
+// Archives are written whole by one run: while another run holds the
+// layer's turn (an flock on a hidden file beside the archives), a run into it
+// is refused at once and leaves nothing; the turn goes with the run.
+TEST(Pmtiles, ARunIntoALayerAnotherRunIsWritingIsRefused) {
+  config::TileJob job = coastJob("pmtiles_turn", OutputFormat::kPmtiles);
+  job.min_zoom = job.max_zoom = 9;
+  const fs::path dir = job.output_dir;
+  fs::remove_all(dir);
+  fs::create_directories(dir);
+  const fs::path turn = dir / ".layer.pmtiles.lock";
+  const int held = ::open(turn.c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+  ASSERT_GE(held, 0);
+  ASSERT_EQ(::flock(held, LOCK_EX), 0);
+  try {
+    pipeline::runTileJob(job);
+    ADD_FAILURE() << "a run went on while another held the layer";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("another run is writing"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(test::filesUnder(dir), std::set<std::string>{".layer.pmtiles.lock"});
+  ::close(held);
+  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  EXPECT_FALSE(fs::exists(turn)) << "the turn's file outlived the run";
 }
 
 TEST(Pmtiles, ResumeAndShardsAreRefused) {

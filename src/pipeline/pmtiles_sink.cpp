@@ -1,3 +1,7 @@
+#include <fcntl.h>
+#include <sys/file.h>
+#include <unistd.h>
+
 #include <filesystem>
 #include <map>
 #include <mutex>
@@ -79,8 +83,15 @@ class PmtilesSink : public TileSink {
   // here, the companions as well as the normal maps': a file no terrabake job
   // made is refused, `force` or not, and an archive of another job is
   // replaced only with `force`.
+  ~PmtilesSink() override {
+    if (m_turn < 0) return;
+    ::unlink(turnPath().c_str());  // while held: a run that opens it now finds it taken or gone
+    ::close(m_turn);
+  }
+
   bool claim(const std::string& fingerprint, bool force) override {
     m_fingerprint = fingerprint;
+    takeTurn();
     for (const auto& [format, type] : m_kinds) {
       const std::string archive = io::pmtilesArchive(m_path, format);
       std::error_code ec;
@@ -139,7 +150,26 @@ class PmtilesSink : public TileSink {
   }
 
  private:
+  // Archives are written whole by one run: of two runs into one layer at
+  // once, the second is refused at its start (an flock on a hidden file
+  // beside the archives, let go however the run ends), as the folder and
+  // MBTiles forms refuse a different job.
+  void takeTurn() {
+    m_turn = ::open(turnPath().c_str(), O_CREAT | O_RDWR | O_CLOEXEC, 0644);
+    if (m_turn < 0) return;  // an unlockable folder: the archives' renames still land whole
+    if (::flock(m_turn, LOCK_EX | LOCK_NB) == 0) return;
+    ::close(m_turn);
+    m_turn = -1;
+    throw UsageError("output: another run is writing '" + m_path +
+                     "' now; a PMTiles layer is written by one run at a time");
+  }
+  std::string turnPath() const {
+    const fs::path path(m_path);
+    return (path.parent_path() / ("." + path.filename().string() + ".lock")).string();
+  }
+
   std::string m_path;
+  int m_turn = -1;  // the held lock's file, -1 none
   std::string m_fingerprint;
   std::vector<std::pair<io::TileFormat, io::PmtilesTileType>> m_kinds;  // the normal maps first
   mutable std::mutex m_mutex;
