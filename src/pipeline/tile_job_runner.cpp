@@ -168,17 +168,20 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     std::rethrow_exception(fatal);
   }
   if (storage_refused) {
+    // Closing may be refused too (an MBTiles file cannot fold in its
+    // write-ahead log on a full disk, and keeps it): said in the one error.
+    std::string closing;
     try {
-      sink->close();  // itself refused, perhaps: what it says comes before the reason
+      sink->close();
     } catch (const std::exception& e) {
-      log::warning(oneLine(e.what()));
+      closing = " (" + oneLine(e.what()) + ")";
     }
     // A PMTiles archive is written whole at the end: the run left none.
     const std::string kept = job.format == OutputFormat::kPmtiles
                                  ? "make room and run the job again"
                                  : "the " + std::to_string(written) +
                                        " tiles written are whole: make room and run it again with --resume";
-    throw OutputStorageError(*storage_refused + "; the run stopped there; " + kept);
+    throw OutputStorageError(*storage_refused + "; the run stopped there" + closing + "; " + kept);
   }
   if (times.tiles > 0) log::info("time per tile, in the workers: " + times.perTile());
 
