@@ -156,6 +156,16 @@ std::vector<std::string> smallRunArgs(const fs::path& dem, const fs::path& out) 
           "32",          "--out", out.string(), "--layer",  "ok",     "--backend", "cpu"};
 }
 
+// terrabake with `args` as one sh command line, after the variable
+// settings `environment` and before the redirections `redirect`; for runs
+// whose standard streams or environment a ChildProcess does not set.
+std::string shellCommand(const std::string& environment, const std::vector<std::string>& args,
+                         const std::string& redirect) {
+  std::string command = environment + (environment.empty() ? "" : " ") + TERRABAKE_EXE;
+  for (const std::string& arg : args) command += " '" + arg + "'";
+  return command + " " + redirect;
+}
+
 TEST(Cli, MissingDemNamesThePath) {
   const fs::path dir = caseDir();
   const fs::path dem = dir / "no_such_dem.tif";
@@ -330,9 +340,7 @@ TEST(Cli, ClosedStandardStreamsTakeNoFileOfTheRun) {
   const fs::path dem = dir / "dem.tif";
   writeDem(dem, true);
   const fs::path out = dir / "out";
-  std::string command = TERRABAKE_EXE;
-  for (const std::string& arg : smallRunArgs(dem, out)) command += " '" + arg + "'";
-  const int status = std::system((command + " >&- 2>&-").c_str());
+  const int status = std::system(shellCommand("", smallRunArgs(dem, out), ">&- 2>&-").c_str());
   ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
   EXPECT_EQ(WEXITSTATUS(status), kExitOk);
   EXPECT_EQ(checkLayer(out / "ok"), (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
@@ -349,10 +357,10 @@ TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
   std::vector<std::string> args = smallRunArgs(dem, out);
   args.back() = "egl";
   // Leaks of the driver loader on its failure path are not this test's.
-  std::string command =
-      "ASAN_OPTIONS=detect_leaks=0 __EGL_VENDOR_LIBRARY_DIRS=/nonexistent LIBGL_DRIVERS_PATH=/nonexistent " TERRABAKE_EXE;
-  for (const std::string& arg : args) command += " '" + arg + "'";
-  const int status = std::system((command + " >/dev/null 2>&1").c_str());
+  const int status = std::system(
+      shellCommand("ASAN_OPTIONS=detect_leaks=0 __EGL_VENDOR_LIBRARY_DIRS=/nonexistent LIBGL_DRIVERS_PATH=/nonexistent",
+                   args, ">/dev/null 2>&1")
+          .c_str());
   ASSERT_TRUE(WIFEXITED(status));
   EXPECT_EQ(WEXITSTATUS(status), kExitInput);
   EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";

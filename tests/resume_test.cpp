@@ -436,59 +436,72 @@ TEST(Shards, ThreeShardsWriteTheSingleRunsLayerOnce) {
   EXPECT_TRUE(test::snapshot(shards_dir / "layer") == test::snapshot(single_dir / "layer"));
 }
 
+// A finished --tileset run into `out` whose tileset.json is gone, with the
+// turn at writing it (an flock on the job record) held by this process until
+// `release`: what the runs below resume into.
+struct HeldTurn {
+  std::vector<std::string> resume_args;
+  fs::path tileset;
+  std::string tileset_bytes;  // the finished run's
+  int record = -1;
+  void release() {
+    ::close(record);
+    record = -1;
+  }
+  ~HeldTurn() {
+    if (record >= 0) ::close(record);
+  }
+};
+
+std::unique_ptr<HeldTurn> tilesetLayerWithItsTurnHeld(const fs::path& out) {
+  auto held = std::make_unique<HeldTurn>();
+  std::vector<std::string> args = jobArgs(out);
+  args.insert(args.end(), {"--tileset", "true"});
+  test::ChildProcess first(args);
+  EXPECT_EQ(first.wait(kRunLimit), 0) << first.err();
+  held->tileset = out / "layer" / "tileset.json";
+  held->tileset_bytes = test::readBytes(held->tileset);
+  EXPECT_FALSE(held->tileset_bytes.empty());
+  fs::remove(held->tileset);
+  held->record = ::open((out / "layer" / "terrabake-job.txt").c_str(), O_RDONLY | O_CLOEXEC);
+  EXPECT_GE(held->record, 0);
+  EXPECT_EQ(::flock(held->record, LOCK_EX), 0);
+  args.push_back("--resume");
+  held->resume_args = args;
+  return held;
+}
+
 // Shards that end together take turns at tileset.json, each listing the
 // meshes only once the one before has written: the turn is an flock on the
 // job record, and a run that finds it held waits for it.
 TEST(Shards, TilesetWritersTakeTurns) {
-  const fs::path out = freshDir("tileset_turns");
-  std::vector<std::string> args = jobArgs(out);
-  args.insert(args.end(), {"--tileset", "true"});
-  test::ChildProcess first(args);
-  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
-  const fs::path tileset = out / "layer" / "tileset.json";
-  const std::string expected = test::readBytes(tileset);
-  ASSERT_FALSE(expected.empty());
-  fs::remove(tileset);
-
-  const int record = ::open((out / "layer" / "terrabake-job.txt").c_str(), O_RDONLY | O_CLOEXEC);
-  ASSERT_GE(record, 0);
-  ASSERT_EQ(::flock(record, LOCK_EX), 0);
-  args.push_back("--resume");
-  test::ChildProcess waiting(args);
+  const std::unique_ptr<HeldTurn> held = tilesetLayerWithItsTurnHeld(freshDir("tileset_turns"));
+  ASSERT_FALSE(HasFailure());
+  test::ChildProcess waiting(held->resume_args);
   // Ample for a resumed run with nothing left to make to reach the tileset.
   std::this_thread::sleep_for(kTurnWait);
   EXPECT_TRUE(waiting.running()) << waiting.err();
-  EXPECT_FALSE(fs::exists(tileset)) << "written while another run held the turn";
-  ::close(record);
+  EXPECT_FALSE(fs::exists(held->tileset)) << "written while another run held the turn";
+  held->release();
   ASSERT_EQ(waiting.wait(kRunLimit), 0) << waiting.err();
-  EXPECT_EQ(test::readBytes(tileset), expected);
+  EXPECT_EQ(test::readBytes(held->tileset), held->tileset_bytes);
 }
 
 // A stop signal ends the wait for that turn: the run stops as one stopped
 // before its end (exit 130, no tileset written), not once the turn comes.
 TEST(Shards, AStopSignalEndsTheWaitForTheTilesetsTurn) {
-  const fs::path out = freshDir("tileset_turn_stopped");
-  std::vector<std::string> args = jobArgs(out);
-  args.insert(args.end(), {"--tileset", "true"});
-  test::ChildProcess first(args);
-  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
-  const fs::path tileset = out / "layer" / "tileset.json";
-  fs::remove(tileset);
-
-  const int record = ::open((out / "layer" / "terrabake-job.txt").c_str(), O_RDONLY | O_CLOEXEC);
-  ASSERT_GE(record, 0);
-  ASSERT_EQ(::flock(record, LOCK_EX), 0);
-  args.push_back("--resume");
-  test::ChildProcess waiting(args);
+  const std::unique_ptr<HeldTurn> held = tilesetLayerWithItsTurnHeld(freshDir("tileset_turn_stopped"));
+  ASSERT_FALSE(HasFailure());
+  test::ChildProcess waiting(held->resume_args);
   // Past the 2 s after which the wait says so.
   std::this_thread::sleep_for(kTurnWait + std::chrono::seconds(1));
   ASSERT_TRUE(waiting.running()) << waiting.err();
   waiting.signal(SIGINT);
   const int code = waiting.wait(kRunLimit);
-  ::close(record);
+  held->release();
   EXPECT_EQ(code, 130) << waiting.err();
   EXPECT_NE(waiting.err().find("waiting for it"), std::string::npos) << waiting.err();
-  EXPECT_FALSE(fs::exists(tileset));
+  EXPECT_FALSE(fs::exists(held->tileset));
 }
 
 TEST(Shards, BadShardIsAUsageError) {
