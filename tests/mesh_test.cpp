@@ -72,6 +72,36 @@ TEST(GridLowPolyMesh, UvsSpanTheTileAndTrianglesFaceUp) {
   }
 }
 
+// docs/CONTRACT.md §5: a grid vertex's NORMAL is normalize(cross(p(v + d) -
+// p(v - d), p(u + d) - p(u - d))) and its TANGENT the unit east difference,
+// p the samples' bilinear surface and d one grid cell, beyond the tile's
+// edge too (the apron covers a cell).
+TEST(GridLowPolyMesh, FramesAreCentralDifferencesOneCellAcross) {
+  const auto samples = test::sampleHeightField(hills, 64, 9, 10.0);
+  const auto mesh = mesh::buildLowPolyMesh(samples, 9);
+  // The surface at texel coordinate (x, y): sample (apron + x - 0.5, apron + y - 0.5).
+  const auto p = [&](double x, double y) {
+    const double c = samples.apron + x - 0.5, r = samples.apron + y - 0.5;
+    const int c0 = int(std::floor(c)), r0 = int(std::floor(r));
+    const double fc = c - c0, fr = r - r0;
+    const auto& q = samples.position;
+    return (q.at(c0, r0) * (1 - fc) + q.at(c0 + 1, r0) * fc) * (1 - fr) +
+           (q.at(c0, r0 + 1) * (1 - fc) + q.at(c0 + 1, r0 + 1) * fc) * fr;
+  };
+  constexpr double kCell = 64.0 / 8;
+  for (int r = 0; r < 9; ++r) {
+    for (int c = 0; c < 9; ++c) {
+      const double x = c * kCell, y = r * kCell;
+      const glm::dvec3 du = p(x + kCell, y) - p(x - kCell, y), dv = p(x, y + kCell) - p(x, y - kCell);
+      const std::size_t k = std::size_t(r) * 9 + std::size_t(c);
+      EXPECT_LT(test::angleDeg(glm::dvec3(mesh.normal[k]), glm::normalize(glm::cross(dv, du))), kFloatNormalDeg)
+          << "vertex " << c << ", " << r;
+      EXPECT_LT(test::angleDeg(glm::dvec3(glm::vec3(mesh.tangent[k])), glm::normalize(du)), kFloatNormalDeg)
+          << "vertex " << c << ", " << r;
+    }
+  }
+}
+
 TEST(GridLowPolyMesh, VerticesSitOnTheSurface) {
   // A low-poly vertex interpolates the samples around its texel corner; on a
   // plane that is exactly the plane.
