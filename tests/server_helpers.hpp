@@ -190,12 +190,16 @@ class Gate {
 inline bool waitFor(const std::function<bool()>& condition) { return waitUntil(condition, kWaitLimit); }
 
 // An on-demand layer whose tiles come from `make` instead of a DEM, over every zoom.
+// The job record of fakeLayer's folder: tiles already in it must sit beside
+// it, as those of an earlier run of the layer do.
+inline constexpr const char* kFakeJobRecord = "scheme: fake\n";
+
 inline std::unique_ptr<server::OnDemandLayer> fakeLayer(const std::filesystem::path& tiles, int workers,
                                                         std::size_t queue_size, server::OnDemandLayer::MakeTile make) {
   server::OnDemandLayer::Settings settings{"fake",
                                            tiles / "fake",
                                            R"({"tilejson": "3.0.0", "tiles": ["./{z}/{x}/{y}.png"]})",
-                                           "scheme: fake\n",
+                                           kFakeJobRecord,
                                            server::TileCoverage(0, 24),
                                            false,
                                            workers,

@@ -188,6 +188,7 @@ TEST(ServeHttp, AnEmptyTileFileIsNoTile) {
   const fs::path static_png = c.tiles / "static" / (tile.str() + ".png");
   const std::string made = readBytes(static_png);
   std::ofstream(static_png, std::ios::trunc).close();
+  { const ServerThread first(c.config); }  // the on-demand layer's folder, as an earlier start leaves it
   const fs::path live_png = c.tiles / "live" / (tile.str() + ".png");
   fs::create_directories(live_png.parent_path());
   std::ofstream(live_png).close();
@@ -590,7 +591,7 @@ TEST(ServeOnDemand, AFailedBakeAnswers500AndKeepsNothing) {
   const Case c = makeCase();
   // A file where the zoom-13 folder would go: the bake works, writing it fails.
   // (Tests run as root, where permissions stop nothing.)
-  fs::create_directories(c.tiles / "live");
+  { const ServerThread first(c.config); }  // the on-demand layer's folder, as an earlier start leaves it
   writeText(c.tiles / "live" / "13", "a file, not a folder\n");
   ServerThread running(c.config);
   const TileId tile = c.someTile();

@@ -173,6 +173,7 @@ struct World {
 
   std::unique_ptr<server::LayerSource> layer(int workers, std::size_t queue_size) {
     const io::TileFiles files = fakeFiles();
+    writeText(dir / "tiles" / "fake" / io::kJobFile, kFakeJobRecord);
     io::writeTileFiles((dir / "tiles" / "fake").string(), {3, 1, 1}, files);
     cached_png.assign(files.png.begin(), files.png.end());
     auto made = fakeLayer(dir / "tiles", workers, queue_size, [this](const TileId&) {
