@@ -102,10 +102,13 @@ fs::path tileFile(const fs::path& layer, const TileId& t, const std::string& suf
 }
 
 // The plane DEM's layer with every output that carries heights: low-poly
-// meshes with skirts, high-res meshes and Terrarium elevation tiles.
+// meshes with skirts, high-res meshes and Terrarium elevation tiles. Made
+// once per test process, in the folder of the first test that asks (ctest
+// runs each test in a process of its own, side by side).
 const fs::path& planeLayer() {
   static const fs::path layer = [] {
-    config::TileJob job = test::tileJob(planeDem(), "placement/plane", SchemeKind::kWebMercator, kMinZoom, kMaxZoom);
+    config::TileJob job = test::tileJob(planeDem(), "unused", SchemeKind::kWebMercator, kMinZoom, kMaxZoom);
+    job.output_dir = (test::caseDir() / "out").string();
     job.tile_size = kTileSize;
     job.bbox = kBox;
     job.z_scale = kZScale;
