@@ -42,6 +42,7 @@ std::string recordJob(const std::string& layer_dir, const std::string& fingerpri
 // writes comes after its record, so an entry found is another tool's only
 // while there is still no record, which this checks last.
 std::optional<std::string> foreignEntry(const std::string& layer_dir);
+
 // With output.elevation: the tilejson of the elevation tiles, a raster-dem source.
 inline constexpr const char* kElevationTileJsonFile = "elevation.json";
 // A layer stored as one file is "<layer>.mbtiles" beside the layer folders.

@@ -78,17 +78,17 @@ class PmtilesSink : public TileSink {
 
   std::string location() const override { return m_path; }
 
-  // Each archive records its job in the metadata; there is nothing to claim
-  // before the run ends, so every archive the run would replace is checked
-  // here, the companions as well as the normal maps': a file no terrabake job
-  // made is refused, `force` or not, and an archive of another job is
-  // replaced only with `force`.
   ~PmtilesSink() override {
     if (m_turn < 0) return;
     ::unlink(turnPath().c_str());  // while held: a run that opens it now finds it taken or gone
     ::close(m_turn);
   }
 
+  // Each archive records its job in the metadata; there is nothing to claim
+  // before the run ends, so every archive the run would replace is checked
+  // here, the companions as well as the normal maps': a file no terrabake job
+  // made is refused, `force` or not, and an archive of another job is
+  // replaced only with `force`.
   bool claim(const std::string& fingerprint, bool force) override {
     m_fingerprint = fingerprint;
     takeTurn();
