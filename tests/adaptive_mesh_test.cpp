@@ -4,6 +4,7 @@
 // it needs fewer triangles than a grid of the same error.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -75,6 +76,35 @@ TEST(AdaptiveMesh, IsATriangulationOfTheTileFacingUp) {
     EXPECT_NEAR(glm::length(glm::dvec3(result.mesh.normal[k])), 1.0, 1e-6);
     EXPECT_NEAR(glm::dot(glm::dvec3(result.mesh.normal[k]), glm::dvec3(result.mesh.tangent[k])), 0.0, 1e-6);
     EXPECT_GT(result.mesh.normal[k].y, 0.0f);
+  }
+}
+
+// docs/CONTRACT.md §5: an adaptive vertex's NORMAL is normalize(cross(p(v +
+// d) - p(v - d), p(u + d) - p(u - d))) and its TANGENT the unit east
+// difference, p the samples' bilinear surface and d four samples, for the
+// samples inside and the half-way points on the edges alike.
+TEST(AdaptiveMesh, FramesAreCentralDifferencesFourSamplesAcross) {
+  const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
+  const mesh::TriangleMesh mesh = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, 1.0), 1.0).mesh;
+  const auto p = [&](double c, double r) {  // at sample coordinates
+    const int c0 = int(std::floor(c)), r0 = int(std::floor(r));
+    const double fc = c - c0, fr = r - r0;
+    const auto& q = samples.position;
+    return (q.at(c0, r0) * (1 - fc) + q.at(c0 + 1, r0) * fc) * (1 - fr) +
+           (q.at(c0, r0 + 1) * (1 - fc) + q.at(c0 + 1, r0 + 1) * fc) * fr;
+  };
+  constexpr double kStep = 4;
+  // A unit vector stored as float32, from double arithmetic: good to 1e-4 degrees.
+  constexpr double kFloatFrameDeg = 1e-4;
+  const auto angleDeg = [](glm::dvec3 a, glm::dvec3 b) {
+    return std::acos(std::min(1.0, glm::dot(glm::normalize(a), glm::normalize(b)))) * 180 / M_PI;
+  };
+  ASSERT_GT(mesh.uv.size(), 20u);
+  for (std::size_t k = 0; k < mesh.uv.size(); ++k) {
+    const double c = samples.apron + mesh.uv[k].x * 64.0 - 0.5, r = samples.apron + mesh.uv[k].y * 64.0 - 0.5;
+    const glm::dvec3 du = p(c + kStep, r) - p(c - kStep, r), dv = p(c, r + kStep) - p(c, r - kStep);
+    EXPECT_LT(angleDeg(glm::dvec3(mesh.normal[k]), glm::cross(dv, du)), kFloatFrameDeg) << "vertex " << k;
+    EXPECT_LT(angleDeg(glm::dvec3(glm::vec3(mesh.tangent[k])), du), kFloatFrameDeg) << "vertex " << k;
   }
 }
 
