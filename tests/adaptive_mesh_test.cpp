@@ -86,13 +86,7 @@ TEST(AdaptiveMesh, IsATriangulationOfTheTileFacingUp) {
 TEST(AdaptiveMesh, FramesAreCentralDifferencesFourSamplesAcross) {
   const auto samples = test::sampleHeightField(ridges, 64, kAdaptiveGrid, 10.0);
   const mesh::TriangleMesh mesh = mesh::buildAdaptiveMesh(samples, test::ownEdgePoints(samples, 1.0), 1.0).mesh;
-  const auto p = [&](double c, double r) {  // at sample coordinates
-    const int c0 = int(std::floor(c)), r0 = int(std::floor(r));
-    const double fc = c - c0, fr = r - r0;
-    const auto& q = samples.position;
-    return (q.at(c0, r0) * (1 - fc) + q.at(c0 + 1, r0) * fc) * (1 - fr) +
-           (q.at(c0, r0 + 1) * (1 - fc) + q.at(c0 + 1, r0 + 1) * fc) * fr;
-  };
+  const auto p = [&](double c, double r) { return test::bilinearSurfaceAt(samples, c, r); };
   constexpr double kStep = 4;
   // A unit vector stored as float32, from double arithmetic: good to 1e-4 degrees.
   constexpr double kFloatFrameDeg = 1e-4;

@@ -81,12 +81,7 @@ TEST(GridLowPolyMesh, FramesAreCentralDifferencesOneCellAcross) {
   const auto mesh = mesh::buildLowPolyMesh(samples, 9);
   // The surface at texel coordinate (x, y): sample (apron + x - 0.5, apron + y - 0.5).
   const auto p = [&](double x, double y) {
-    const double c = samples.apron + x - 0.5, r = samples.apron + y - 0.5;
-    const int c0 = int(std::floor(c)), r0 = int(std::floor(r));
-    const double fc = c - c0, fr = r - r0;
-    const auto& q = samples.position;
-    return (q.at(c0, r0) * (1 - fc) + q.at(c0 + 1, r0) * fc) * (1 - fr) +
-           (q.at(c0, r0 + 1) * (1 - fc) + q.at(c0 + 1, r0 + 1) * fc) * fr;
+    return test::bilinearSurfaceAt(samples, samples.apron + x - 0.5, samples.apron + y - 0.5);
   };
   constexpr double kCell = 64.0 / 8;
   for (int r = 0; r < 9; ++r) {

@@ -17,6 +17,7 @@
 #include <map>
 #include <nlohmann/json.hpp>
 #include <optional>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -24,6 +25,7 @@
 
 #include "layer_check.hpp"
 #include "test_helpers.hpp"
+#include "tileset_walk.hpp"
 
 namespace terrabake {
 namespace {
@@ -84,19 +86,6 @@ Geodetic geodeticOf(const glm::dvec3& ecef) {
   return g;
 }
 
-// The tiles whose low-poly .glb lies in a layer folder.
-std::vector<TileId> tilesIn(const fs::path& layer) {
-  std::vector<TileId> tiles;
-  for (const auto& entry : fs::recursive_directory_iterator(layer)) {
-    const fs::path& p = entry.path();
-    if (p.extension() != ".glb" || p.stem().extension() == ".hires") continue;
-    tiles.push_back({std::stoi(p.parent_path().parent_path().filename().string()),
-                     std::stoi(p.parent_path().filename().string()), std::stoi(p.stem().string())});
-  }
-  std::sort(tiles.begin(), tiles.end());
-  return tiles;
-}
-
 fs::path tileFile(const fs::path& layer, const TileId& t, const std::string& suffix) {
   return layer / std::to_string(t.z) / std::to_string(t.x) / (std::to_string(t.y) + suffix);
 }
@@ -141,7 +130,7 @@ std::map<std::size_t, std::size_t> skirtCopies(const ts::GlbMesh& mesh) {
 
 TEST(Placement, EveryVertexLiesAtTheDemsHeightAboveTheEllipsoidScaledAsAsked) {
   const fs::path& layer = planeLayer();
-  const std::vector<TileId> tiles = tilesIn(layer);
+  const std::set<TileId> tiles = test::meshesOnDisk(layer);
   ASSERT_GE(tiles.size(), 4u);
   std::size_t vertices = 0;
   double worst_m = 0;
@@ -167,7 +156,7 @@ TEST(Placement, EveryVertexLiesAtTheDemsHeightAboveTheEllipsoidScaledAsAsked) {
 
 TEST(Placement, EachTilesFrameIsTheEastNorthUpFrameOfItsCentre) {
   const fs::path& layer = planeLayer();
-  for (const TileId& tile : tilesIn(layer)) {
+  for (const TileId& tile : test::meshesOnDisk(layer)) {
     const ts::GlbMesh low = ts::readGlb(tileFile(layer, tile, ".glb"));
     // The middle of the tile's extent: texel coordinate S / 2 both ways.
     const glm::dvec2 centre = test::webMercatorTexelLonLat(tile, kTileSize, kTileSize / 2 - 0.5, kTileSize / 2 - 0.5);
@@ -217,7 +206,7 @@ glm::dvec3 highResLocalAt(const ts::GlbMesh& high, int i, int j) {
 
 TEST(Placement, HighResVerticesSitOnTexelCentresAndMeetTheNeighboursFirst) {
   const fs::path& layer = planeLayer();
-  const std::vector<TileId> tiles = tilesIn(layer);
+  const std::set<TileId> tiles = test::meshesOnDisk(layer);
   std::map<TileId, std::map<std::pair<int, int>, glm::dvec3>> meshes;
   for (const TileId& tile : tiles) {
     meshes[tile] = highResByTexel(ts::readGlb(tileFile(layer, tile, ".hires.glb"), false));
@@ -251,7 +240,7 @@ TEST(Placement, HighResVerticesSitOnTexelCentresAndMeetTheNeighboursFirst) {
 TEST(Placement, ElevationTilesDecodeToTheDemsHeightsAtTheTexelCentres) {
   const fs::path& layer = planeLayer();
   std::size_t texels = 0;
-  for (const TileId& tile : tilesIn(layer)) {
+  for (const TileId& tile : test::meshesOnDisk(layer)) {
     const ts::PngImage png = ts::readPng(tileFile(layer, tile, ".elevation.png"));
     ASSERT_EQ(png.width, kTileSize);
     for (int j = 0; j < kTileSize; ++j) {
@@ -267,15 +256,12 @@ TEST(Placement, ElevationTilesDecodeToTheDemsHeightsAtTheTexelCentres) {
   EXPECT_GE(texels, std::size_t(4) * kTileSize * kTileSize);
 }
 
-// The mean earth radius skirts hang towards the centre of (docs/CONTRACT.md §5).
-constexpr double kMeanEarthRadiusM = 6371008.8;
-
 TEST(Placement, SkirtsHangTheStatedDepthTowardsTheEarthsCentre) {
   const fs::path& layer = planeLayer();
   const json low_poly = json::parse(test::readBytes(layer / "tilejson.json")).at("terrabake").at("low_poly");
   ASSERT_TRUE(low_poly.at("skirts").get<bool>());
   int checked = 0;
-  for (const TileId& tile : tilesIn(layer)) {
+  for (const TileId& tile : test::meshesOnDisk(layer)) {
     // The coarser zoom's bound is in the tilejson from the second zoom on.
     if (tile.z == kMinZoom) continue;
     const ts::GlbMesh low = ts::readGlb(tileFile(layer, tile, ".glb"));
@@ -289,12 +275,13 @@ TEST(Placement, SkirtsHangTheStatedDepthTowardsTheEarthsCentre) {
     const double texel_m = std::hypot(step.x, step.z);
     const double depth_m = bound_m + 2 * texel_m;
     // The centre of a sphere of the earth's mean radius touching the
-    // ellipsoid under the tile's origin, worked out from its lon/lat.
+    // ellipsoid under the tile's origin (docs/CONTRACT.md §5), worked out
+    // from its lon/lat.
     const double lon = low.origin_lon * M_PI / 180, lat = low.origin_lat * M_PI / 180;
     double x = 0, y = 0, z = 0;
     GeographicLib::Geocentric::WGS84().Forward(low.origin_lat, low.origin_lon, 0, x, y, z);
     const glm::dvec3 up(std::cos(lat) * std::cos(lon), std::cos(lat) * std::sin(lon), std::sin(lat));
-    const glm::dvec3 centre = glm::dvec3(x, y, z) - up * kMeanEarthRadiusM;
+    const glm::dvec3 centre = glm::dvec3(x, y, z) - up * test::kMeanEarthRadiusM;
     for (const auto& [copy, border] : skirtCopies(low)) {
       const glm::dvec3 top = ts::localToEcefPoint(low, low.position[border]);
       const glm::dvec3 drop = ts::localToEcefPoint(low, low.position[copy]) - top;
@@ -351,7 +338,7 @@ TEST(Placement, GreenDownStoresMinusY) {
               std::string(wordOf(green)));
   }
   std::size_t texels = 0, halves = 0;
-  for (const TileId& tile : tilesIn(layers[Green::kUp])) {
+  for (const TileId& tile : test::meshesOnDisk(layers[Green::kUp])) {
     const ts::PngImage up = ts::readPng(tileFile(layers[Green::kUp], tile, ".png"));
     const ts::PngImage down = ts::readPng(tileFile(layers[Green::kDown], tile, ".png"));
     ASSERT_EQ(up.samples.size(), down.samples.size());

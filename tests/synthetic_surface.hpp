@@ -36,6 +36,17 @@ inline mesh::SampleGrid sampleHeightField(const HeightField& height, int tile_si
   return samples;
 }
 
+// The samples' bilinear surface at fractional sample coordinates (c, r),
+// written here from the contract's words (docs/CONTRACT.md §5), not taken
+// from the mesh module.
+inline glm::dvec3 bilinearSurfaceAt(const mesh::SampleGrid& samples, double c, double r) {
+  const int c0 = int(std::floor(c)), r0 = int(std::floor(r));
+  const double fc = c - c0, fr = r - r0;
+  const auto& q = samples.position;
+  return (q.at(c0, r0) * (1 - fc) + q.at(c0 + 1, r0) * fc) * (1 - fr) +
+         (q.at(c0, r0 + 1) * (1 - fc) + q.at(c0 + 1, r0 + 1) * fc) * fr;
+}
+
 // The edge profile (mesh::EdgeProfile) a tile's own samples give for one of
 // its edges, in its frame: the corners, then half way between the samples
 // either side of the edge at each texel row (or column). A layer reads it

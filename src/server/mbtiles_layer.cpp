@@ -2,7 +2,6 @@
 
 #include <stdexcept>
 
-#include "core/error.hpp"
 #include "io/tile_files.hpp"
 
 namespace terrabake::server {

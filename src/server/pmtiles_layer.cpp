@@ -5,7 +5,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 
