@@ -368,6 +368,24 @@ TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
   EXPECT_EQ(rerun.exit_code, kExitOk) << describe(rerun);
 }
 
+// Mesa's OSMesa crashes on a GALLIUM_DRIVER it lacks: the run refuses the
+// name first, with the exit code of a missing GL context, and claims no layer.
+TEST(Cli, AGalliumDriverOsMesaLacksIsRefusedByName) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  const fs::path out = dir / "out";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  args.back() = "osmesa";
+  ::setenv("GALLIUM_DRIVER", "zink", 1);
+  const RunResult r = runTerrabake(args);
+  ::unsetenv("GALLIUM_DRIVER");
+  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+  const std::string error = "terrabake: error: gl: OSMesa renders with llvmpipe or softpipe, not GALLIUM_DRIVER=\"zink\"";
+  EXPECT_TRUE(contains(r.err, error)) << describe(r);
+  EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";
+}
+
 TEST(Cli, SampleConfigRuns) {
   const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
   ASSERT_TRUE(fs::exists(fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif"));

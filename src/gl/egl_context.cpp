@@ -4,8 +4,10 @@
 #include <EGL/eglext.h>
 #include <dlfcn.h>
 
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "core/error.hpp"
@@ -76,7 +78,12 @@ std::vector<EGLDeviceEXT> hardwareDevices(const EglApi& api) {
 [[noreturn]] void fail(const EglApi& api, const std::string& what) {
   char code[16];
   std::snprintf(code, sizeof code, "0x%04x", api.getError ? unsigned(api.getError()) : 0u);
-  throw InputError("gl: EGL " + what + " failed (error " + code + ")");
+  // Mesa's EGL fails to initialise when GALLIUM_DRIVER names a driver it
+  // lacks, with nothing in the error code to say so.
+  const char* driver = std::getenv("GALLIUM_DRIVER");
+  const std::string setting =
+      driver && *driver ? " with GALLIUM_DRIVER=\"" + shortened(driver) + "\" set" : std::string();
+  throw InputError("gl: EGL " + what + " failed (error " + code + ")" + setting);
 }
 
 class EglContext : public Context {

@@ -1,5 +1,7 @@
 #include <GL/osmesa.h>
 
+#include <cstdlib>
+#include <string_view>
 #include <vector>
 
 #include "core/error.hpp"
@@ -8,9 +10,23 @@
 namespace terrabake::gl {
 namespace {
 
+// OSMesa renders with Mesa's software rasterisers only, and Debian 12's
+// (Mesa 22.3) crashes in OSMesaCreateContextAttribs, rather than failing,
+// when GALLIUM_DRIVER names any other driver ("zink", "swr", a typo): such
+// a name is refused before Mesa sees it.
+void checkGalliumDriver() {
+  const char* driver = std::getenv("GALLIUM_DRIVER");
+  if (!driver || !*driver) return;
+  const std::string_view name = driver;
+  if (name == "llvmpipe" || name == "softpipe") return;
+  throw InputError("gl: OSMesa renders with llvmpipe or softpipe, not GALLIUM_DRIVER=\"" + shortened(driver) +
+                   "\"; unset it or set one of those");
+}
+
 class OsMesaContext : public Context {
  public:
   OsMesaContext() {
+    checkGalliumDriver();
     const int attribs[] = {OSMESA_FORMAT, OSMESA_RGBA,
                            OSMESA_DEPTH_BITS, 0,
                            OSMESA_PROFILE, OSMESA_COMPAT_PROFILE,
