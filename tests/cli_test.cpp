@@ -104,6 +104,13 @@ void writeDem(const fs::path& path, bool with_crs) {
             CE_None);
 }
 
+// The small DEM, with its CRS, as dir/dem.tif.
+fs::path writeDemIn(const fs::path& dir) {
+  const fs::path dem = dir / "dem.tif";
+  writeDem(dem, true);
+  return dem;
+}
+
 std::size_t countLines(const std::string& text) { return std::count(text.begin(), text.end(), '\n'); }
 
 bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
@@ -151,9 +158,9 @@ std::set<std::string> checkLayer(const fs::path& layer_dir) {
 }
 
 // The small native run of case 8, into `out`.
-std::vector<std::string> smallRunArgs(const fs::path& dem, const fs::path& out) {
+std::vector<std::string> smallRunArgs(const fs::path& dem, const fs::path& out, const std::string& backend = "cpu") {
   return {"tile",        "--dem", dem.string(), "--scheme", "native", "--zoom",    "0-1", "--tile-size",
-          "32",          "--out", out.string(), "--layer",  "ok",     "--backend", "cpu"};
+          "32",          "--out", out.string(), "--layer",  "ok",     "--backend", backend};
 }
 
 // terrabake with `args` as one sh command line, after the variable
@@ -204,8 +211,7 @@ TEST(Cli, DemWithoutCrsNamesTheFileAndCrs) {
 
 TEST(Cli, MisspeltConfigKeyNamesFileLineAndKey) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path config = dir / "job.yaml";
   const fs::path out = dir / "out";
   // The typo is on line 5.
@@ -219,8 +225,7 @@ TEST(Cli, MisspeltConfigKeyNamesFileLineAndKey) {
 
 TEST(Cli, UnwritableOutputNamesTheFolder) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   // Tests run as root, where permissions stop nothing; a file in the way does.
   const fs::path blocker = dir / "blocker";
   writeText(blocker, "a file, not a folder\n");
@@ -234,8 +239,7 @@ TEST(Cli, UnwritableOutputNamesTheFolder) {
 
 TEST(Cli, BadBitsValueNamesTheFlag) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   std::vector<std::string> args = smallRunArgs(dem, out);
   args.insert(args.end(), {"--bits", "12"});
@@ -316,8 +320,7 @@ TEST(Cli, TileHelpShowsExamplesAndExitCodes) {
 
 TEST(Cli, SmallRunWritesPairsAndTileJson) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   const RunResult r = runTerrabake(smallRunArgs(dem, out));
   ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
@@ -337,8 +340,7 @@ TEST(Cli, SmallRunWritesPairsAndTileJson) {
 // numbers, where the log would go into them.
 TEST(Cli, ClosedStandardStreamsTakeNoFileOfTheRun) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   const int status = std::system(shellCommand("", smallRunArgs(dem, out), ">&- 2>&-").c_str());
   ASSERT_TRUE(WIFEXITED(status)) << "ended by signal " << WTERMSIG(status);
@@ -351,11 +353,9 @@ TEST(Cli, ClosedStandardStreamsTakeNoFileOfTheRun) {
 // rerun (another backend is another job) as a different job.
 TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
-  std::vector<std::string> args = smallRunArgs(dem, out);
-  args.back() = "egl";
+  const std::vector<std::string> args = smallRunArgs(dem, out, "egl");
   // Leaks of the driver loader on its failure path are not this test's.
   const int status = std::system(
       shellCommand("ASAN_OPTIONS=detect_leaks=0 __EGL_VENDOR_LIBRARY_DIRS=/nonexistent LIBGL_DRIVERS_PATH=/nonexistent",
@@ -372,11 +372,9 @@ TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
 // name first, with the exit code of a missing GL context, and claims no layer.
 TEST(Cli, AGalliumDriverOsMesaLacksIsRefusedByName) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
-  std::vector<std::string> args = smallRunArgs(dem, out);
-  args.back() = "osmesa";
+  const std::vector<std::string> args = smallRunArgs(dem, out, "osmesa");
   ::setenv("GALLIUM_DRIVER", "zink", 1);
   const RunResult r = runTerrabake(args);
   ::unsetenv("GALLIUM_DRIVER");
@@ -400,8 +398,7 @@ TEST(Cli, SampleConfigRuns) {
 
 TEST(Cli, RerunIntoSameFolderKeepsTheSameFiles) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   const RunResult first = runTerrabake(smallRunArgs(dem, out));
   ASSERT_EQ(first.exit_code, kExitOk) << describe(first);
@@ -491,8 +488,7 @@ TEST(Cli, InfoWithoutADemIsAUsageError) {
 
 TEST(Cli, ZoomAutoTilesDownToTheDemsResolution) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   std::vector<std::string> args = smallRunArgs(dem, out);
   *std::find(args.begin(), args.end(), "0-1") = "auto";
@@ -503,8 +499,7 @@ TEST(Cli, ZoomAutoTilesDownToTheDemsResolution) {
 
 TEST(Cli, BadBboxNamesTheFlag) {
   const fs::path dir = caseDir();
-  const fs::path dem = dir / "dem.tif";
-  writeDem(dem, true);
+  const fs::path dem = writeDemIn(dir);
   const fs::path out = dir / "out";
   std::vector<std::string> args = smallRunArgs(dem, out);
   args.insert(args.end(), {"--bbox", "14,61,15,60"});
