@@ -274,6 +274,17 @@ TEST(Cli, NoSubcommandIsAUsageError) {
   expectOneLineError(r, kExitUsage);
 }
 
+// -v belongs to the top level, and may follow the command too.
+TEST(Cli, VerboseMayComeBeforeOrAfterTheCommand) {
+  const std::string dem = (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string();
+  for (const std::vector<std::string>& args : std::vector<std::vector<std::string>>{
+           {"-v", "info", dem}, {"info", "-v", dem}, {"info", dem, "--verbose"}}) {
+    const RunResult r = runTerrabake(args);
+    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+    EXPECT_TRUE(contains(r.out, "EPSG:32632")) << describe(r);
+  }
+}
+
 TEST(Cli, AnUnknownCommandIsNamedWithTheNearest) {
   const RunResult r = runTerrabake({"tiel", "--dem", "dem.tif"});
   expectOneLineError(r, kExitUsage);

@@ -40,13 +40,14 @@ Action addServeCommand(CLI::App& app) {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     // Before the server starts, so a signal at any point stops it gracefully.
     catchStopSignals();
-    const config::ServeConfig config =
-        loadSettings(options->config_path, config::loadServeConfig, *options->key_flags);
+    config::ServeConfig config = loadSettings(options->config_path, config::loadServeConfig, *options->key_flags);
+    // The default tiles folder is the working directory's; absolute like
+    // every path a file or flag gives, so that messages say where.
+    config.tiles_dir = std::filesystem::absolute(config.tiles_dir).lexically_normal().string();
 
     server::Server server(config, server::openLayers(config));
     // The one line on stdout: scripts and tests read the port from it.
-    const std::string tiles = std::filesystem::absolute(config.tiles_dir).lexically_normal().string();
-    std::printf("terrabake: serving %s on %s\n", tiles.c_str(), server.url().c_str());
+    std::printf("terrabake: serving %s on %s\n", config.tiles_dir.c_str(), server.url().c_str());
     std::fflush(stdout);
     runUntilStopSignal([&server] { server.run(); },
                        [&server](int signal) {

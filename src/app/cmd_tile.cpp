@@ -1,6 +1,7 @@
 // `terrabake tile`: a config file, with flags overriding its keys.
 #include <atomic>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <string>
 #include <vector>
@@ -20,8 +21,8 @@ constexpr const char* kTileExamples = R"(Examples:
   terrabake tile --config config/sample.yaml
   terrabake tile --config config/sample.yaml --zoom 12 --bits 16 --layer sample16
   terrabake tile --dem dem.tif --zoom 8-12 --out tiles --layer alps
-  terrabake tile --dem dem.tif --scheme native --zoom auto --backend cpu
-  terrabake tile --dem dem_ft.tif --zoom 8-auto --z-scale 0.3048 --bbox 9.9,46.4,10.1,46.6 --alpha true
+  terrabake tile --dem dem.tif --scheme native --zoom auto --backend cpu --layer alps_native
+  terrabake tile --dem dem_ft.tif --zoom 8-auto --z-scale 0.3048 --bbox 9.9,46.4,10.1,46.6 --alpha true --layer box
   terrabake tile --config config/sample.yaml --resume          # after a crash: only what is missing
   terrabake tile --config config/sample.yaml --shard 2/8       # one of 8 machines of a job array)";
 
@@ -59,7 +60,10 @@ Action addTileCommand(CLI::App& app) {
     if (!cmd->parsed()) return int(ExitCode::kUsage);
     // Before the run, so a signal at any point of it stops it gracefully.
     catchStopSignals();
-    const config::TileJob job = loadSettings(options->config_path, config::loadTileJob, *options->key_flags);
+    config::TileJob job = loadSettings(options->config_path, config::loadTileJob, *options->key_flags);
+    // The default output.dir, `tiles`, is the working directory's; absolute
+    // like every path a file or flag gives, so that messages say where.
+    job.output_dir = std::filesystem::absolute(job.output_dir).lexically_normal().string();
     if (!options->shard.empty()) parseShard(options->shard, options->run);
     std::atomic<bool> stop{false};
     std::atomic<int> stop_code{0};

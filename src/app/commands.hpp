@@ -13,7 +13,8 @@ using Action = std::function<int()>;  // returns the process exit code
 // a script writer looks. Keep in step with ExitCode in core/error.hpp.
 inline constexpr const char* kExitCodes =
     "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
-    "output (a full disk stops `tile` at once; --resume makes the rest) or no GL context;\n"
+    "output (a full disk stops `tile` at once; --resume makes the rest), no GL context,\n"
+    "or an address `serve` cannot listen on;\n"
     "4 the run finished but some tiles failed; 5 nothing to make:\n"
     "no tile of the job has a valid DEM sample (the warning says why; a shard with no\n"
     "tile of its own exits 0); 130 / 143 / 129 `tile` stopped by SIGINT / SIGTERM / SIGHUP\n"

@@ -19,19 +19,20 @@ namespace {
 // " (did you mean --max-error?)" for the first unknown flag given to the
 // command that was parsed, when a flag of it is within a typo; else "".
 std::string flagSuggestion(CLI::App& cli) {
-  std::vector<CLI::App*> apps = cli.get_subcommands();
-  apps.push_back(&cli);
-  for (CLI::App* app : apps) {
-    for (const std::string& arg : app->remaining()) {
-      if (arg.rfind("--", 0) != 0) continue;
-      const std::string flag = arg.substr(0, arg.find('='));
-      std::vector<std::string> names;
-      for (const CLI::Option* option : app->get_options()) {
-        for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
-      }
-      const std::string best = terrabake::nearestName(flag, {names.begin(), names.end()});
-      return best.empty() ? "" : " (did you mean " + best + "?)";
+  // A flag the command does not know falls through to the top level (see
+  // fallthrough below) and is compared with the command's flags and the top
+  // level's.
+  const std::vector<CLI::App*> commands = cli.get_subcommands();
+  std::vector<std::string> names;
+  for (CLI::App* app : {commands.empty() ? &cli : commands.front(), &cli}) {
+    for (const CLI::Option* option : app->get_options()) {
+      for (const std::string& name : option->get_lnames()) names.push_back("--" + name);
     }
+  }
+  for (const std::string& arg : cli.remaining(true)) {
+    if (arg.rfind("--", 0) != 0) continue;
+    const std::string best = terrabake::nearestName(arg.substr(0, arg.find('=')), {names.begin(), names.end()});
+    return best.empty() ? "" : " (did you mean " + best + "?)";
   }
   return "";
 }
@@ -94,7 +95,10 @@ int main(int argc, char** argv) {
   cli.require_subcommand(1);
   cli.set_version_flag("--version", "terrabake " TERRABAKE_VERSION, "Print the version and exit");
   bool verbose = false;
-  cli.add_flag("-v,--verbose", verbose, "Log debug detail (GDAL warnings, per-tile timing)");
+  cli.add_flag("-v,--verbose", verbose, "Log debug detail: GDAL's warnings, each on-demand bake");
+  // -v may also follow the subcommand (terrabake tile -v ...): the
+  // subcommands made after this pass flags they do not know up to here.
+  cli.fallthrough();
   const app::Action tile = app::addTileCommand(cli);
   const app::Action serve = app::addServeCommand(cli);
   const app::Action info = app::addInfoCommand(cli);

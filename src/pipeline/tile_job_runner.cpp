@@ -96,7 +96,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
 
   const int workers = int(std::max<std::uint64_t>(1, std::min<std::uint64_t>(std::uint64_t(plan->workers), mine)));
   dem::DemSource::shareBlockCacheAmong(workers);
-  if (gl::fitSoftwareRasteriserTo(workers)) {
+  if (plan->backend != Backend::kCpu && gl::fitSoftwareRasteriserTo(workers)) {
     log::debug("LP_NUM_THREADS=0: the " + std::to_string(workers) + " workers fill the cores, so llvmpipe rasterises on them");
   }
   std::atomic<std::size_t> next{0};
