@@ -6,7 +6,9 @@
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
 
+#include <pwd.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <chrono>
@@ -274,6 +276,17 @@ TEST(Cli, NoSubcommandIsAUsageError) {
   expectOneLineError(r, kExitUsage);
 }
 
+// The description is what info makes: one it cannot write is an error.
+TEST(Cli, InfoThatCannotWriteItsDescriptionFails) {
+  const std::string dem = (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string();
+  const fs::path err = caseDir() / "err";
+  const int status = std::system(shellCommand("", {"info", dem}, ">/dev/full 2>" + err.string()).c_str());
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), kExitInput);
+  EXPECT_EQ(test::readBytes(err),
+            "terrabake: error: info: cannot write the description to standard output: No space left on device\n");
+}
+
 // -v belongs to the top level, and may follow the command too.
 TEST(Cli, VerboseMayComeBeforeOrAfterTheCommand) {
   const std::string dem = (fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif").string();
@@ -395,6 +408,52 @@ TEST(Cli, AGalliumDriverOsMesaLacksIsRefusedByName) {
   EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";
 }
 
+// Under a limit on processes (ulimit -u, a container's pids limit) the
+// system refuses threads: a run starts the workers it can, or stops with one
+// line naming the limit, never ends by a signal. Root ignores the limit, so
+// the runs are made as nobody.
+TEST(Cli, ALimitOnThreadsGivesFewerWorkersOrOneLine) {
+  const passwd* nobody = ::getpwnam("nobody");
+  if (::geteuid() != 0 || !nobody || !fs::exists("/usr/bin/setpriv")) {
+    GTEST_SKIP() << "needs root, the user nobody and setpriv";
+  }
+  // A folder of its own under /tmp, which nobody can reach and write.
+  std::string dir_template = (fs::temp_directory_path() / "terrabake-nproc-XXXXXX").string();
+  ASSERT_NE(::mkdtemp(dir_template.data()), nullptr);
+  const fs::path dir = dir_template;
+  fs::permissions(dir, fs::perms::all);
+  const fs::path dem = writeDemIn(dir);
+  fs::permissions(dem, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  bool fewer_workers = false;
+  // From a limit too low for the process itself (libraries start threads
+  // before main, which nothing of ours can answer) to one that fits the 5
+  // workers of 5 tiles.
+  for (int limit = 6; limit <= 16; ++limit) {
+    const fs::path out = dir / ("out" + std::to_string(limit));
+    const fs::path err = dir / ("err" + std::to_string(limit));
+    std::vector<std::string> args = smallRunArgs(dem, out);
+    args.insert(args.end(), {"--workers", "8"});
+    const std::string command = "/usr/bin/setpriv --reuid=nobody --regid=nogroup --clear-groups bash -c 'ulimit -u " +
+                                std::to_string(limit) + "; exec " + shellCommand("", args, "") + "' 2>" + err.string() +
+                                " >/dev/null";
+    const int status = std::system(command.c_str());
+    const std::string said = test::readBytes(err);
+    ASSERT_TRUE(WIFEXITED(status)) << "ulimit -u " << limit << ": ended by signal\n" << said;
+    const int code = WEXITSTATUS(status);
+    if (code == kExitInput) {
+      EXPECT_TRUE(contains(said, "terrabake: error: ")) << said;
+      EXPECT_TRUE(contains(said, "ulimit -u")) << said;
+      EXPECT_FALSE(fs::exists(out / "ok")) << "ulimit -u " << limit << ": the failed run left its layer";
+      continue;
+    }
+    ASSERT_EQ(code, kExitOk) << "ulimit -u " << limit << "\n" << said;
+    EXPECT_EQ(checkLayer(out / "ok"), (std::set<std::string>{"0/0/0", "1/0/0", "1/0/1", "1/1/0", "1/1/1"}));
+    fewer_workers |= contains(said, "workers run: the system refused a thread");
+  }
+  EXPECT_TRUE(fewer_workers) << "no limit left the run fewer workers";
+  fs::remove_all(dir);
+}
+
 TEST(Cli, SampleConfigRuns) {
   const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
   ASSERT_TRUE(fs::exists(fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif"));
@@ -405,6 +464,40 @@ TEST(Cli, SampleConfigRuns) {
   const std::set<std::string> tiles = checkLayer(out / "sample");
   EXPECT_FALSE(tiles.empty());
   for (const std::string& tile : tiles) EXPECT_EQ(tile.rfind("10/", 0), 0u) << tile;
+}
+
+// A file larger than ulimit -f allows is a full output, in every format:
+// one line, exit 3, and no temporary file left, not a process ended by
+// SIGXFSZ.
+TEST(Cli, AFileSizeLimitStopsTheRunWithOneLine) {
+  const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
+  const fs::path dir = caseDir();
+  for (const std::string format : {"files", "mbtiles", "pmtiles"}) {
+    const fs::path out = dir / format;
+    const fs::path err = dir / (format + ".err");
+    const std::vector<std::string> args = {"tile",  "--config", config.string(), "--out",     out.string(),
+                                           "--zoom", "9-10",    "--format",      format,      "--backend",
+                                           "cpu"};
+    // 20 KiB: the job record fits, a tile's normal map does not.
+    const std::string command = "bash -c 'ulimit -f 20; exec " + shellCommand("", args, "") + "' 2>" +
+                                err.string() + " >/dev/null";
+    const int status = std::system(command.c_str());
+    const std::string said = test::readBytes(err);
+    ASSERT_TRUE(WIFEXITED(status)) << format << ": ended by signal " << WTERMSIG(status) << "\n" << said;
+    EXPECT_EQ(WEXITSTATUS(status), kExitInput) << format << "\n" << said;
+    // Besides the info lines, the one error, naming the output.
+    std::vector<std::string> problems;
+    std::istringstream lines(said);
+    for (std::string line; std::getline(lines, line);) {
+      if (line.rfind("terrabake: info:", 0) != 0) problems.push_back(line);
+    }
+    ASSERT_EQ(problems.size(), 1u) << format << "\n" << said;
+    EXPECT_EQ(problems[0].rfind("terrabake: error: ", 0), 0u) << format << "\n" << said;
+    EXPECT_TRUE(contains(problems[0], out.string())) << format << "\n" << said;
+    for (const std::string& file : filesUnder(out)) {
+      EXPECT_NE(fs::path(file).filename().string().front(), '.') << format << ": left " << file;
+    }
+  }
 }
 
 TEST(Cli, RerunIntoSameFolderKeepsTheSameFiles) {

@@ -1,5 +1,7 @@
 // `terrabake info`: what a DEM is and which zooms suit it, before tiling it.
+#include <cerrno>
 #include <cstdio>
+#include <cstring>
 #include <memory>
 #include <string>
 #include <vector>
@@ -129,6 +131,11 @@ Action addInfoCommand(CLI::App& app) {
     const dem::DemSource dem(options->dems, dem_options);
     for (const std::string& warning : dem.warnings()) log::warning(warning);
     printInfo(dem, options->dems.size(), job.tile_size);
+    // The description is what info makes: a full disk or a reader gone is
+    // an error, as an unwritable tile is for tile.
+    if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
+      throw InputError(std::string("info: cannot write the description to standard output: ") + std::strerror(errno));
+    }
     return int(ExitCode::kOk);
   };
 }

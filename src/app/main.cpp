@@ -1,5 +1,6 @@
 #include <fcntl.h>
 #include <malloc.h>
+#include <signal.h>
 #include <unistd.h>
 
 #include <cerrno>
@@ -83,6 +84,12 @@ void openClosedStandardStreams() {
 int main(int argc, char** argv) {
   using namespace terrabake;
   openClosedStandardStreams();
+  // A reader that went away (`terrabake info ... | head -1`) and a file
+  // larger than ulimit -f allows make writes fail with an error the writer
+  // reports (a tile's log lines cost, a full output stops the run, exit 3),
+  // instead of ending the process.
+  ::signal(SIGPIPE, SIG_IGN);
+  ::signal(SIGXFSZ, SIG_IGN);
   // A tile's buffers (sample grids, meshes, images: 0.1 to 10 MiB each) are
   // made and freed for every tile. Kept on the heap rather than mapped and
   // unmapped each time, they cost no fresh pages: measured on 324 tiles, the

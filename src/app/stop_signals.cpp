@@ -8,8 +8,10 @@
 #include <cerrno>
 #include <string>
 #include <thread>
+#include <vector>
 
 #include "core/error.hpp"
+#include "core/threads.hpp"
 
 namespace terrabake::app {
 namespace {
@@ -34,9 +36,6 @@ void catchStopSignals() {
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESTART;  // other threads' reads and writes go on
   for (const int signal : kStopSignals) ::sigaction(signal, &action, nullptr);
-  // A reader that went away (`terrabake tile ... | head -1`) costs the log
-  // lines, not the run: writes to it fail instead of ending the process.
-  ::signal(SIGPIPE, SIG_IGN);
   // A parent may have started us with them blocked (the mask is inherited
   // across exec); unblocked here, the handler runs on this thread at least,
   // and on every thread started from now on.
@@ -56,7 +55,8 @@ std::string stopSignalName(int signal) {
 }
 
 void runUntilStopSignal(const std::function<void()>& work, const std::function<void(int)>& stop) {
-  std::thread watcher([&stop] {
+  std::string refused;
+  std::vector<std::thread> watchers = startThreads(1, [&stop](int) {
     bool stopped = false;
     for (;;) {
       unsigned char byte = kWorkDone;
@@ -71,7 +71,8 @@ void runUntilStopSignal(const std::function<void()>& work, const std::function<v
       stop(byte);
       stopped = true;
     }
-  });
+  }, refused);
+  if (watchers.empty()) throw InputError("cannot start the thread that watches for stop signals: " + refused);
   // The watcher is woken and joined however work() ends.
   struct Join {
     std::thread& watcher;
@@ -80,7 +81,7 @@ void runUntilStopSignal(const std::function<void()>& work, const std::function<v
       [[maybe_unused]] const ssize_t written = ::write(g_pipe[1], &done, 1);
       watcher.join();
     }
-  } join{watcher};
+  } join{watchers.front()};
   work();
 }
 

@@ -10,7 +10,7 @@
 
 namespace terrabake::app {
 
-// Installs the handler for SIGINT, SIGTERM and SIGHUP, and ignores SIGPIPE.
+// Installs the handler for SIGINT, SIGTERM and SIGHUP.
 // Call it once, early.
 void catchStopSignals();
 

@@ -26,7 +26,7 @@ std::string oneLine(const std::string& text) {
 
 void throwIoError(const std::string& what, const std::string& path, int error) {
   const std::string message = what + " '" + path + "': " + std::generic_category().message(error);
-  if (error == ENOSPC || error == EDQUOT || error == EROFS) throw OutputStorageError(message);
+  if (error == ENOSPC || error == EDQUOT || error == EROFS || error == EFBIG) throw OutputStorageError(message);
   throw InputError(message);
 }
 

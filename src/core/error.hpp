@@ -47,7 +47,8 @@ struct OutputStorageError : InputError {
 };
 
 // Throws OutputStorageError for an errno value of that kind (ENOSPC, EDQUOT,
-// EROFS), else InputError: "<what> '<path>': <the error's description>".
+// EROFS, EFBIG: a file larger than ulimit -f or the file system allows),
+// else InputError: "<what> '<path>': <the error's description>".
 [[noreturn]] void throwIoError(const std::string& what, const std::string& path, int error);
 
 // A job that cannot make any tile, for a reason that is not an error of the

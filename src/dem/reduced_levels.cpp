@@ -9,6 +9,7 @@
 #include <thread>
 
 #include "core/error.hpp"
+#include "core/threads.hpp"
 #include "dem/gdal_util.hpp"
 
 namespace terrabake::dem {
@@ -150,15 +151,18 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
   };
   const int thread_count =
       std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(kMaxBuildThreads, band_count));
-  std::vector<std::thread> threads;
-  for (int t = 1; t < thread_count; ++t) {
-    threads.emplace_back([&] {
-      guarded([&] {
-        const auto [handle, band] = open_band();
-        buildBands(*handle->GetRasterBand(band));
-      });
-    });
-  }
+  // Helpers the system refuses (its limit on processes) leave the work to
+  // those that started and this thread.
+  std::string refused;
+  std::vector<std::thread> threads = startThreads(
+      thread_count - 1,
+      [&](int) {
+        guarded([&] {
+          const auto [handle, band] = open_band();
+          buildBands(*handle->GetRasterBand(band));
+        });
+      },
+      refused);
   guarded([&] { buildBands(first_band); });
   for (std::thread& thread : threads) thread.join();
   if (failed) throw InputError("dem: cannot read '" + shortened(path) + "' (" + failure + ")");

@@ -88,7 +88,10 @@ struct MbtilesFile::Impl {
     const std::string reason = db ? sqlite3_errmsg(db) : "out of memory";
     if (db && sqlite3_errcode(db) == SQLITE_NOTADB) notOurs(reason);
     const std::string message = "'" + path + "': " + what + ": " + reason;
-    if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_errcode(db) == SQLITE_READONLY)) {
+    // A refused write (SQLITE_IOERR_WRITE: a file past ulimit -f, a failing
+    // disk) comes without its errno, which later calls have overwritten.
+    if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_errcode(db) == SQLITE_READONLY ||
+               sqlite3_extended_errcode(db) == SQLITE_IOERR_WRITE)) {
       throw OutputStorageError(message);
     }
     throw InputError(message);

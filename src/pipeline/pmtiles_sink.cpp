@@ -144,11 +144,6 @@ class PmtilesSink : public TileSink {
     for (auto it = m_kinds.rbegin(); it != m_kinds.rend(); ++it) m_writers.at(it->first)->publish();
   }
 
-  // A run stopped early writes no archive: PMTiles cannot be resumed.
-  void close() override {
-    log::warning("output: the run stopped before its end, so no PMTiles archive is written ('" + m_path + "')");
-  }
-
  private:
   // Archives are written whole by one run: of two runs into one layer at
   // once, the second is refused at its start (an flock on a hidden file

@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/threads.hpp"
 #include "dem/dem_source.hpp"
 #include "gl/baker_factory.hpp"
 #include "pipeline/progress.hpp"
@@ -21,6 +22,13 @@
 
 namespace terrabake::pipeline {
 namespace {
+
+// What stopped a run at a tile, rather than failing that tile alone: the
+// tiles after it would fail the same way.
+struct StopCause {
+  std::string reason;  // "tile 12/2177/1301: ..."
+  std::string remedy;  // what to do before running it again: "make room"
+};
 
 // tileset.json over every mesh the layer holds now: this run's, an earlier
 // run's it resumed, and other shards' that have finished.
@@ -103,7 +111,12 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   std::atomic<int> written{0}, skipped{0}, empty{0}, failed{0};
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
-  std::optional<std::string> storage_refused;  // the first tile the output's storage refused, and why
+  std::optional<StopCause> stop_cause;  // the first tile that stopped the run
+  const auto stopRun = [&](StopCause cause) {
+    std::lock_guard<std::mutex> lock(fatal_mutex);
+    if (!stop_cause) stop_cause = std::move(cause);
+    next = count;
+  };
   std::once_flag renderer_logged;
   std::mutex times_mutex;
   StageTimes times;  // of every worker, summed when each ends
@@ -141,9 +154,11 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         }
       } catch (const OutputStorageError& e) {
         // Every tile after it would fail the same way: stop the run here.
-        std::lock_guard<std::mutex> lock(fatal_mutex);
-        if (!storage_refused) storage_refused = "tile " + tile.str() + ": " + oneLine(e.what());
-        next = count;
+        stopRun({"tile " + tile.str() + ": " + oneLine(e.what()), "make room"});
+        break;
+      } catch (const std::bad_alloc&) {
+        // So would most tiles after it, each with its own error line.
+        stopRun({"tile " + tile.str() + ": out of memory", "give it more memory or fewer --workers"});
         break;
       } catch (const std::exception& e) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));
@@ -157,8 +172,15 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     times += worker_times;
   };
 
-  std::vector<std::thread> threads;
-  for (int i = 0; i < workers; ++i) threads.emplace_back(worker);
+  std::string refused;
+  std::vector<std::thread> threads = startThreads(workers, [&](int) { worker(); }, refused);
+  if (threads.empty()) {
+    sink->releaseUnusedClaim();
+    throw InputError("cannot start a worker: " + refused);
+  }
+  if (!refused.empty()) {
+    log::warning(std::to_string(threads.size()) + " of " + std::to_string(workers) + " workers run: " + refused);
+  }
   for (auto& t : threads) t.join();
   progress.finish();
   if (fatal) {
@@ -167,7 +189,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     if (written == 0) sink->releaseUnusedClaim();
     std::rethrow_exception(fatal);
   }
-  if (storage_refused) {
+  if (stop_cause) {
     // Closing may be refused too (an MBTiles file cannot fold in its
     // write-ahead log on a full disk, and keeps it): said in the one error.
     std::string closing;
@@ -178,10 +200,10 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     }
     // A PMTiles archive is written whole at the end: the run left none.
     const std::string kept = job.format == OutputFormat::kPmtiles
-                                 ? "make room and run the job again"
-                                 : "the " + std::to_string(written) +
-                                       " tiles written are whole: make room and run it again with --resume";
-    throw OutputStorageError(*storage_refused + "; the run stopped there" + closing + "; " + kept);
+                                 ? stop_cause->remedy + " and run the job again"
+                                 : "the " + std::to_string(written) + " tiles written are whole: " +
+                                       stop_cause->remedy + " and run it again with --resume";
+    throw InputError(stop_cause->reason + "; the run stopped there" + closing + "; " + kept);
   }
   if (times.tiles > 0) log::info("time per tile, in the workers: " + times.perTile());
 

@@ -2,25 +2,35 @@
 
 #include <algorithm>
 #include <exception>
+#include <string>
+
+#include "core/error.hpp"
+#include "core/log.hpp"
+#include "core/threads.hpp"
 
 namespace terrabake::server {
 
 BakeQueue::BakeQueue(int workers, std::size_t capacity, const BakeFactory& make_bake) : m_capacity(capacity) {
   std::vector<std::promise<void>> ready(std::size_t(std::max(workers, 1)));
-  for (auto& worker_ready : ready) {
-    m_workers.emplace_back([this, &make_bake, &worker_ready] { work(make_bake, worker_ready); });
-  }
+  std::string refused;
+  m_workers = startThreads(
+      int(ready.size()), [this, &make_bake, &ready](int k) { work(make_bake, ready[std::size_t(k)]); }, refused);
   std::exception_ptr failure;
-  for (auto& worker_ready : ready) {
+  for (std::size_t k = 0; k < m_workers.size(); ++k) {
     try {
-      worker_ready.get_future().get();
+      ready[k].get_future().get();
     } catch (...) {
       if (!failure) failure = std::current_exception();
     }
   }
-  if (failure) {
+  if (failure || m_workers.empty()) {
     stop();
-    std::rethrow_exception(failure);
+    if (failure) std::rethrow_exception(failure);
+    throw InputError("cannot start a bake worker: " + refused);
+  }
+  if (!refused.empty()) {
+    log::warning(std::to_string(m_workers.size()) + " of " + std::to_string(ready.size()) + " bake workers run: " +
+                 refused);
   }
 }
 

@@ -27,6 +27,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/threads.hpp"
 #include "server/http_rules.hpp"
 #include "server/request_handler.hpp"
 
@@ -509,11 +510,19 @@ void Server::run() {
   if (m_impl->stopping) return;
   // Keeps the threads up until stop() has every bake answered (see stop()).
   for (const auto& context : m_impl->contexts) m_impl->work.push_back(net::make_work_guard(*context));
-  m_impl->accept();
-  std::vector<std::thread> helpers;
-  for (std::size_t i = 1; i < m_impl->contexts.size(); ++i) {
-    helpers.emplace_back([this, i] { runContext(*m_impl->contexts[i]); });
+  // Every context needs its thread: where the system refuses one, those
+  // started end (they have no work yet) and the server does not start.
+  std::string refused;
+  std::vector<std::thread> helpers = startThreads(
+      int(m_impl->contexts.size()) - 1, [this](int k) { runContext(*m_impl->contexts[std::size_t(k) + 1]); },
+      refused);
+  if (!refused.empty()) {
+    for (auto& guard : m_impl->work) guard.reset();
+    for (std::thread& helper : helpers) helper.join();
+    throw InputError("http: cannot start " + std::to_string(m_impl->contexts.size()) + " threads: " + refused +
+                     "; set fewer with http.threads");
   }
+  m_impl->accept();
   runContext(*m_impl->contexts[0]);
   for (std::thread& helper : helpers) helper.join();
 }

@@ -1,0 +1,33 @@
+#pragma once
+// Starting threads where the system may refuse some: under a limit on
+// processes (ulimit -u, a container's pids limit) std::thread's constructor
+// throws, and a vector of threads destroyed with some still running would
+// end the process.
+#include <algorithm>
+#include <string>
+#include <system_error>
+#include <thread>
+#include <vector>
+
+namespace terrabake {
+
+// Starts up to `count` threads, the k-th running body(k), and stops at the
+// first one the system refuses: returns those started; `refused` says why
+// (left empty when all started).
+template <class Body>
+std::vector<std::thread> startThreads(int count, const Body& body, std::string& refused) {
+  std::vector<std::thread> threads;
+  threads.reserve(std::size_t(std::max(count, 0)));  // emplace_back below then never reallocates
+  for (int k = 0; k < count; ++k) {
+    try {
+      threads.emplace_back(body, k);
+    } catch (const std::system_error& e) {
+      refused = "the system refused a thread (" + std::string(e.what()) +
+                "): its limit on processes, ulimit -u or a container's pids limit, is reached";
+      break;
+    }
+  }
+  return threads;
+}
+
+}  // namespace terrabake
