@@ -4,6 +4,11 @@
 // bound and eviction order) and files read in parts.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/resource.h>
+#include <unistd.h>
+
+#include <algorithm>
 #include <cstddef>
 #include <filesystem>
 #include <memory>
@@ -248,6 +253,47 @@ TEST(ServedFiles, PartsOfAFileAreReadWhereAskedAndNowhereElse) {
   EXPECT_FALSE(folder.open("missing.bin"));
   EXPECT_FALSE(folder.open("../file.bin"));
   EXPECT_FALSE(folder.open("")) << "the folder itself is no file";
+}
+
+// Every file descriptor the process may open taken, as many connections at
+// once take them; released, with the limit as it was, at the end of scope.
+class AllFilesOpen {
+ public:
+  AllFilesOpen() {
+    ::getrlimit(RLIMIT_NOFILE, &m_limit);
+    rlimit lower = m_limit;
+    lower.rlim_cur = std::min<rlim_t>(m_limit.rlim_cur, 4096);  // a bounded number to fill
+    ::setrlimit(RLIMIT_NOFILE, &lower);
+    for (int fd; (fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC)) >= 0;) m_fds.push_back(fd);
+  }
+  ~AllFilesOpen() {
+    for (const int fd : m_fds) ::close(fd);
+    ::setrlimit(RLIMIT_NOFILE, &m_limit);
+  }
+  AllFilesOpen(const AllFilesOpen&) = delete;
+  AllFilesOpen& operator=(const AllFilesOpen&) = delete;
+
+ private:
+  rlimit m_limit{};
+  std::vector<int> m_fds;
+};
+
+// A file that is there but cannot be opened now is no absent file (a 404 a
+// cache would keep): the read throws, saying it may work later.
+TEST(ServedFiles, AFileThatCannotBeOpenedNowIsNotAbsent) {
+  const fs::path dir = caseDir();
+  writeText(dir / "file.bin", "0123456789");
+  const server::ServedFolder folder(dir);
+  const AllFilesOpen taken;
+  try {
+    folder.read("file.bin");
+    ADD_FAILURE() << "read a file with no descriptor left";
+  } catch (const server::UnreadableFile& e) {
+    EXPECT_TRUE(e.temporary) << e.what();
+    EXPECT_NE(std::string(e.what()).find("file.bin"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(folder.open("file.bin"), server::UnreadableFile);
+  EXPECT_FALSE(folder.open("missing.bin")) << "an absent file is still absent";
 }
 
 TEST(ServeConfig, LimitsAndThePublicUrl) {

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "io/layer_layout.hpp"
 #include "server/http_rules.hpp"
 
@@ -161,46 +162,62 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
     }
     reply.headers.emplace_back("Access-Control-Max-Age", kPreflightMaxAgeS);
   } else {
-    const Route route = parseRoute(request.path);
-    const auto layer = route.kind == Route::Kind::kTile ? m_layers.find(route.layer) : m_layers.end();
-    if (layer == m_layers.end()) {
-      reply = answerNow(request, route);
-    } else {
-      LayerSource& source = *layer->second;
-      const bool cached = m_tile_cache && source.tilesMayBeKept();
-      const std::string key = cached ? route.layer + "/" + io::relativeTilePath(route.tile, route.format) : "";
-      if (cached) {
-        const std::shared_ptr<const FileContent> kept = m_tile_cache->find(
-            key, [&](const FileContent& content) { return source.isCurrent(route.tile, route.format, content); });
-        if (kept) {
-          reply = fromTile(request, route, {TileAnswer::Status::kFound, kept, {}});
-          finish(reply);
-          return respond(std::move(reply));
+    try {
+      const Route route = parseRoute(request.path);
+      const auto layer = route.kind == Route::Kind::kTile ? m_layers.find(route.layer) : m_layers.end();
+      if (layer == m_layers.end()) {
+        reply = answerNow(request, route);
+      } else {
+        LayerSource& source = *layer->second;
+        const bool cached = m_tile_cache && source.tilesMayBeKept();
+        const std::string key = cached ? route.layer + "/" + io::relativeTilePath(route.tile, route.format) : "";
+        if (cached) {
+          const std::shared_ptr<const FileContent> kept = m_tile_cache->find(
+              key, [&](const FileContent& content) { return source.isCurrent(route.tile, route.format, content); });
+          if (kept) {
+            reply = fromTile(request, route, {TileAnswer::Status::kFound, kept, {}});
+            finish(reply);
+            return respond(std::move(reply));
+          }
         }
+        // The answer may need a bake: then it comes later, from the bake worker,
+        // and this thread goes on to other requests.
+        const auto waiting = std::make_shared<const HttpRequest>(request);
+        const LayerSource::Later later = [this, waiting, route, respond, &source, key](TileAnswer answer) {
+          HttpReply late;
+          try {
+            keep(source, key, answer, true);
+            late = fromTile(*waiting, route, answer);
+          } catch (const std::exception& e) {
+            // The request must be answered: it waits with no timeout of its own.
+            late = text(500, "tile " + route.tile.str() + ": " + oneLine(e.what()));
+          }
+          finish(late);
+          respond(std::move(late));
+        };
+        const TileAnswer answer = source.tile(route.tile, route.format, later);
+        if (answer.status == TileAnswer::Status::kPending) return;
+        keep(source, key, answer, false);
+        reply = fromTile(request, route, answer);
       }
-      // The answer may need a bake: then it comes later, from the bake worker,
-      // and this thread goes on to other requests.
-      const auto waiting = std::make_shared<const HttpRequest>(request);
-      const LayerSource::Later later = [this, waiting, route, respond, &source, key](TileAnswer answer) {
-        HttpReply late;
-        try {
-          keep(source, key, answer, true);
-          late = fromTile(*waiting, route, answer);
-        } catch (const std::exception& e) {
-          // The request must be answered: it waits with no timeout of its own.
-          late = text(500, "tile " + route.tile.str() + ": " + oneLine(e.what()));
-        }
-        finish(late);
-        respond(std::move(late));
-      };
-      const TileAnswer answer = source.tile(route.tile, route.format, later);
-      if (answer.status == TileAnswer::Status::kPending) return;
-      keep(source, key, answer, false);
-      reply = fromTile(request, route, answer);
+    } catch (const UnreadableFile& e) {
+      reply = unreadable(request, e);
     }
   }
   finish(reply);
   respond(std::move(reply));
+}
+
+HttpReply RequestHandler::unreadable(const HttpRequest& request, const UnreadableFile& error) const {
+  if (error.temporary) {
+    // Short of open files (many connections) or memory: answered at once,
+    // never as a 404 a cache would keep.
+    HttpReply reply = text(503, "busy: the server cannot open files now");
+    reply.headers.emplace_back("Retry-After", m_retry_after_s);
+    return reply;
+  }
+  log::error(request.method + " " + request.path + ": " + oneLine(error.what()));
+  return text(500, "the file could not be read (the server's log says why)");
 }
 
 HttpReply RequestHandler::refusal(int status, const std::string& message) const {

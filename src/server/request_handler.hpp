@@ -72,6 +72,8 @@ class RequestHandler {
  private:
   HttpReply answerNow(const HttpRequest& request, const Route& route) const;
   HttpReply fromTile(const HttpRequest& request, const Route& route, const TileAnswer& answer) const;
+  // 503 for a file the server is short of resources to read, else 500 (logged).
+  HttpReply unreadable(const HttpRequest& request, const UnreadableFile& error) const;
   // Keeps a found tile of a layer that allows it, when the cache is on;
   // `from_bake`: the answer a bake handed to LayerSource::Later.
   void keep(const LayerSource& layer, const std::string& key, const TileAnswer& answer, bool from_bake) const;

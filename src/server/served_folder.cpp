@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <memory>
+#include <system_error>
 #include <utility>
 
 #include "server/http_rules.hpp"
@@ -32,6 +33,17 @@ std::string etagOf(const struct stat& info) {
   std::snprintf(text, sizeof text, "\"%llx-%llx-%llx\"", (unsigned long long)info.st_ino,
                 (unsigned long long)info.st_size, (unsigned long long)mtime_ns);
   return text;
+}
+
+// Errors that say the file is not there: answered 404. ELOOP is also a
+// symlink swapped in after resolve(), which O_NOFOLLOW refuses.
+bool meansAbsent(int error) {
+  return error == ENOENT || error == ENOTDIR || error == ELOOP || error == ENAMETOOLONG;
+}
+
+[[noreturn]] void throwUnreadable(const std::string& relative, int error) {
+  const bool temporary = error == EMFILE || error == ENFILE || error == ENOMEM || error == EAGAIN;
+  throw UnreadableFile("cannot read '" + relative + "': " + std::generic_category().message(error), temporary);
 }
 
 }  // namespace
@@ -68,7 +80,10 @@ std::optional<std::string> ServedFolder::resolve(const std::string& relative) co
   if (m_root.empty() || relative.empty() || relative.front() == '/') return std::nullopt;
   const std::unique_ptr<char, decltype(&std::free)> real(::realpath((m_root + relative).c_str(), nullptr),
                                                          &std::free);
-  if (!real) return std::nullopt;
+  if (!real) {
+    if (meansAbsent(errno)) return std::nullopt;
+    throwUnreadable(relative, errno);
+  }
   const std::string path(real.get());
   if (path.size() <= m_root.size() || path.compare(0, m_root.size(), m_root) != 0) return std::nullopt;
   return path;
@@ -81,9 +96,17 @@ std::optional<OpenedFile> ServedFolder::open(const std::string& relative) const 
   // followed. O_NONBLOCK: a FIFO cannot hold the thread in open(); fstat
   // then turns down anything but a regular file.
   const int fd = ::open(path->c_str(), O_RDONLY | O_CLOEXEC | O_NOFOLLOW | O_NONBLOCK);
-  if (fd < 0) return std::nullopt;
+  if (fd < 0) {
+    if (meansAbsent(errno)) return std::nullopt;
+    throwUnreadable(relative, errno);
+  }
   struct stat info;
-  if (::fstat(fd, &info) != 0 || !S_ISREG(info.st_mode)) {
+  if (::fstat(fd, &info) != 0) {
+    const int error = errno;
+    ::close(fd);
+    throwUnreadable(relative, error);
+  }
+  if (!S_ISREG(info.st_mode)) {
     ::close(fd);
     return std::nullopt;
   }
@@ -95,7 +118,7 @@ std::optional<FileContent> ServedFolder::read(const std::string& relative) const
   const std::optional<OpenedFile> file = open(relative);
   if (!file) return std::nullopt;
   std::optional<std::string> bytes = file->read(0, file->size());
-  if (!bytes) return std::nullopt;
+  if (!bytes) throwUnreadable(relative, EIO);
   return FileContent{std::move(*bytes), file->etag()};
 }
 

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <filesystem>
 #include <optional>
+#include <stdexcept>
 #include <string>
 #include <utility>
 
@@ -46,9 +47,20 @@ class OpenedFile {
   std::string m_etag;
 };
 
+// A file that may be there but cannot be opened or read now: not an absent
+// file, which is answered 404. `temporary` when the process is short of
+// open files or memory (503, try again), else the file or disk is at fault
+// (500).
+struct UnreadableFile : std::runtime_error {
+  UnreadableFile(const std::string& what, bool is_temporary) : std::runtime_error(what), temporary(is_temporary) {}
+  bool temporary;
+};
+
 // A folder requests may read from. Every read resolves symlinks and refuses
 // a file whose real path is not inside the folder's real path, so neither
-// `..` nor a symlink pointing out can reach anything else.
+// `..` nor a symlink pointing out can reach anything else. Reads give
+// nullopt for a file that is not there (or not a regular file) and throw
+// UnreadableFile for one that cannot be read.
 class ServedFolder {
  public:
   // The folder need not exist; then nothing can be read from it.

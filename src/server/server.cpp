@@ -205,6 +205,7 @@ struct Listener {
   std::size_t next_context = 0;
   tcp::acceptor acceptor;  // on contexts[0]
   net::steady_timer accept_retry;
+  int failed_accepts = 0;  // in a row; one accept is pending at a time, so one thread at a time counts
   std::vector<net::executor_work_guard<net::io_context::executor_type>> work;
 
   Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
@@ -458,13 +459,18 @@ void Listener::accept() {
   acceptor.async_accept(context, [this](beast::error_code ec, tcp::socket socket) {
     if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
     if (ec) {
-      // Out of file descriptors, most likely: the connections ahead must close first.
-      log::warning("http: accept failed: " + ec.message());
+      // Out of file descriptors, most likely: the connections ahead must
+      // close first. Said once, not at every retry.
+      if (failed_accepts++ == 0) log::warning("http: accept failed: " + ec.message() + "; retrying");
       accept_retry.expires_after(kAcceptRetry);
       accept_retry.async_wait([this](beast::error_code) {
         if (acceptor.is_open()) accept();
       });
       return;
+    }
+    if (failed_accepts > 0) {
+      log::info("http: accepting again after " + std::to_string(failed_accepts) + " failed accepts");
+      failed_accepts = 0;
     }
     if (live >= max_connections) {
       refuse(socket);
