@@ -19,6 +19,7 @@
 
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
+#include "core/open_files.hpp"
 #include "core/types.hpp"
 #include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
@@ -277,6 +278,26 @@ class AllFilesOpen {
   rlimit m_limit{};
   std::vector<int> m_fds;
 };
+
+// The server (its connections) and tile (its workers' files) raise the
+// soft limit as far as the hard one allows, and never lower it.
+TEST(OpenFileLimit, IsRaisedAsFarAsTheHardLimitAllows) {
+  rlimit before{};
+  ASSERT_EQ(::getrlimit(RLIMIT_NOFILE, &before), 0);
+  if (before.rlim_max != RLIM_INFINITY && before.rlim_max < 256) GTEST_SKIP() << "a hard limit under 256";
+  rlimit lower = before;
+  lower.rlim_cur = 64;
+  ASSERT_EQ(::setrlimit(RLIMIT_NOFILE, &lower), 0);
+  EXPECT_EQ(raiseOpenFileLimit(200), 200u);
+  rlimit now{};
+  ::getrlimit(RLIMIT_NOFILE, &now);
+  EXPECT_EQ(now.rlim_cur, 200u);
+  EXPECT_EQ(raiseOpenFileLimit(100), 200u) << "a higher limit stays";
+  if (before.rlim_max != RLIM_INFINITY) {
+    EXPECT_EQ(raiseOpenFileLimit(before.rlim_max + 1000), before.rlim_max);
+  }
+  ::setrlimit(RLIMIT_NOFILE, &before);
+}
 
 // A file that is there but cannot be opened now is no absent file (a 404 a
 // cache would keep): the read throws, saying it may work later.

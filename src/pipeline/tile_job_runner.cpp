@@ -13,6 +13,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/open_files.hpp"
 #include "core/threads.hpp"
 #include "dem/dem_source.hpp"
 #include "gl/baker_factory.hpp"
@@ -22,6 +23,12 @@
 
 namespace terrabake::pipeline {
 namespace {
+
+// Open files a run may want (ulimit -n): each worker's handles on the DEM's
+// files, and the tile files it writes; beside them the job's own (logs,
+// the job record, a GL driver's, an MBTiles file and its log).
+constexpr std::size_t kOpenFilesPerWorker = 64;
+constexpr std::size_t kOpenFilesBesideWorkers = 256;
 
 // What stopped a run at a tile, rather than failing that tile alone: the
 // tiles after it would fail the same way.
@@ -104,6 +111,13 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
 
   const int workers = int(std::max<std::uint64_t>(1, std::min<std::uint64_t>(std::uint64_t(plan->workers), mine)));
   dem::DemSource::shareBlockCacheAmong(workers);
+  const std::size_t files_wanted = kOpenFilesPerWorker * std::size_t(workers) + kOpenFilesBesideWorkers;
+  const std::size_t files_allowed = raiseOpenFileLimit(files_wanted);
+  if (files_allowed < files_wanted) {
+    log::warning("at most " + std::to_string(files_allowed) + " open files (ulimit -n) for " + std::to_string(workers) +
+                 " workers, which may want " + std::to_string(files_wanted) +
+                 ": tiles may fail for want of files; raise ulimit -n or give fewer --workers");
+  }
   if (plan->backend != Backend::kCpu && gl::fitSoftwareRasteriserTo(workers)) {
     log::debug("LP_NUM_THREADS=0: the " + std::to_string(workers) + " workers fill the cores, so llvmpipe rasterises on them");
   }

@@ -1,7 +1,5 @@
 #include "server/server.hpp"
 
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -27,6 +25,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "core/open_files.hpp"
 #include "core/threads.hpp"
 #include "server/http_rules.hpp"
 #include "server/request_handler.hpp"
@@ -48,7 +47,7 @@ constexpr std::size_t kLingerBytes = 256 * 1024;
 // A failed accept (out of file descriptors) is tried again after this pause.
 constexpr auto kAcceptRetry = std::chrono::milliseconds(50);
 // File descriptors beyond the connections: layers, GDAL, MBTiles, logs.
-constexpr rlim_t kSpareFiles = 256;
+constexpr std::size_t kSpareFiles = 256;
 
 // "host:port", with brackets around an IPv6 address.
 std::string hostPort(const std::string& host, int port) {
@@ -77,16 +76,10 @@ std::vector<std::unique_ptr<net::io_context>> makeContexts(int count) {
 
 // Lets the process keep `connections` sockets open, as far as the hard limit allows.
 void raiseFileLimit(int connections) {
-  rlimit limit{};
-  if (::getrlimit(RLIMIT_NOFILE, &limit) != 0) return;
-  const rlim_t wanted = rlim_t(connections) + kSpareFiles;
-  if (limit.rlim_cur != RLIM_INFINITY && limit.rlim_cur < wanted) {
-    limit.rlim_cur = limit.rlim_max == RLIM_INFINITY ? wanted : std::min(wanted, limit.rlim_max);
-    ::setrlimit(RLIMIT_NOFILE, &limit);
-    if (limit.rlim_cur < wanted) {
-      log::warning("http: at most " + std::to_string(limit.rlim_cur) + " open files (ulimit -n): fewer than " +
-                std::to_string(connections) + " connections may be served");
-    }
+  const std::size_t limit = raiseOpenFileLimit(std::size_t(connections) + kSpareFiles);
+  if (limit < std::size_t(connections) + kSpareFiles) {
+    log::warning("http: at most " + std::to_string(limit) + " open files (ulimit -n): fewer than " +
+                 std::to_string(connections) + " connections may be served");
   }
 }
 
