@@ -454,6 +454,19 @@ TEST(Cli, ALimitOnThreadsGivesFewerWorkersOrOneLine) {
   fs::remove_all(dir);
 }
 
+// Without PROJ's database no CRS can be read: the error says that, not
+// that the DEM's CRS is unknown.
+TEST(Cli, AMissingProjDatabaseIsNamed) {
+  const fs::path dir = caseDir();
+  const fs::path dem = writeDemIn(dir);
+  fs::create_directories(dir / "empty");
+  ::setenv("PROJ_DATA", (dir / "empty").c_str(), 1);
+  const RunResult r = runTerrabake(smallRunArgs(dem, dir / "out"));
+  ::unsetenv("PROJ_DATA");
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, "Cannot find proj.db")) << describe(r);
+}
+
 TEST(Cli, SampleConfigRuns) {
   const fs::path config = fs::path(TERRABAKE_SOURCE_DIR) / "config" / "sample.yaml";
   ASSERT_TRUE(fs::exists(fs::path(TERRABAKE_SOURCE_DIR) / "tests" / "data" / "sample_dem.tif"));

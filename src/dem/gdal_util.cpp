@@ -65,8 +65,13 @@ std::string lastGdalError() {
 OGRSpatialReference spatialReference(const std::string& crs) {
   ensureGdalReady();
   OGRSpatialReference srs;
+  CPLErrorReset();
   if (srs.SetFromUserInput(crs.c_str()) != OGRERR_NONE) {
-    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'");
+    // PROJ's reason, where it gave one: "Cannot find proj.db" says the
+    // CRS is fine and PROJ's installation (PROJ_DATA) is not.
+    const char* reason = CPLGetLastErrorMsg();
+    throw InputError("dem: unknown CRS '" + crs.substr(0, 80) + "'" +
+                     (reason && *reason ? " (" + oneLine(reason) + ")" : std::string()));
   }
   srs.SetAxisMappingStrategy(OAMS_TRADITIONAL_GIS_ORDER);  // x = lon / easting
   return srs;
