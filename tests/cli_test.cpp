@@ -392,20 +392,31 @@ TEST(Cli, ARunThatCannotStartLeavesNoClaimOnItsLayer) {
   EXPECT_EQ(rerun.exit_code, kExitOk) << describe(rerun);
 }
 
-// Mesa's OSMesa crashes on a GALLIUM_DRIVER it lacks: the run refuses the
-// name first, with the exit code of a missing GL context, and claims no layer.
-TEST(Cli, AGalliumDriverOsMesaLacksIsRefusedByName) {
+// A Mesa setting under which no context can be made is named in the one
+// error (exit 3, as without a GL context) and the run claims no layer.
+// OSMesa crashes on a GALLIUM_DRIVER it lacks, so that name is refused
+// before Mesa sees it.
+TEST(Cli, AMesaSettingThatPreventsAContextIsNamed) {
   const fs::path dir = caseDir();
   const fs::path dem = writeDemIn(dir);
-  const fs::path out = dir / "out";
-  const std::vector<std::string> args = smallRunArgs(dem, out, "osmesa");
-  ::setenv("GALLIUM_DRIVER", "zink", 1);
-  const RunResult r = runTerrabake(args);
-  ::unsetenv("GALLIUM_DRIVER");
-  EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
-  const std::string error = "terrabake: error: gl: OSMesa renders with llvmpipe or softpipe, not GALLIUM_DRIVER=\"zink\"";
-  EXPECT_TRUE(contains(r.err, error)) << describe(r);
-  EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";
+  const struct {
+    const char* variable;
+    const char* value;
+    const char* error;
+  } settings[] = {
+      {"GALLIUM_DRIVER", "zink", "gl: OSMesa renders with llvmpipe or softpipe, not GALLIUM_DRIVER=\"zink\""},
+      {"MESA_GL_VERSION_OVERRIDE", "2.1",
+       "gl: OSMesa could not create an OpenGL 3.3 compatibility context with MESA_GL_VERSION_OVERRIDE=\"2.1\" set"},
+  };
+  for (const auto& setting : settings) {
+    const fs::path out = dir / setting.variable;
+    ::setenv(setting.variable, setting.value, 1);
+    const RunResult r = runTerrabake(smallRunArgs(dem, out, "osmesa"));
+    ::unsetenv(setting.variable);
+    EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+    EXPECT_TRUE(contains(r.err, std::string("terrabake: error: ") + setting.error)) << describe(r);
+    EXPECT_FALSE(fs::exists(out / "ok")) << "the failed run left its layer";
+  }
 }
 
 // Under a limit on processes (ulimit -u, a container's pids limit) the

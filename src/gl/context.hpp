@@ -26,6 +26,11 @@ class Context {
 // Throw InputError when the context cannot be made.
 std::unique_ptr<Context> createOsMesaContext();
 
+// " with GALLIUM_DRIVER=\"zink\" set" for the Mesa and EGL loader variables
+// the environment sets, "" for none: added to an error that a context could
+// not be made, which Mesa's own codes leave unexplained.
+std::string mesaSettingsNote();
+
 enum class EglPlatform {
   kDevice,       // a hardware GPU through EGL_EXT_platform_device
   kSurfaceless,  // Mesa's surfaceless platform (llvmpipe without a GPU)

@@ -4,7 +4,6 @@
 #include <EGL/eglext.h>
 #include <dlfcn.h>
 
-#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -75,15 +74,32 @@ std::vector<EGLDeviceEXT> hardwareDevices(const EglApi& api) {
   return result;
 }
 
+// EGL's name of an error code (EGL 1.5, table 3.1), or its number.
+std::string eglErrorName(EGLint code) {
+  switch (code) {
+    case EGL_NOT_INITIALIZED: return "EGL_NOT_INITIALIZED";
+    case EGL_BAD_ACCESS: return "EGL_BAD_ACCESS";
+    case EGL_BAD_ALLOC: return "EGL_BAD_ALLOC";
+    case EGL_BAD_ATTRIBUTE: return "EGL_BAD_ATTRIBUTE";
+    case EGL_BAD_CONFIG: return "EGL_BAD_CONFIG";
+    case EGL_BAD_CONTEXT: return "EGL_BAD_CONTEXT";
+    case EGL_BAD_CURRENT_SURFACE: return "EGL_BAD_CURRENT_SURFACE";
+    case EGL_BAD_DISPLAY: return "EGL_BAD_DISPLAY";
+    case EGL_BAD_MATCH: return "EGL_BAD_MATCH";
+    case EGL_BAD_NATIVE_PIXMAP: return "EGL_BAD_NATIVE_PIXMAP";
+    case EGL_BAD_NATIVE_WINDOW: return "EGL_BAD_NATIVE_WINDOW";
+    case EGL_BAD_PARAMETER: return "EGL_BAD_PARAMETER";
+    case EGL_BAD_SURFACE: return "EGL_BAD_SURFACE";
+    case EGL_CONTEXT_LOST: return "EGL_CONTEXT_LOST";
+  }
+  char number[16];
+  std::snprintf(number, sizeof number, "error 0x%04x", unsigned(code));
+  return number;
+}
+
 [[noreturn]] void fail(const EglApi& api, const std::string& what) {
-  char code[16];
-  std::snprintf(code, sizeof code, "0x%04x", api.getError ? unsigned(api.getError()) : 0u);
-  // Mesa's EGL fails to initialise when GALLIUM_DRIVER names a driver it
-  // lacks, with nothing in the error code to say so.
-  const char* driver = std::getenv("GALLIUM_DRIVER");
-  const std::string setting =
-      driver && *driver ? " with GALLIUM_DRIVER=\"" + shortened(driver) + "\" set" : std::string();
-  throw InputError("gl: EGL " + what + " failed (error " + code + ")" + setting);
+  const EGLint code = api.getError ? api.getError() : EGL_SUCCESS;
+  throw InputError("gl: EGL " + what + " failed (" + eglErrorName(code) + ")" + mesaSettingsNote());
 }
 
 class EglContext : public Context {

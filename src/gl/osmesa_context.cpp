@@ -34,7 +34,9 @@ class OsMesaContext : public Context {
                            OSMESA_CONTEXT_MINOR_VERSION, 3,
                            0};
     m_context = OSMesaCreateContextAttribs(attribs, nullptr);
-    if (!m_context) throw InputError("gl: OSMesa could not create an OpenGL 3.3 compatibility context");
+    if (!m_context) {
+      throw InputError("gl: OSMesa could not create an OpenGL 3.3 compatibility context" + mesaSettingsNote());
+    }
   }
   ~OsMesaContext() override { OSMesaDestroyContext(m_context); }
 
