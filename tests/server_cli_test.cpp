@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "child_process.hpp"
+#include "server/layer_set.hpp"
 #include "server_helpers.hpp"
 
 namespace terrabake {
@@ -70,14 +71,35 @@ TEST(ServeCli, StartsOnAFreePortAnswersAndStopsOnSigterm) {
   EXPECT_EQ(process.err().find("error"), std::string::npos) << process.err();
 }
 
-// Layers are found at the start: a folder with none yet is said to have none.
-TEST(ServeCli, ATilesFolderWithoutLayersIsWarnedAbout) {
-  const fs::path dir = caseDir();
+// A folder with no layer yet is said to have none; a layer a batch run
+// finishes there later is served once a request names it, and listed.
+TEST(ServeCli, ALayerAddedWhileServingIsFoundWhenARequestNamesIt) {
+  const Case c = makeCase();
+  const fs::path dir = c.dir / "served";
+  fs::create_directories(dir);
   test::ChildProcess process(serveArgs({"--tiles", dir.string(), "--port", "0"}));
-  ASSERT_FALSE(process.firstLine(kWaitLimit).empty()) << process.err();
+  const std::string line = process.firstLine(kWaitLimit);
+  const int port = portIn(line, dir);
+  ASSERT_GT(port, 0) << "stdout: " << line << "\nstderr: " << process.err();
+  EXPECT_EQ(statusOf(port, "/added/tilejson.json"), 404);
+
+  fs::copy(c.tiles / "static", dir / "added", fs::copy_options::recursive);
+  EXPECT_TRUE(waitFor([&] { return statusOf(port, "/added/tilejson.json") == 200; }))
+      << "a new layer is looked for at most every " << server::LayerSet::kLookInterval.count() << " s";
+  const TileId tile = c.someTile();
+  const auto png = get(port, tileUrl("added", tile, "png"));
+  ASSERT_TRUE(png);
+  EXPECT_EQ(png->status, 200);
+  EXPECT_EQ(png->body, readBytes(dir / "added" / (tile.str() + ".png")));
+  const auto list = get(port, "/layers.json");
+  ASSERT_TRUE(list);
+  EXPECT_NE(list->body.find("\"added\""), std::string::npos) << list->body;
+
   std::chrono::milliseconds took{};
   EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
   EXPECT_NE(process.err().find("warning: tiles: no layer in '" + dir.string() + "'"), std::string::npos)
+      << process.err();
+  EXPECT_NE(process.err().find("info: layer added: tiles from " + (dir / "added").string()), std::string::npos)
       << process.err();
 }
 

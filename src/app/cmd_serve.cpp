@@ -45,7 +45,11 @@ Action addServeCommand(CLI::App& app) {
     // every path a file or flag gives, so that messages say where.
     config.tiles_dir = std::filesystem::absolute(config.tiles_dir).lexically_normal().string();
 
-    server::Server server(config, server::openLayers(config));
+    // Layers a batch run finishes in the tiles folder while the server runs
+    // are served once a request names them.
+    server::Server server(config, server::openLayers(config), [tiles = config.tiles_dir](const auto& known) {
+      return server::openStoredLayers(tiles, known, false);
+    });
     // The one line on stdout: scripts and tests read the port from it.
     std::printf("terrabake: serving %s on %s\n", config.tiles_dir.c_str(), server.url().c_str());
     std::fflush(stdout);

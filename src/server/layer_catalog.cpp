@@ -51,6 +51,70 @@ std::vector<std::string> layerFileNames(const std::string& tiles_dir, const std:
 
 }  // namespace
 
+std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& tiles_dir,
+                                                           const std::set<std::string>& known, bool first_look) {
+  std::vector<std::unique_ptr<LayerSource>> layers;
+  std::set<std::string> names = known;
+  // Said once, when the server starts; a later look finds the same again.
+  const auto skipped = [first_look](const std::string& message) {
+    if (first_look) {
+      log::warning(message);
+    } else {
+      log::debug(message);
+    }
+  };
+  for (const std::string& name : folderNames(tiles_dir)) {
+    if (names.count(name) || name.front() == '.') continue;
+    const fs::path folder = fs::path(tiles_dir) / name;
+    if (!fs::exists(folder / io::kTileJsonFile)) continue;  // not a layer, or not finished yet
+    if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
+      skipped("layer folder '" + folder.string() + "' skipped: its name cannot be a layer in a URL");
+      continue;
+    }
+    try {
+      layers.push_back(std::make_unique<DirectoryLayer>(name, folder));
+      names.insert(name);
+      log::info("layer " + name + ": tiles from " + folder.string());
+    } catch (const std::exception& e) {
+      skipped("layer folder '" + folder.string() + "' skipped: " + std::string(io::kTileJsonFile) + ": " +
+              oneLine(e.what()));
+    }
+  }
+
+  // One file per layer: MBTiles, or the PMTiles archive of its normal maps.
+  const auto openFileLayer = [&](const std::string& extension, const auto& open) {
+    for (const std::string& name : layerFileNames(tiles_dir, extension)) {
+      if (name.front() == '.') continue;
+      const fs::path file = fs::path(tiles_dir) / (name + extension);
+      if (names.count(name)) {
+        // Said of a name taken when the server started, or in this look.
+        if (first_look || !known.count(name)) {
+          skipped("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from elsewhere");
+        }
+        continue;
+      }
+      if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
+        skipped("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
+        continue;
+      }
+      try {
+        layers.push_back(open(name, file.string()));
+        names.insert(name);
+        log::info("layer " + name + ": tiles from " + file.string());
+      } catch (const std::exception& e) {
+        skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
+      }
+    }
+  };
+  openFileLayer(io::kMbtilesExtension, [](const std::string& name, const std::string& path) {
+    return std::unique_ptr<LayerSource>(std::make_unique<MbtilesLayer>(name, path));
+  });
+  openFileLayer(io::kPmtilesExtension, [](const std::string& name, const std::string& path) {
+    return std::unique_ptr<LayerSource>(std::make_unique<PmtilesLayer>(name, path));
+  });
+  return layers;
+}
+
 std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& config) {
   std::vector<std::unique_ptr<LayerSource>> layers;
   std::set<std::string> names;
@@ -72,55 +136,11 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
     log::info("layer " + job.layer + ": tiles missing from " + config.tiles_dir + "/" + job.layer +
               " are baked on demand (" + job_path + ")");
   }
-
-  for (const std::string& name : folderNames(config.tiles_dir)) {
-    if (names.count(name) || name.front() == '.') continue;
-    const fs::path folder = fs::path(config.tiles_dir) / name;
-    if (!fs::exists(folder / io::kTileJsonFile)) continue;  // not a layer
-    if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
-      log::warning("layer folder '" + folder.string() + "' skipped: its name cannot be a layer in a URL");
-      continue;
-    }
-    try {
-      layers.push_back(std::make_unique<DirectoryLayer>(name, folder));
-      names.insert(name);
-      log::info("layer " + name + ": tiles from " + folder.string());
-    } catch (const std::exception& e) {
-      log::warning("layer folder '" + folder.string() + "' skipped: " + std::string(io::kTileJsonFile) + ": " + oneLine(e.what()));
-    }
-  }
-
-  // One file per layer: MBTiles, or the PMTiles archive of its normal maps.
-  const auto openFileLayer = [&](const std::string& extension, const auto& open) {
-    for (const std::string& name : layerFileNames(config.tiles_dir, extension)) {
-      if (name.front() == '.') continue;
-      const fs::path file = fs::path(config.tiles_dir) / (name + extension);
-      if (names.count(name)) {
-        log::warning("layer file '" + file.string() + "' skipped: layer '" + name + "' is served from elsewhere");
-        continue;
-      }
-      if (parseRoute("/" + name + "/" + io::kTileJsonFile).kind != Route::Kind::kTileJson) {
-        log::warning("layer file '" + file.string() + "' skipped: its name cannot be a layer in a URL");
-        continue;
-      }
-      try {
-        layers.push_back(open(name, file.string()));
-        names.insert(name);
-        log::info("layer " + name + ": tiles from " + file.string());
-      } catch (const std::exception& e) {
-        log::warning("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
-      }
-    }
-  };
-  openFileLayer(io::kMbtilesExtension, [](const std::string& name, const std::string& path) {
-    return std::unique_ptr<LayerSource>(std::make_unique<MbtilesLayer>(name, path));
-  });
-  openFileLayer(io::kPmtilesExtension, [](const std::string& name, const std::string& path) {
-    return std::unique_ptr<LayerSource>(std::make_unique<PmtilesLayer>(name, path));
-  });
+  for (auto& layer : openStoredLayers(config.tiles_dir, names, true)) layers.push_back(std::move(layer));
   if (layers.empty()) {
-    log::warning("tiles: no layer in '" + config.tiles_dir + "' (a folder with a " + io::kTileJsonFile +
-                 ", an .mbtiles or a .pmtiles file, or a job under layers); layers are found when the server starts");
+    log::warning("tiles: no layer in '" + config.tiles_dir + "' yet (a folder with a " + io::kTileJsonFile +
+                 ", an .mbtiles or a .pmtiles file, or a job under layers); one added later is found when a "
+                 "request names it");
   }
   return layers;
 }

@@ -1,8 +1,10 @@
 #pragma once
 // The layers a serve config names: the on-demand layers of its tile jobs,
 // every other folder under `tiles` that holds a tilejson.json, and every
-// `<name>.mbtiles` file there whose name no folder layer took.
+// `<name>.mbtiles` and `<name>.pmtiles` file there whose name no layer took.
 #include <memory>
+#include <set>
+#include <string>
 #include <vector>
 
 #include "config/serve_config.hpp"
@@ -15,5 +17,12 @@ namespace terrabake::server {
 // A folder whose tilejson.json cannot be used, or an MBTiles file that is
 // not terrabake's or not finished, is skipped with a warning.
 std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& config);
+
+// The folder, MBTiles and PMTiles layers in `tiles_dir` whose names are not
+// in `known`: openLayers' own look, and a later one for layers a batch run
+// finished while the server runs. Skipped folders and files are warned
+// about on the `first_look` only. Throws InputError for an unreadable folder.
+std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& tiles_dir,
+                                                           const std::set<std::string>& known, bool first_look);
 
 }  // namespace terrabake::server

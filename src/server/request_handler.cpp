@@ -125,8 +125,10 @@ void finish(HttpReply& reply) {
 
 }  // namespace
 
-RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
-    : m_viewer(config.viewer_dir),
+RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+                               LayerSet::LookForNew look_for_new)
+    : m_layers(std::move(layers), std::move(look_for_new)),
+      m_viewer(config.viewer_dir),
       m_public_url(config.public_url.empty() || config.public_url.back() == '/' ? config.public_url
                                                                                  : config.public_url + "/"),
       m_tile_cache_control("public, max-age=" + std::to_string(config.tile_max_age_s)),
@@ -135,14 +137,10 @@ RequestHandler::RequestHandler(const config::ServeConfig& config, std::vector<st
   for (const VendorPackage& package : vendorPackages()) {
     m_vendor.emplace(package.name, ServedFolder(std::filesystem::path(config.viewer_dir) / "node_modules" / package.folder));
   }
-  for (auto& layer : layers) {
-    const std::string name = layer->name();
-    m_layers.emplace(name, std::move(layer));
-  }
 }
 
 void RequestHandler::stopLayers() {
-  for (auto& [name, layer] : m_layers) layer->stop();
+  for (LayerSource* layer : m_layers.held()) layer->stop();
 }
 
 void RequestHandler::handle(const HttpRequest& request, const Respond& respond) const {
@@ -164,11 +162,11 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
   } else {
     try {
       const Route route = parseRoute(request.path);
-      const auto layer = route.kind == Route::Kind::kTile ? m_layers.find(route.layer) : m_layers.end();
-      if (layer == m_layers.end()) {
+      LayerSource* const layer = route.kind == Route::Kind::kTile ? m_layers.find(route.layer) : nullptr;
+      if (!layer) {
         reply = answerNow(request, route);
       } else {
-        LayerSource& source = *layer->second;
+        LayerSource& source = *layer;
         const bool cached = m_tile_cache && source.tilesMayBeKept();
         const std::string key = cached ? route.layer + "/" + io::relativeTilePath(route.tile, route.format) : "";
         if (cached) {
@@ -246,16 +244,16 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
     case Route::Kind::kHealth:
       return health();
     case Route::Kind::kTileJson: {
-      const auto layer = m_layers.find(route.layer);
-      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      std::string body = layer->second->tileJson(baseUrl(request) + route.layer + "/");
+      LayerSource* const layer = m_layers.find(route.layer);
+      if (!layer) return text(404, "not found: no layer '" + route.layer + "'");
+      std::string body = layer->tileJson(baseUrl(request) + route.layer + "/");
       const std::string etag = contentEtag(body);
       return validated(request, "application/json", std::move(body), etag, kRevalidate);
     }
     case Route::Kind::kTileset: {
-      const auto layer = m_layers.find(route.layer);
-      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      std::optional<FileContent> content = layer->second->tilesetFile(route.file);
+      LayerSource* const layer = m_layers.find(route.layer);
+      if (!layer) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<FileContent> content = layer->tilesetFile(route.file);
       if (!content) {
         return text(404, "not found: layer '" + route.layer + "' has no " + route.file +
                              " (a layer has one when its job sets output.tileset: true)");
@@ -263,16 +261,16 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
       return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
     }
     case Route::Kind::kArchive: {
-      const auto layer = m_layers.find(route.layer);
-      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      std::optional<OpenedFile> archive = layer->second->archive(route.file);
+      LayerSource* const layer = m_layers.find(route.layer);
+      if (!layer) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<OpenedFile> archive = layer->archive(route.file);
       if (!archive) return text(404, "not found: layer '" + route.layer + "' is stored in no archive " + route.file);
       return validatedFile(request, contentTypeFor(route.file), std::move(*archive), m_tile_cache_control);
     }
     case Route::Kind::kElevationTileJson: {
-      const auto layer = m_layers.find(route.layer);
-      if (layer == m_layers.end()) return text(404, "not found: no layer '" + route.layer + "'");
-      std::optional<std::string> body = layer->second->elevationTileJson(baseUrl(request) + route.layer + "/");
+      LayerSource* const layer = m_layers.find(route.layer);
+      if (!layer) return text(404, "not found: no layer '" + route.layer + "'");
+      std::optional<std::string> body = layer->elevationTileJson(baseUrl(request) + route.layer + "/");
       if (!body) return text(404, "not found: layer '" + route.layer + "' has no elevation tiles");
       const std::string etag = contentEtag(*body);
       return validated(request, "application/json", std::move(*body), etag, kRevalidate);
@@ -317,7 +315,7 @@ void RequestHandler::keep(const LayerSource& layer, const std::string& key, cons
 HttpReply RequestHandler::layerList(const HttpRequest& request) const {
   const std::string base_url = baseUrl(request);
   Json list = Json::array();
-  for (const auto& [name, layer] : m_layers) {
+  for (const auto& [name, layer] : m_layers.all()) {
     list.push_back({{"name", name},
                     {"tilejson", base_url + name + "/" + io::kTileJsonFile},
                     {"on_demand", layer->bakesOnDemand()}});
@@ -329,7 +327,8 @@ HttpReply RequestHandler::layerList(const HttpRequest& request) const {
 
 HttpReply RequestHandler::health() const {
   BakeCounters total;
-  for (const auto& [name, layer] : m_layers) {
+  const std::vector<LayerSource*> layers = m_layers.held();
+  for (const LayerSource* layer : layers) {
     const BakeCounters c = layer->bakeCounters();
     total.started += c.started;
     total.joined += c.joined;
@@ -343,7 +342,7 @@ HttpReply RequestHandler::health() const {
   HttpReply reply;
   reply.content_type = "application/json";
   reply.body = Json{{"status", "ok"},
-                    {"layers", m_layers.size()},
+                    {"layers", layers.size()},
                     {"bakes_started", total.started},
                     {"bakes_joined", total.joined},
                     {"bakes_written", total.written},

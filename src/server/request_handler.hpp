@@ -11,6 +11,7 @@
 #include <vector>
 
 #include "config/serve_config.hpp"
+#include "server/layer_set.hpp"
 #include "server/layer_source.hpp"
 #include "server/route.hpp"
 #include "server/served_folder.hpp"
@@ -54,7 +55,9 @@ class RequestHandler {
   // Receives the answer to one request, exactly once.
   using Respond = std::function<void(HttpReply)>;
 
-  RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
+  // `look_for_new`, when given, finds layers added to the tiles folder later.
+  RequestHandler(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+                 LayerSet::LookForNew look_for_new = {});
 
   // Called from many HTTP threads at once, never waits for a bake: calls
   // `respond` before it returns, or, for a tile a bake is making, later from
@@ -81,7 +84,7 @@ class RequestHandler {
   HttpReply health() const;
   std::string baseUrl(const HttpRequest& request) const;
 
-  std::map<std::string, std::unique_ptr<LayerSource>> m_layers;
+  LayerSet m_layers;
   ServedFolder m_viewer;
   std::map<std::string, ServedFolder> m_vendor;  // by package name (vendorPackages())
   std::string m_public_url;  // ending in '/'; "" when not set

@@ -201,7 +201,8 @@ struct Listener {
   int failed_accepts = 0;  // in a row; one accept is pending at a time, so one thread at a time counts
   std::vector<net::executor_work_guard<net::io_context::executor_type>> work;
 
-  Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
+  Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+           LayerSet::LookForNew look_for_new);
   void accept();
   void refuse(tcp::socket& socket);
 };
@@ -416,8 +417,9 @@ class Session : public std::enable_shared_from_this<Session> {
   std::size_t m_drained = 0;
 };
 
-Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
-    : handler(config, std::move(layers)),
+Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+                   LayerSet::LookForNew look_for_new)
+    : handler(config, std::move(layers), std::move(look_for_new)),
       bind(config.bind),
       threads(config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()))),
       read_timeout(config.read_timeout_s),
@@ -496,8 +498,9 @@ struct Server::Impl : Listener {
   using Listener::Listener;
 };
 
-Server::Server(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers)
-    : m_impl(std::make_unique<Impl>(config, std::move(layers))) {}
+Server::Server(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+               LayerSet::LookForNew look_for_new)
+    : m_impl(std::make_unique<Impl>(config, std::move(layers), std::move(look_for_new))) {}
 
 Server::~Server() { m_impl->handler.stopLayers(); }
 

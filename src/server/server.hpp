@@ -6,14 +6,17 @@
 #include <vector>
 
 #include "config/serve_config.hpp"
+#include "server/layer_set.hpp"
 #include "server/layer_source.hpp"
 
 namespace terrabake::server {
 
 class Server {
  public:
-  // Binds http.bind:http.port (0: any free port). Throws InputError when it cannot.
-  Server(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers);
+  // Binds http.bind:http.port (0: any free port). Throws InputError when it
+  // cannot. `look_for_new`, when given, finds layers added later (LayerSet).
+  Server(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
+         LayerSet::LookForNew look_for_new = {});
   ~Server();
   Server(const Server&) = delete;
   Server& operator=(const Server&) = delete;

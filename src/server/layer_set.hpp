@@ -1,0 +1,53 @@
+#pragma once
+// The layers a server answers for, by name: those it started with and those
+// a look into the tiles folder finds later (a layer a batch run finished
+// while the server runs). Layers are only ever added, so a layer found stays
+// valid, at the same address, as long as the set.
+#include <chrono>
+#include <cstddef>
+#include <functional>
+#include <map>
+#include <memory>
+#include <mutex>
+#include <set>
+#include <shared_mutex>
+#include <string>
+#include <vector>
+
+#include "server/layer_source.hpp"
+
+namespace terrabake::server {
+
+class LayerSet {
+ public:
+  // The layers not among `known` (layer_catalog's openStoredLayers).
+  using LookForNew = std::function<std::vector<std::unique_ptr<LayerSource>>(const std::set<std::string>& known)>;
+
+  // `look_for_new` may be empty: then the set keeps the layers it starts with.
+  LayerSet(std::vector<std::unique_ptr<LayerSource>> layers, LookForNew look_for_new);
+
+  // The layer named `name`, or null. A name the set does not hold sends it
+  // looking for new layers first, at most once every kLookInterval, so
+  // requests for a layer that does not exist cost a look now and then.
+  LayerSource* find(const std::string& name) const;
+
+  // Every layer in name order, after a look for new ones (as find's).
+  std::vector<std::pair<std::string, LayerSource*>> all() const;
+
+  // The layers held now, without a look.
+  std::vector<LayerSource*> held() const;
+
+  // The longest a layer added to the tiles folder waits to be found.
+  static constexpr std::chrono::seconds kLookInterval{1};
+
+ private:
+  void lookForNewLayers() const;
+
+  mutable std::shared_mutex m_mutex;  // guards m_layers
+  mutable std::map<std::string, std::unique_ptr<LayerSource>> m_layers;
+  LookForNew m_look_for_new;
+  mutable std::mutex m_look_mutex;  // one look at a time; guards m_last_look
+  mutable std::chrono::steady_clock::time_point m_last_look;
+};
+
+}  // namespace terrabake::server
