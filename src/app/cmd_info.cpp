@@ -131,10 +131,13 @@ Action addInfoCommand(CLI::App& app) {
     const dem::DemSource dem(options->dems, dem_options);
     for (const std::string& warning : dem.warnings()) log::warning(warning);
     printInfo(dem, options->dems.size(), job.tile_size);
-    // The description is what info makes: a full disk or a reader gone is
-    // an error, as an unwritable tile is for tile.
+    // The description is what info makes: one it cannot write (a full disk)
+    // is an error, as an unwritable tile is for tile; a reader that went
+    // away (`| head -1`) has what it wanted.
     if (std::fflush(stdout) != 0 || std::ferror(stdout)) {
-      throw InputError(std::string("info: cannot write the description to standard output: ") + std::strerror(errno));
+      const int error = errno;  // the failed flush's, or the failed write's before it
+      if (error == EPIPE) return int(ExitCode::kOk);
+      throw InputError(std::string("info: cannot write the description to standard output: ") + std::strerror(error));
     }
     return int(ExitCode::kOk);
   };

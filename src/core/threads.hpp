@@ -4,6 +4,7 @@
 // throws, and a vector of threads destroyed with some still running would
 // end the process.
 #include <algorithm>
+#include <new>
 #include <string>
 #include <system_error>
 #include <thread>
@@ -24,6 +25,9 @@ std::vector<std::thread> startThreads(int count, const Body& body, std::string& 
     } catch (const std::system_error& e) {
       refused = "the system refused a thread (" + std::string(e.what()) +
                 "): its limit on processes, ulimit -u or a container's pids limit, is reached";
+      break;
+    } catch (const std::bad_alloc&) {
+      refused = "no memory for another thread";
       break;
     }
   }

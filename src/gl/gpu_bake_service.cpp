@@ -5,10 +5,13 @@
 #include <exception>
 #include <future>
 #include <mutex>
+#include <string>
 #include <thread>
 #include <utility>
 #include <vector>
 
+#include "core/error.hpp"
+#include "core/threads.hpp"
 #include "gl/gl_baker.hpp"
 
 namespace terrabake::gl {
@@ -115,7 +118,8 @@ GpuBakeService::GpuBakeService(const std::function<std::unique_ptr<Context>()>& 
   auto started = std::make_shared<std::promise<void>>();
   std::future<void> ready = started->get_future();
   State& state = *m_state;
-  state.thread = std::thread([&state, started, make_context, in_flight] {
+  std::string refused;
+  std::vector<std::thread> thread = startThreads(1, [&state, started, make_context, in_flight](int) {
     std::unique_ptr<GlBaker> baker;
     try {
       baker = std::make_unique<GlBaker>(make_context(), in_flight);
@@ -126,7 +130,9 @@ GpuBakeService::GpuBakeService(const std::function<std::unique_ptr<Context>()>& 
     }
     started->set_value();
     state.run(*baker);
-  });
+  }, refused);
+  if (thread.empty()) throw InputError("gl: cannot start the thread that bakes on the GPU: " + refused);
+  state.thread = std::move(thread.front());
   try {
     ready.get();
   } catch (...) {

@@ -25,9 +25,10 @@ namespace terrabake::pipeline {
 namespace {
 
 // Open files a run may want (ulimit -n): each worker's handles on the DEM's
-// files, and the tile files it writes; beside them the job's own (logs,
-// the job record, a GL driver's, an MBTiles file and its log).
-constexpr std::size_t kOpenFilesPerWorker = 64;
+// files and the tile files it writes (16 workers ran on the sample mosaic
+// under a limit of 1024); beside them the job's own (logs, the job record,
+// GDAL's pool of a VRT's sources, a GL driver's, an MBTiles file and its log).
+constexpr std::size_t kOpenFilesPerWorker = 16;
 constexpr std::size_t kOpenFilesBesideWorkers = 256;
 
 // What stopped a run at a tile, rather than failing that tile alone: the
@@ -126,6 +127,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
   std::mutex fatal_mutex;
   std::exception_ptr fatal;
   std::optional<StopCause> stop_cause;  // the first tile that stopped the run
+  std::atomic<std::size_t> out_of_memory_at{count};  // the first tile that ran out of memory; count: none
   const auto stopRun = [&](StopCause cause) {
     std::lock_guard<std::mutex> lock(fatal_mutex);
     if (!stop_cause) stop_cause = std::move(cause);
@@ -171,8 +173,11 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         stopRun({"tile " + tile.str() + ": " + oneLine(e.what()), "make room"});
         break;
       } catch (const std::bad_alloc&) {
-        // So would most tiles after it, each with its own error line.
-        stopRun({"tile " + tile.str() + ": out of memory", "give it more memory or fewer --workers"});
+        // So would most tiles after it, each with its own error line. Told
+        // after the workers end: making the message here needs memory.
+        std::size_t none = count;
+        out_of_memory_at.compare_exchange_strong(none, i);
+        next = count;
         break;
       } catch (const std::exception& e) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));
@@ -202,6 +207,10 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     // behind: its corrected rerun is another job.
     if (written == 0) sink->releaseUnusedClaim();
     std::rethrow_exception(fatal);
+  }
+  if (!stop_cause && out_of_memory_at < count) {
+    stop_cause = StopCause{"tile " + tileOf(out_of_memory_at).str() + ": out of memory",
+                           "give it more memory or fewer --workers"};
   }
   if (stop_cause) {
     // Closing may be refused too (an MBTiles file cannot fold in its

@@ -35,10 +35,12 @@ std::string etagOf(const struct stat& info) {
   return text;
 }
 
-// Errors that say the file is not there: answered 404. ELOOP is also a
-// symlink swapped in after resolve(), which O_NOFOLLOW refuses.
+// Errors that say no regular file is there: answered 404. ELOOP is also a
+// symlink swapped in after resolve(), which O_NOFOLLOW refuses; ENXIO and
+// ENODEV a socket or device.
 bool meansAbsent(int error) {
-  return error == ENOENT || error == ENOTDIR || error == ELOOP || error == ENAMETOOLONG;
+  return error == ENOENT || error == ENOTDIR || error == ELOOP || error == ENAMETOOLONG || error == ENXIO ||
+         error == ENODEV;
 }
 
 [[noreturn]] void throwUnreadable(const std::string& relative, int error) {
@@ -118,7 +120,9 @@ std::optional<FileContent> ServedFolder::read(const std::string& relative) const
   const std::optional<OpenedFile> file = open(relative);
   if (!file) return std::nullopt;
   std::optional<std::string> bytes = file->read(0, file->size());
-  if (!bytes) throwUnreadable(relative, EIO);
+  // Fewer bytes than its size: the file is being cut or written in place
+  // (terrabake renames files into place; a copy does not), so try later.
+  if (!bytes) throw UnreadableFile("cannot read '" + relative + "': it changed while read", true);
   return FileContent{std::move(*bytes), file->etag()};
 }
 

@@ -518,15 +518,27 @@ void Server::run() {
   std::vector<std::thread> helpers = startThreads(
       int(m_impl->contexts.size()) - 1, [this](int k) { runContext(*m_impl->contexts[std::size_t(k) + 1]); },
       refused);
+  // However run() ends, the helpers end first (a thread left running would
+  // end the process): released by stop() once served, else here, where
+  // nothing runs the first context that stop() would release them on.
+  struct JoinHelpers {
+    Impl& impl;
+    std::vector<std::thread>& helpers;
+    bool served = false;
+    ~JoinHelpers() {
+      if (!served) {
+        for (auto& guard : impl.work) guard.reset();
+      }
+      for (std::thread& helper : helpers) helper.join();
+    }
+  } join{*m_impl, helpers};
   if (!refused.empty()) {
-    for (auto& guard : m_impl->work) guard.reset();
-    for (std::thread& helper : helpers) helper.join();
     throw InputError("http: cannot start " + std::to_string(m_impl->contexts.size()) + " threads: " + refused +
                      "; set fewer with http.threads");
   }
   m_impl->accept();
   runContext(*m_impl->contexts[0]);
-  for (std::thread& helper : helpers) helper.join();
+  join.served = true;
 }
 
 void Server::stop() {
