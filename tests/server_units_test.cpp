@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cstddef>
+#include <exception>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -305,16 +306,36 @@ TEST(ServedFiles, AFileThatCannotBeOpenedNowIsNotAbsent) {
   const fs::path dir = caseDir();
   writeText(dir / "file.bin", "0123456789");
   const server::ServedFolder folder(dir);
-  const AllFilesOpen taken;
-  try {
-    folder.read("file.bin");
-    ADD_FAILURE() << "read a file with no descriptor left";
-  } catch (const server::UnreadableFile& e) {
-    EXPECT_TRUE(e.temporary) << e.what();
-    EXPECT_NE(std::string(e.what()).find("file.bin"), std::string::npos) << e.what();
+  // Looked at once the descriptors are back: UBSan checks a virtual call
+  // through a pipe, for which none would be left.
+  std::exception_ptr read_error, open_error;
+  bool missing_found = true;
+  {
+    const AllFilesOpen taken;
+    try {
+      folder.read("file.bin");
+    } catch (...) {
+      read_error = std::current_exception();
+    }
+    try {
+      folder.open("file.bin");
+    } catch (...) {
+      open_error = std::current_exception();
+    }
+    missing_found = folder.open("missing.bin").has_value();
   }
-  EXPECT_THROW(folder.open("file.bin"), server::UnreadableFile);
-  EXPECT_FALSE(folder.open("missing.bin")) << "an absent file is still absent";
+  EXPECT_FALSE(missing_found) << "an absent file is still absent";
+  for (const std::exception_ptr& error : {read_error, open_error}) {
+    ASSERT_TRUE(error) << "read a file with no descriptor left";
+    try {
+      std::rethrow_exception(error);
+    } catch (const server::UnreadableFile& e) {
+      EXPECT_TRUE(e.temporary) << e.what();
+      EXPECT_NE(std::string(e.what()).find("file.bin"), std::string::npos) << e.what();
+    } catch (const std::exception& e) {
+      ADD_FAILURE() << "not UnreadableFile: " << e.what();
+    }
+  }
 }
 
 TEST(ServeConfig, LimitsAndThePublicUrl) {
