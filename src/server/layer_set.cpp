@@ -10,36 +10,34 @@ namespace terrabake::server {
 
 LayerSet::LayerSet(std::vector<std::unique_ptr<LayerSource>> layers, LookForNew look_for_new)
     : m_look_for_new(std::move(look_for_new)), m_last_look(std::chrono::steady_clock::now()) {
+  auto names = std::make_unique<Names>();
   for (auto& layer : layers) {
-    const std::string name = layer->name();
-    m_layers.emplace(name, std::move(layer));
+    names->emplace(layer->name(), layer.get());
+    m_layers.push_back(std::move(layer));
   }
+  m_names = names.get();
+  m_copies.push_back(std::move(names));
 }
 
 LayerSource* LayerSet::find(const std::string& name) const {
-  {
-    const std::shared_lock lock(m_mutex);
-    const auto found = m_layers.find(name);
-    if (found != m_layers.end()) return found->second.get();
+  for (bool looked = false;; looked = true) {
+    const Names& names = *m_names.load(std::memory_order_acquire);
+    const auto found = names.find(name);
+    if (found != names.end()) return found->second;
+    if (looked) return nullptr;
+    lookForNewLayers();
   }
-  lookForNewLayers();
-  const std::shared_lock lock(m_mutex);
-  const auto found = m_layers.find(name);
-  return found == m_layers.end() ? nullptr : found->second.get();
 }
 
 std::vector<std::pair<std::string, LayerSource*>> LayerSet::all() const {
   lookForNewLayers();
-  const std::shared_lock lock(m_mutex);
-  std::vector<std::pair<std::string, LayerSource*>> layers;
-  for (const auto& [name, layer] : m_layers) layers.emplace_back(name, layer.get());
-  return layers;
+  const Names& names = *m_names.load(std::memory_order_acquire);
+  return {names.begin(), names.end()};
 }
 
 std::vector<LayerSource*> LayerSet::held() const {
-  const std::shared_lock lock(m_mutex);
   std::vector<LayerSource*> layers;
-  for (const auto& [name, layer] : m_layers) layers.push_back(layer.get());
+  for (const auto& [name, layer] : *m_names.load(std::memory_order_acquire)) layers.push_back(layer);
   return layers;
 }
 
@@ -51,11 +49,9 @@ void LayerSet::lookForNewLayers() const {
   const auto now = std::chrono::steady_clock::now();
   if (!look.owns_lock() || now - m_last_look < kLookInterval) return;
   m_last_look = now;
+  const Names& names = *m_names.load(std::memory_order_relaxed);  // written under this lock only
   std::set<std::string> known;
-  {
-    const std::shared_lock lock(m_mutex);
-    for (const auto& [name, layer] : m_layers) known.insert(name);
-  }
+  for (const auto& [name, layer] : names) known.insert(name);
   std::vector<std::unique_ptr<LayerSource>> found;
   try {
     found = m_look_for_new(known);
@@ -64,11 +60,14 @@ void LayerSet::lookForNewLayers() const {
     log::warning("tiles: cannot look for new layers: " + oneLine(e.what()));
     return;
   }
-  const std::unique_lock lock(m_mutex);
+  if (found.empty()) return;
+  auto more = std::make_unique<Names>(names);
   for (auto& layer : found) {
-    const std::string name = layer->name();
-    m_layers.emplace(name, std::move(layer));
+    more->emplace(layer->name(), layer.get());
+    m_layers.push_back(std::move(layer));
   }
+  m_names.store(more.get(), std::memory_order_release);
+  m_copies.push_back(std::move(more));
 }
 
 }  // namespace terrabake::server

@@ -3,6 +3,7 @@
 // a look into the tiles folder finds later (a layer a batch run finished
 // while the server runs). Layers are only ever added, so a layer found stays
 // valid, at the same address, as long as the set.
+#include <atomic>
 #include <chrono>
 #include <cstddef>
 #include <functional>
@@ -10,7 +11,6 @@
 #include <memory>
 #include <mutex>
 #include <set>
-#include <shared_mutex>
 #include <string>
 #include <vector>
 
@@ -41,12 +41,20 @@ class LayerSet {
   static constexpr std::chrono::seconds kLookInterval{1};
 
  private:
+  using Names = std::map<std::string, LayerSource*>;
+
   void lookForNewLayers() const;
 
-  mutable std::shared_mutex m_mutex;  // guards m_layers
-  mutable std::map<std::string, std::unique_ptr<LayerSource>> m_layers;
+  // Every request reads the names, and a look that finds a layer is rare:
+  // requests read the current names with one atomic load and no lock (no
+  // cache line written by every request on every core), and a look
+  // publishes a new copy. Copies and layers are kept to the end, so a
+  // request still reading an older copy reads valid layers.
+  mutable std::atomic<const Names*> m_names{nullptr};
+  mutable std::vector<std::unique_ptr<const Names>> m_copies;  // every copy published; the last is m_names
+  mutable std::vector<std::unique_ptr<LayerSource>> m_layers;
   LookForNew m_look_for_new;
-  mutable std::mutex m_look_mutex;  // one look at a time; guards m_last_look
+  mutable std::mutex m_look_mutex;  // one look at a time; guards the three above for writing, and m_last_look
   mutable std::chrono::steady_clock::time_point m_last_look;
 };
 
