@@ -9,6 +9,7 @@
 #include "app/commands.hpp"
 #include "app/stop_signals.hpp"
 #include "app/key_flags.hpp"
+#include "config/key_table.hpp"
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
 #include "core/log.hpp"
@@ -43,7 +44,7 @@ Action addServeCommand(CLI::App& app) {
     config::ServeConfig config = loadSettings(options->config_path, config::loadServeConfig, *options->key_flags);
     // The default tiles folder is the working directory's; absolute like
     // every path a file or flag gives, so that messages say where.
-    config.tiles_dir = std::filesystem::absolute(config.tiles_dir).lexically_normal().string();
+    config.tiles_dir = config::key_table::resolvePath(std::filesystem::current_path(), config.tiles_dir);
 
     // Layers a batch run finishes in the tiles folder while the server runs
     // are served once a request names them.

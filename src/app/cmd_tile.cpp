@@ -9,6 +9,7 @@
 #include "app/commands.hpp"
 #include "app/stop_signals.hpp"
 #include "app/key_flags.hpp"
+#include "config/key_table.hpp"
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "core/log.hpp"
@@ -63,7 +64,7 @@ Action addTileCommand(CLI::App& app) {
     config::TileJob job = loadSettings(options->config_path, config::loadTileJob, *options->key_flags);
     // The default output.dir, `tiles`, is the working directory's; absolute
     // like every path a file or flag gives, so that messages say where.
-    job.output_dir = std::filesystem::absolute(job.output_dir).lexically_normal().string();
+    job.output_dir = config::key_table::resolvePath(std::filesystem::current_path(), job.output_dir);
     if (!options->shard.empty()) parseShard(options->shard, options->run);
     std::atomic<bool> stop{false};
     std::atomic<int> stop_code{0};

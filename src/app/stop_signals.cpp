@@ -8,7 +8,6 @@
 #include <cerrno>
 #include <string>
 #include <thread>
-#include <vector>
 
 #include "core/error.hpp"
 #include "core/threads.hpp"
@@ -55,8 +54,7 @@ std::string stopSignalName(int signal) {
 }
 
 void runUntilStopSignal(const std::function<void()>& work, const std::function<void(int)>& stop) {
-  std::string refused;
-  std::vector<std::thread> watchers = startThreads(1, [&stop](int) {
+  std::thread watcher = startThread([&stop] {
     bool stopped = false;
     for (;;) {
       unsigned char byte = kWorkDone;
@@ -71,8 +69,7 @@ void runUntilStopSignal(const std::function<void()>& work, const std::function<v
       stop(byte);
       stopped = true;
     }
-  }, refused);
-  if (watchers.empty()) throw InputError("cannot start the thread that watches for stop signals: " + refused);
+  }, "cannot start the thread that watches for stop signals");
   // The watcher is woken and joined however work() ends.
   struct Join {
     std::thread& watcher;
@@ -81,7 +78,7 @@ void runUntilStopSignal(const std::function<void()>& work, const std::function<v
       [[maybe_unused]] const ssize_t written = ::write(g_pipe[1], &done, 1);
       watcher.join();
     }
-  } join{watchers.front()};
+  } join{watcher};
   work();
 }
 

@@ -10,6 +10,8 @@
 #include <thread>
 #include <vector>
 
+#include "core/error.hpp"
+
 namespace terrabake {
 
 // Starts up to `count` threads, the k-th running body(k), and stops at the
@@ -32,6 +34,17 @@ std::vector<std::thread> startThreads(int count, const Body& body, std::string& 
     }
   }
   return threads;
+}
+
+// One thread running body(), or InputError "<failure>: <why the system
+// refused it>".
+template <class Body>
+std::thread startThread(const Body& body, const std::string& failure) {
+  std::string refused;
+  // body copied into the thread: it outlives this call.
+  std::vector<std::thread> started = startThreads(1, [body](int) { body(); }, refused);
+  if (started.empty()) throw InputError(failure + ": " + refused);
+  return std::move(started.front());
 }
 
 }  // namespace terrabake

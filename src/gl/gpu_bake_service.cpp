@@ -10,7 +10,6 @@
 #include <utility>
 #include <vector>
 
-#include "core/error.hpp"
 #include "core/threads.hpp"
 #include "gl/gl_baker.hpp"
 
@@ -118,8 +117,7 @@ GpuBakeService::GpuBakeService(const std::function<std::unique_ptr<Context>()>& 
   auto started = std::make_shared<std::promise<void>>();
   std::future<void> ready = started->get_future();
   State& state = *m_state;
-  std::string refused;
-  std::vector<std::thread> thread = startThreads(1, [&state, started, make_context, in_flight](int) {
+  state.thread = startThread([&state, started, make_context, in_flight] {
     std::unique_ptr<GlBaker> baker;
     try {
       baker = std::make_unique<GlBaker>(make_context(), in_flight);
@@ -130,9 +128,7 @@ GpuBakeService::GpuBakeService(const std::function<std::unique_ptr<Context>()>& 
     }
     started->set_value();
     state.run(*baker);
-  }, refused);
-  if (thread.empty()) throw InputError("gl: cannot start the thread that bakes on the GPU: " + refused);
-  state.thread = std::move(thread.front());
+  }, "gl: cannot start the thread that bakes on the GPU");
   try {
     ready.get();
   } catch (...) {
