@@ -591,6 +591,40 @@ TEST(ServeRanges, ARangePastTheEndIs416) {
   }
 }
 
+// --- Versions ----------------------------------------------------------------
+
+// HTTP/1.0 closes after each answer unless the client asks to keep the
+// connection, and then the answer must say it keeps it.
+TEST(ServeVersions, Http10ClosesUnlessAskedToKeepTheConnection) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const std::string request = "GET /fake/3/1/1.png HTTP/1.0\r\nHost: 127.0.0.1\r\n";
+
+  const int once = connectTo(running.port());
+  ASSERT_GE(once, 0);
+  ASSERT_TRUE(sendAll(once, request + "\r\n"));
+  const RawAnswer closed = readAnswer(once, false, Clock::now());
+  EXPECT_EQ(closed.head.substr(0, 16), "HTTP/1.0 200 OK\r");
+  EXPECT_EQ(closed.header("Connection"), "");
+  EXPECT_EQ(closed.body, world.cached_png);
+  EXPECT_GE(msUntilClosed(once, Clock::now(), 5000), 0);
+  ::close(once);
+
+  const int kept = connectTo(running.port());
+  ASSERT_GE(kept, 0);
+  for (int k = 0; k < 2; ++k) {
+    SCOPED_TRACE(k);
+    ASSERT_TRUE(sendAll(kept, request + "Connection: keep-alive\r\n\r\n"));
+    const RawAnswer answer = readAnswer(kept, false, Clock::now());
+    EXPECT_EQ(answer.head.substr(0, 16), "HTTP/1.0 200 OK\r");
+    EXPECT_EQ(answer.header("Connection"), "keep-alive");
+    EXPECT_EQ(answer.body, world.cached_png);
+    EXPECT_FALSE(answer.closed);
+  }
+  ::close(kept);
+}
+
 // --- What tilejson tells -----------------------------------------------------
 
 // A batch-made layer "dir" whose tilejson names its DEMs by absolute path, as

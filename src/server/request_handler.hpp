@@ -46,8 +46,9 @@ struct HttpReply {
     std::shared_ptr<const FileContent> content;
     std::size_t first = 0, length = 0;
   };
+  using Body = std::variant<std::string, FilePart, MemoryPart>;
   // HEAD: the server leaves the body out, Content-Length stays.
-  std::variant<std::string, FilePart, MemoryPart> body;
+  Body body;
 };
 
 class RequestHandler {

@@ -1,6 +1,7 @@
 #include "server/server.hpp"
 
 #include <algorithm>
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -86,89 +87,100 @@ void raiseFileLimit(int connections) {
 // How much of a file a connection reads at a time while sending it.
 constexpr std::size_t kFilePieceBytes = 64 * 1024;
 
-// A response body that is part of something larger (Beast's Body concept,
-// for writing only): `Pieces(part)` hands out its bytes a buffer at a time,
-// `next` returning none after the last (and setting `ec` on a failure).
-template <class Part, class Pieces>
-struct PartBody {
-  using value_type = Part;
-
-  static std::uint64_t size(const value_type& part) { return part.length; }
-
-  class writer {
-   public:
-    using const_buffers_type = net::const_buffer;
-
-    template <bool isRequest, class Fields>
-    writer(const http::header<isRequest, Fields>& /*head*/, const value_type& part) : m_pieces(part) {}
-
-    void init(beast::error_code& ec) { ec = {}; }
-
-    boost::optional<std::pair<const_buffers_type, bool>> get(beast::error_code& ec) {
-      ec = {};
-      return m_pieces.next(ec);
+// The status line and header fields of an answer, as sent: the reply's
+// fields, then Content-Type and Content-Length (the length a GET would have,
+// also for HEAD), then Connection where the version's default does not hold.
+// Written here rather than through Beast's serializer, whose field list and
+// buffer views cost more than a tile's whole answer from the cache.
+std::string responseHead(unsigned version, const HttpReply& reply, std::size_t body_length, bool keep) {
+  std::string head;
+  head.reserve(384);
+  head += version == 10 ? "HTTP/1.0 " : "HTTP/1.1 ";
+  head += std::to_string(reply.status);
+  head += ' ';
+  const beast::string_view reason = http::obsolete_reason(http::int_to_status(unsigned(reply.status)));
+  head.append(reason.data(), reason.size());
+  head += "\r\n";
+  for (const auto& [name, value] : reply.headers) {
+    head += name;
+    head += ": ";
+    head += value;
+    head += "\r\n";
+  }
+  const bool bodiless = reply.status == 204 || reply.status == 304 || (reply.status >= 100 && reply.status < 200);
+  if (!bodiless) {
+    if (!reply.content_type.empty()) {
+      head += "Content-Type: ";
+      head += reply.content_type;
+      head += "\r\n";
     }
+    head += "Content-Length: ";
+    head += std::to_string(body_length);
+    head += "\r\n";
+  }
+  if (version == 10 && keep) head += "Connection: keep-alive\r\n";
+  if (version != 10 && !keep) head += "Connection: close\r\n";
+  head += "\r\n";
+  return head;
+}
 
-   private:
-    Pieces m_pieces;
-  };
-};
+std::size_t bodyLength(const HttpReply::Body& body) {
+  return std::visit(
+      [](const auto& part) -> std::size_t {
+        if constexpr (std::is_same_v<std::decay_t<decltype(part)>, std::string>) {
+          return part.size();
+        } else {
+          return part.length;
+        }
+      },
+      body);
+}
 
-// Part of a file, read a piece at a time as the connection sends it.
-class FilePieces {
+// An answer on its way out: its head, then its body a piece at a time.
+class Outgoing {
  public:
-  explicit FilePieces(const HttpReply::FilePart& part) : m_part(part) {}
+  // `send_body` false: HEAD, whose answer is the head alone.
+  Outgoing(std::string head, HttpReply::Body body, bool send_body)
+      : m_head(std::move(head)), m_body(std::move(body)), m_left(send_body ? bodyLength(m_body) : 0) {}
 
-  boost::optional<std::pair<net::const_buffer, bool>> next(beast::error_code& ec) {
-    const std::size_t left = m_part.length - m_sent;
-    if (left == 0) return boost::none;
-    std::optional<std::string> piece = m_part.file->read(m_part.first + m_sent, std::min(left, kFilePieceBytes));
-    if (!piece) {
-      // The head is sent already: all that is left is to drop the connection.
-      ec = make_error_code(boost::system::errc::io_error);
-      return boost::none;
-    }
+  bool headSent() const { return m_head_sent; }
+  bool done() const { return m_head_sent && m_left == 0; }
+  net::const_buffer head() const { return net::buffer(m_head); }
+
+  // The next piece of the body (empty when none is left); none when the
+  // file it comes from could not be read.
+  std::optional<net::const_buffer> nextPiece() {
+    if (m_left == 0) return net::const_buffer();
+    return std::visit([this](const auto& part) { return pieceOf(part); }, m_body);
+  }
+
+  // After the head (when it went too) and `piece_bytes` of the body were written.
+  void sent(std::size_t piece_bytes) {
+    m_head_sent = true;
+    m_sent += piece_bytes;
+    m_left -= piece_bytes;
+  }
+
+ private:
+  std::optional<net::const_buffer> pieceOf(const std::string& text) const {
+    return net::const_buffer(text.data() + m_sent, m_left);
+  }
+  std::optional<net::const_buffer> pieceOf(const HttpReply::MemoryPart& part) const {
+    return net::const_buffer(part.content->bytes.data() + part.first + m_sent, m_left);
+  }
+  std::optional<net::const_buffer> pieceOf(const HttpReply::FilePart& part) {
+    std::optional<std::string> piece = part.file->read(part.first + m_sent, std::min(m_left, kFilePieceBytes));
+    if (!piece || piece->empty()) return std::nullopt;
     m_piece = std::move(*piece);
-    m_sent += m_piece.size();
-    return std::make_pair(net::const_buffer(m_piece.data(), m_piece.size()), m_sent < m_part.length);
+    return net::buffer(m_piece);
   }
 
- private:
-  const HttpReply::FilePart& m_part;
-  std::size_t m_sent = 0;
-  std::string m_piece;
-};
-
-// Part of a tile held in memory, sent from where it is, in one piece.
-class MemoryPieces {
- public:
-  explicit MemoryPieces(const HttpReply::MemoryPart& part) : m_part(part) {}
-
-  boost::optional<std::pair<net::const_buffer, bool>> next(beast::error_code& /*ec*/) {
-    if (m_sent || m_part.length == 0) return boost::none;
-    m_sent = true;
-    return std::make_pair(net::const_buffer(m_part.content->bytes.data() + m_part.first, m_part.length), false);
-  }
-
- private:
-  const HttpReply::MemoryPart& m_part;
-  bool m_sent = false;
-};
-
-// The Beast body that sends each kind of HttpReply body.
-template <class Part>
-struct BeastBody;
-template <>
-struct BeastBody<std::string> {
-  using type = http::string_body;
-};
-template <>
-struct BeastBody<HttpReply::FilePart> {
-  using type = PartBody<HttpReply::FilePart, FilePieces>;
-};
-template <>
-struct BeastBody<HttpReply::MemoryPart> {
-  using type = PartBody<HttpReply::MemoryPart, MemoryPieces>;
+  std::string m_head;
+  HttpReply::Body m_body;
+  std::size_t m_sent = 0;  // body bytes written
+  std::size_t m_left;      // body bytes still to write
+  bool m_head_sent = false;
+  std::string m_piece;  // the file piece being written
 };
 
 class Session;
@@ -329,48 +341,25 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void write(HttpReply reply) {
     const bool keep = m_keep_alive && !m_closing && !m_server.stopping;
-    std::visit(
-        [&](auto& body) {
-          using Body = typename BeastBody<std::decay_t<decltype(body)>>::type;
-          auto response = std::make_shared<http::response<Body>>();
-          // Also for HEAD: the length a GET would have.
-          setHead(*response, reply, std::size_t(Body::size(body)), keep);
-          if (!m_head) response->body() = std::move(body);
-          send(std::move(response), keep);
-        },
-        reply.body);
-  }
-
-  template <class Response>
-  void setHead(Response& response, const HttpReply& reply, std::size_t body_length, bool keep) const {
-    response.version(m_version);
-    response.result(static_cast<unsigned>(reply.status));
-    for (const auto& [name, value] : reply.headers) response.insert(name, value);
-    const bool bodiless = reply.status == 204 || reply.status == 304 || (reply.status >= 100 && reply.status < 200);
-    if (!bodiless) {
-      if (!reply.content_type.empty()) response.set(http::field::content_type, reply.content_type);
-      response.content_length(body_length);
-    }
-    response.keep_alive(keep);
+    std::string head = responseHead(m_version, reply, bodyLength(reply.body), keep);
+    sendSome(std::make_shared<Outgoing>(std::move(head), std::move(reply.body), !m_head), keep);
   }
 
   // Writes the answer a piece at a time, each within the read timeout: a
-  // client that stops reading is cut off, a long download is not.
-  template <class Body>
-  void send(std::shared_ptr<http::response<Body>> response, bool keep) {
-    auto serializer = std::make_shared<http::response_serializer<Body>>(*response);
-    sendSome(std::move(response), std::move(serializer), keep);
-  }
-
-  template <class Body>
-  void sendSome(std::shared_ptr<http::response<Body>> response,
-                std::shared_ptr<http::response_serializer<Body>> serializer, bool keep) {
+  // client that stops reading is cut off, a long download is not. The head
+  // goes with the first piece, in one write.
+  void sendSome(std::shared_ptr<Outgoing> out, bool keep) {
+    const std::optional<net::const_buffer> piece = out->nextPiece();
+    if (!piece) return onWritten(make_error_code(boost::system::errc::io_error), keep);
+    const std::array<net::const_buffer, 2> buffers{out->headSent() ? net::const_buffer() : out->head(), *piece};
     m_stream.expires_after(m_server.read_timeout);
-    http::async_write_some(m_stream, *serializer,
-                           [self = shared_from_this(), response, serializer, keep](beast::error_code ec, std::size_t) {
-                             if (ec || serializer->is_done()) return self->onWritten(ec, keep);
-                             self->sendSome(response, serializer, keep);
-                           });
+    net::async_write(m_stream, buffers,
+                     [self = shared_from_this(), out, keep, bytes = piece->size()](beast::error_code ec, std::size_t) {
+                       if (ec) return self->onWritten(ec, keep);
+                       out->sent(bytes);
+                       if (out->done()) return self->onWritten(ec, keep);
+                       self->sendSome(out, keep);
+                     });
   }
 
   void onWritten(beast::error_code ec, bool keep) {
@@ -480,11 +469,7 @@ void Listener::accept() {
 // Nothing of the request is read and nothing is queued.
 void Listener::refuse(tcp::socket& socket) {
   const HttpReply reply = handler.refusal(503, "busy: too many connections");
-  const std::string& message = std::get<std::string>(reply.body);
-  std::string text = "HTTP/1.1 503 Service Unavailable\r\n";
-  for (const auto& [name, value] : reply.headers) text += name + ": " + value + "\r\n";
-  text += "Content-Type: " + reply.content_type + "\r\nContent-Length: " + std::to_string(message.size()) +
-          "\r\nConnection: close\r\n\r\n" + message;
+  const std::string text = responseHead(11, reply, bodyLength(reply.body), false) + std::get<std::string>(reply.body);
   beast::error_code ec;
   socket.non_blocking(true, ec);
   socket.write_some(net::buffer(text), ec);
