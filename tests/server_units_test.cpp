@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <fcntl.h>
+#include <sys/stat.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -232,6 +234,30 @@ TEST(ServeHttpRules, IfRangeComparesStrongly) {
   EXPECT_FALSE(server::ifRangeHolds("\"abc-13\"", "\"abc-12\""));
   EXPECT_FALSE(server::ifRangeHolds("Wed, 21 Oct 2015 07:28:00 GMT", "\"abc-12\""));
   EXPECT_FALSE(server::ifRangeHolds("", "\"abc-12\""));
+}
+
+// Generated bodies' tags: FNV-1a 64 in 16 hex digits, then the length in hex.
+TEST(ServeHttpRules, ContentEtagsSpellHashAndLength) {
+  EXPECT_EQ(server::contentEtag(""), "\"cbf29ce484222325-0\"");  // FNV-1a's offset basis
+  EXPECT_EQ(server::contentEtag("a"), "\"af63dc4c8601ec8c-1\"");
+  EXPECT_EQ(server::contentEtag(std::string(300, 'x')).substr(17), "-12c\"");
+}
+
+// A file's tag: inode, size and modification time in nanoseconds, in hex.
+TEST(ServedFiles, FileEtagsSpellInodeSizeAndTime) {
+  const fs::path dir = caseDir();
+  writeText(dir / "file.bin", std::string(26, 'z'));
+  struct stat info {};
+  ASSERT_EQ(::stat((dir / "file.bin").c_str(), &info), 0);
+  const auto hex = [](unsigned long long value) {
+    std::ostringstream text;
+    text << std::hex << value;
+    return text.str();
+  };
+  const unsigned long long mtime_ns =
+      (unsigned long long)info.st_mtim.tv_sec * 1000000000ULL + (unsigned long long)info.st_mtim.tv_nsec;
+  EXPECT_EQ(server::ServedFolder(dir.string()).etag("file.bin"),
+            "\"" + hex(info.st_ino) + "-1a-" + hex(mtime_ns) + "\"");
 }
 
 TEST(ServedFiles, PartsOfAFileAreReadWhereAskedAndNowhereElse) {

@@ -2,6 +2,7 @@
 // Small text helpers shared by the config reader, the layer layout and the
 // HTTP rules.
 #include <optional>
+#include <string>
 #include <string_view>
 
 namespace terrabake {
@@ -28,6 +29,18 @@ inline std::optional<int> tileNumber(std::string_view text) {
     value = value * 10 + (c - '0');
   }
   return value;
+}
+
+// Appends `value` in lower-case hex digits, at least `width` of them.
+inline void appendHex(std::string& text, unsigned long long value, int width = 1) {
+  char digits[16];
+  int count = 0;
+  do {
+    digits[count++] = "0123456789abcdef"[value & 15];
+    value >>= 4;
+  } while (value != 0);
+  for (; count < width; --width) text += '0';
+  while (count > 0) text += digits[--count];
 }
 
 }  // namespace terrabake

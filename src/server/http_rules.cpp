@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
-#include <cstdio>
 #include <string_view>
 
 #include "core/fnv1a.hpp"
@@ -46,8 +45,11 @@ std::string contentTypeFor(const std::string& file_name) {
 
 std::string contentEtag(const std::string& bytes) {
   const std::uint64_t hash = fnv1a(bytes.data(), bytes.size());
-  char text[48];
-  std::snprintf(text, sizeof text, "\"%016llx-%zx\"", (unsigned long long)hash, bytes.size());
+  std::string text = "\"";
+  appendHex(text, hash, 16);
+  text += '-';
+  appendHex(text, bytes.size());
+  text += '"';
   return text;
 }
 

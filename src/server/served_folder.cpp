@@ -11,6 +11,7 @@
 #include <memory>
 #include <utility>
 
+#include "core/text.hpp"
 #include "server/http_rules.hpp"
 
 namespace terrabake::server {
@@ -29,9 +30,14 @@ namespace {
 // the file on every request.
 std::string etagOf(const struct stat& info) {
   const long long mtime_ns = (long long)info.st_mtim.tv_sec * 1000000000LL + info.st_mtim.tv_nsec;
-  char text[80];
-  std::snprintf(text, sizeof text, "\"%llx-%llx-%llx\"", (unsigned long long)info.st_ino,
-                (unsigned long long)info.st_size, (unsigned long long)mtime_ns);
+  // Written by hand rather than with snprintf: a cached tile's answer checks one per request.
+  std::string text = "\"";
+  for (const unsigned long long value : {(unsigned long long)info.st_ino, (unsigned long long)info.st_size,
+                                         (unsigned long long)mtime_ns}) {
+    if (text.size() > 1) text += '-';
+    appendHex(text, value);
+  }
+  text += '"';
   return text;
 }
 

@@ -38,6 +38,11 @@ namespace beast = boost::beast;
 namespace http = beast::http;
 namespace net = boost::asio;
 using tcp = net::ip::tcp;
+// A connection's socket and stream name their io_context's executor type:
+// the type-erased default would copy and destroy an executor object in
+// every handler.
+using Socket = tcp::socket::rebind_executor<net::io_context::executor_type>::other;
+using Stream = beast::basic_stream<tcp, net::io_context::executor_type, beast::unlimited_rate_policy>;
 
 // After an answer to a request whose body was not read, the connection is
 // closed; until then, for at most this long and this many bytes, what the
@@ -216,7 +221,7 @@ struct Listener {
   Listener(const config::ServeConfig& config, std::vector<std::unique_ptr<LayerSource>> layers,
            LayerSet::LookForNew look_for_new);
   void accept();
-  void refuse(tcp::socket& socket);
+  void refuse(Socket& socket);
 };
 
 // One connection: reads request heads (never a body), answers them in order,
@@ -225,7 +230,7 @@ struct Listener {
 // workers are dispatched there.
 class Session : public std::enable_shared_from_this<Session> {
  public:
-  Session(tcp::socket socket, Listener& server) : m_stream(std::move(socket)), m_server(server) {
+  Session(Socket socket, Listener& server) : m_stream(std::move(socket)), m_server(server) {
     ++m_server.live;
     beast::error_code ec;
     m_stream.socket().set_option(tcp::no_delay(true), ec);
@@ -392,7 +397,7 @@ class Session : public std::enable_shared_from_this<Session> {
     });
   }
 
-  beast::tcp_stream m_stream;
+  Stream m_stream;
   beast::flat_buffer m_buffer;
   std::optional<http::request_parser<http::empty_body>> m_parser;
   Listener& m_server;
@@ -440,7 +445,7 @@ Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_pt
 
 void Listener::accept() {
   net::io_context& context = *contexts[next_context++ % contexts.size()];
-  acceptor.async_accept(context, [this](beast::error_code ec, tcp::socket socket) {
+  acceptor.async_accept(context, [this](beast::error_code ec, Socket socket) {
     if (ec == net::error::operation_aborted || !acceptor.is_open()) return;
     if (ec) {
       // Out of file descriptors, most likely: the connections ahead must
@@ -467,7 +472,7 @@ void Listener::accept() {
 
 // Past the connection limit: a 503 written once, without waiting, and closed.
 // Nothing of the request is read and nothing is queued.
-void Listener::refuse(tcp::socket& socket) {
+void Listener::refuse(Socket& socket) {
   const HttpReply reply = handler.refusal(503, "busy: too many connections");
   const std::string text = responseHead(11, reply, bodyLength(reply.body), false) + std::get<std::string>(reply.body);
   beast::error_code ec;
