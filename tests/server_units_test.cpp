@@ -16,6 +16,7 @@
 #include <memory>
 #include <sstream>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -201,6 +202,49 @@ TEST(ServeHttpRules, RequestPathsArePercentDecodedWithoutTheQuery) {
   EXPECT_EQ(server::requestPath("/a%00b"), std::string("/a\0b", 4));  // the router refuses it
   EXPECT_EQ(server::requestPath("/100%/x%4"), "/100%/x%4");            // not an escape: left as it is
   EXPECT_EQ(server::requestPath("/x%zz"), "/x%zz");
+}
+
+TEST(ServeHttpRules, AbsoluteFormTargetsGiveTheirPath) {
+  EXPECT_EQ(server::requestPath("http://example.com/a/b.png?x=1"), "/a/b.png");
+  EXPECT_EQ(server::requestPath("HTTPS://example.com:8080/a%20b"), "/a b");
+  EXPECT_EQ(server::requestPath("http://example.com"), "/");
+  EXPECT_EQ(server::requestPath("http://example.com?x"), "/");
+  EXPECT_EQ(server::requestPath("/a/http://b"), "/a/http://b");  // an origin-form path stays whole
+}
+
+TEST(ServeHttpRules, HeadsThatMustBeRefused) {
+  using Lines = std::vector<std::string_view>;
+  EXPECT_EQ(server::framingProblem(11, Lines{"x"}, false, false), "");
+  EXPECT_EQ(server::framingProblem(11, Lines{"x"}, true, true), "");
+  EXPECT_NE(server::framingProblem(11, Lines{"x"}, true, false), "");  // Transfer-Encoding: gzip
+  EXPECT_NE(server::framingProblem(11, Lines{}, false, false), "");
+  EXPECT_EQ(server::framingProblem(10, Lines{}, false, false), "");  // HTTP/1.0 need not send Host
+  EXPECT_NE(server::framingProblem(10, Lines{"a", "b"}, false, false), "");
+  EXPECT_NE(server::framingProblem(11, Lines{"a b"}, false, false), "");
+  EXPECT_NE(server::framingProblem(11, Lines{"a/b"}, false, false), "");
+  EXPECT_EQ(server::framingProblem(11, Lines{"tiles.example.com:8080"}, false, false), "");
+  EXPECT_EQ(server::framingProblem(11, Lines{"[::1]:80"}, false, false), "");
+  EXPECT_EQ(server::framingProblem(11, Lines{""}, false, false), "");  // a target without authority
+}
+
+TEST(ServeHttpRules, CloseInAnyConnectionLineEndsTheConnection) {
+  using Lines = std::vector<std::string_view>;
+  EXPECT_TRUE(server::clientKeepsConnection(11, Lines{}));
+  EXPECT_FALSE(server::clientKeepsConnection(10, Lines{}));
+  EXPECT_TRUE(server::clientKeepsConnection(10, Lines{"Keep-Alive"}));
+  EXPECT_FALSE(server::clientKeepsConnection(11, Lines{"keep-alive", "close"}));
+  EXPECT_FALSE(server::clientKeepsConnection(10, Lines{"keep-alive, close"}));
+  EXPECT_FALSE(server::clientKeepsConnection(11, Lines{"foo, CLOSE"}));
+  EXPECT_TRUE(server::clientKeepsConnection(11, Lines{"closed, upgrade"}));
+}
+
+TEST(ServeHttpRules, DatesAndMethods) {
+  EXPECT_EQ(server::httpDate(784111777), "Sun, 06 Nov 1994 08:49:37 GMT");  // RFC 9110 5.6.7's example
+  EXPECT_EQ(server::httpDate(0), "Thu, 01 Jan 1970 00:00:00 GMT");
+  for (const char* method : {"GET", "HEAD", "POST", "PUT", "DELETE", "CONNECT", "OPTIONS", "TRACE", "PATCH"}) {
+    EXPECT_TRUE(server::isStandardMethod(method)) << method;
+  }
+  for (const char* method : {"get", "BREW", "PROPFIND", ""}) EXPECT_FALSE(server::isStandardMethod(method)) << method;
 }
 
 TEST(ServeHttpRules, SingleByteRanges) {

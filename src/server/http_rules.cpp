@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cctype>
 #include <cstdint>
+#include <cstdio>
+#include <iterator>
 #include <string_view>
 
 #include "core/fnv1a.hpp"
@@ -65,8 +67,27 @@ bool noneMatchHits(const std::string& if_none_match, const std::string& etag) {
   return false;
 }
 
+namespace {
+
+// The path part of an absolute-form target (RFC 9112 3.2.2), or the target itself.
+std::string_view originForm(std::string_view target) {
+  const std::size_t scheme_end = target.find("://");
+  if (scheme_end == std::string_view::npos || scheme_end == 0 ||
+      !std::all_of(target.begin(), target.begin() + std::ptrdiff_t(scheme_end), [](char c) {
+        return std::isalnum(static_cast<unsigned char>(c)) || c == '+' || c == '-' || c == '.';
+      })) {
+    return target;
+  }
+  const std::size_t path = target.find_first_of("/?#", scheme_end + 3);
+  if (path == std::string_view::npos) return "/";
+  return target[path] == '/' ? target.substr(path) : "/";
+}
+
+}  // namespace
+
 std::string requestPath(const std::string& target) {
-  const std::string raw = target.substr(0, target.find_first_of("?#"));
+  const std::string_view origin = originForm(target);
+  const std::string raw(origin.substr(0, origin.find_first_of("?#")));
   const auto hex = [](char c) -> int {
     if (c >= '0' && c <= '9') return c - '0';
     if (c >= 'a' && c <= 'f') return c - 'a' + 10;
@@ -141,6 +162,75 @@ ByteRange parseRange(const std::string& range, std::size_t length) {
 bool ifRangeHolds(const std::string& if_range, const std::string& etag) {
   const std::string_view tag = trim(if_range);
   return !tag.empty() && tag.substr(0, 2) != "W/" && tag == etag;
+}
+
+namespace {
+
+// A Host value: uri-host [":" port], the host a reg-name, IPv4 address or
+// bracketed IP literal (RFC 3986 3.2.2); empty for a target without authority.
+bool isHostValue(std::string_view text) {
+  constexpr std::string_view kSymbols = "-._~%!$&'()*+,;=:[]";
+  return std::all_of(text.begin(), text.end(), [&](char c) {
+    return std::isalnum(static_cast<unsigned char>(c)) || kSymbols.find(c) != std::string_view::npos;
+  });
+}
+
+// The comma-separated items of a field line, without the spaces around them.
+std::vector<std::string_view> listItems(std::string_view line) {
+  std::vector<std::string_view> items;
+  while (true) {
+    const std::size_t comma = line.find(',');
+    const std::string_view item = trim(line.substr(0, comma));
+    if (!item.empty()) items.push_back(item);
+    if (comma == std::string_view::npos) return items;
+    line.remove_prefix(comma + 1);
+  }
+}
+
+bool equalsIgnoringCase(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
+}  // namespace
+
+std::string framingProblem(unsigned version, const std::vector<std::string_view>& host_lines,
+                           bool has_transfer_encoding, bool chunked) {
+  if (has_transfer_encoding && !chunked) return "a Transfer-Encoding whose last coding is not chunked";
+  if (host_lines.size() > 1) return "more than one Host";
+  if (host_lines.empty() && version >= 11) return "no Host";
+  if (!host_lines.empty() && !isHostValue(trim(host_lines.front()))) return "a Host that is no host[:port]";
+  return "";
+}
+
+bool clientKeepsConnection(unsigned version, const std::vector<std::string_view>& connection_lines) {
+  bool keep_alive = false;
+  for (const std::string_view line : connection_lines) {
+    for (const std::string_view option : listItems(line)) {
+      if (equalsIgnoringCase(option, "close")) return false;
+      keep_alive |= equalsIgnoringCase(option, "keep-alive");
+    }
+  }
+  return version >= 11 || keep_alive;
+}
+
+std::string httpDate(std::time_t when) {
+  static constexpr const char* kDays[] = {"Sun", "Mon", "Tue", "Wed", "Thu", "Fri", "Sat"};
+  static constexpr const char* kMonths[] = {"Jan", "Feb", "Mar", "Apr", "May", "Jun",
+                                            "Jul", "Aug", "Sep", "Oct", "Nov", "Dec"};
+  std::tm utc{};
+  gmtime_r(&when, &utc);
+  char text[32];
+  std::snprintf(text, sizeof text, "%s, %02d %s %04d %02d:%02d:%02d GMT", kDays[utc.tm_wday], utc.tm_mday,
+                kMonths[utc.tm_mon], utc.tm_year + 1900, utc.tm_hour, utc.tm_min, utc.tm_sec);
+  return text;
+}
+
+bool isStandardMethod(std::string_view method) {
+  static constexpr std::string_view kMethods[] = {"GET",     "HEAD",    "POST",  "PUT",  "DELETE",
+                                                  "CONNECT", "OPTIONS", "TRACE", "PATCH"};
+  return std::find(std::begin(kMethods), std::end(kMethods), method) != std::end(kMethods);
 }
 
 bool isHeaderNameList(const std::string& text) {

@@ -2,14 +2,35 @@
 // Small rules of HTTP the request handler applies: media types, ETags and
 // their comparison, which header values may be trusted or echoed.
 #include <cstddef>
+#include <ctime>
 #include <string>
+#include <string_view>
+#include <vector>
 
 namespace terrabake::server {
 
 // The path of a request target ("/a%20b/c.png?x=1" -> "/a b/c.png"): the part
 // before '?' or '#', with each %XX decoded (%00 included: the router refuses
 // what it must not see); a '%' not followed by two hex digits stays as it is.
+// An absolute-form target ("http://host/a.png", as proxies send) gives its
+// path ("/a.png"; "/" when it has none).
 std::string requestPath(const std::string& target);
+
+// Why a request head must be answered 400 and its connection closed (RFC
+// 9112 3.2, 6.3): a Transfer-Encoding whose last coding is not chunked, whose
+// body's end cannot be known; no Host in HTTP/1.1, more than one, or one
+// that is no host[:port]. "" when none of these.
+std::string framingProblem(unsigned version, const std::vector<std::string_view>& host_lines,
+                           bool has_transfer_encoding, bool chunked);
+
+// Whether the client lets the connection stay open after its request: "close"
+// in any Connection field line ends it (RFC 9112 9.6); HTTP/1.1 keeps it
+// otherwise, HTTP/1.0 only with "keep-alive" (9.3).
+bool clientKeepsConnection(unsigned version, const std::vector<std::string_view>& connection_lines);
+
+// `when` as an HTTP date (RFC 9110 5.6.7, IMF-fixdate): "Sun, 06 Nov 1994
+// 08:49:37 GMT", in English whatever the locale.
+std::string httpDate(std::time_t when);
 
 // What a Range header asks of a body of `length` bytes (RFC 9110 14.2), for a
 // single range: "bytes=a-b", "bytes=a-" or "bytes=-n".
@@ -40,6 +61,10 @@ std::string contentEtag(const std::string& bytes);
 // True when an If-None-Match value ("*", or a list of tags, weak or strong)
 // matches `etag`. RFC 9110 compares weakly here: W/"x" matches "x".
 bool noneMatchHits(const std::string& if_none_match, const std::string& etag);
+
+// A method RFC 9110 or RFC 5789 (PATCH) defines, spelled as they do (methods
+// are case-sensitive).
+bool isStandardMethod(std::string_view method);
 
 // A comma-separated list of header names, safe to echo in
 // Access-Control-Allow-Headers.

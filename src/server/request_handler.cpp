@@ -147,8 +147,13 @@ void RequestHandler::handle(const HttpRequest& request, const Respond& respond) 
   HttpReply reply;
   if (request.method != "GET" && request.method != "HEAD" && request.method != "OPTIONS") {
     // Decided on the request line and headers alone: a body is never read.
-    reply = text(405, "method not allowed: " + request.method);
-    reply.headers.emplace_back("Allow", kAllowedMethods);
+    // A method HTTP defines is not allowed here; any other is not known (RFC 9110 9.1).
+    if (isStandardMethod(request.method)) {
+      reply = text(405, "method not allowed: " + request.method);
+      reply.headers.emplace_back("Allow", kAllowedMethods);
+    } else {
+      reply = text(501, "not implemented: no method " + request.method);
+    }
   } else if (request.has_body) {
     reply = text(413, "content too large: no request here takes a body");
   } else if (request.method == "OPTIONS") {

@@ -5,14 +5,17 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <ctime>
 #include <limits>
 #include <mutex>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <thread>
 #include <type_traits>
 #include <unordered_map>
 #include <variant>
+#include <vector>
 
 #include <boost/asio/dispatch.hpp>
 #include <boost/asio/executor_work_guard.hpp>
@@ -92,6 +95,35 @@ void raiseFileLimit(int connections) {
 // How much of a file a connection reads at a time while sending it.
 constexpr std::size_t kFilePieceBytes = 64 * 1024;
 
+// RFC 9110's reason phrases; Beast's list names 413 as RFC 7231 did.
+std::string reasonPhrase(int status) {
+  if (status == 413) return "Content Too Large";
+  const beast::string_view reason = http::obsolete_reason(http::int_to_status(unsigned(status)));
+  return std::string(reason.data(), reason.size());
+}
+
+// Now as an HTTP date, made once a second on each thread.
+const std::string& currentHttpDate() {
+  thread_local std::time_t made_at = -1;
+  thread_local std::string date;
+  const std::time_t now = std::time(nullptr);
+  if (now != made_at) {
+    date = httpDate(now);
+    made_at = now;
+  }
+  return date;
+}
+
+// The values of every field line of `field` in a request head.
+template <class Fields>
+std::vector<std::string_view> fieldLines(const Fields& fields, http::field field) {
+  std::vector<std::string_view> lines;
+  for (auto [line, end] = fields.equal_range(field); line != end; ++line) {
+    lines.emplace_back(line->value().data(), line->value().size());
+  }
+  return lines;
+}
+
 // The status line and header fields of an answer, as sent: the reply's
 // fields, then Content-Type and Content-Length (the length a GET would have,
 // also for HEAD), then Connection where the version's default does not hold.
@@ -100,11 +132,13 @@ constexpr std::size_t kFilePieceBytes = 64 * 1024;
 std::string responseHead(unsigned version, const HttpReply& reply, std::size_t body_length, bool keep) {
   std::string head;
   head.reserve(384);
-  head += version == 10 ? "HTTP/1.0 " : "HTTP/1.1 ";
+  // HTTP/1.1 to an HTTP/1.0 client too (RFC 9110 6.2), with Connection saying what happens.
+  head += "HTTP/1.1 ";
   head += std::to_string(reply.status);
   head += ' ';
-  const beast::string_view reason = http::obsolete_reason(http::int_to_status(unsigned(reply.status)));
-  head.append(reason.data(), reason.size());
+  head += reasonPhrase(reply.status);
+  head += "\r\nDate: ";
+  head += currentHttpDate();
   head += "\r\n";
   for (const auto& [name, value] : reply.headers) {
     head += name;
@@ -123,8 +157,8 @@ std::string responseHead(unsigned version, const HttpReply& reply, std::size_t b
     head += std::to_string(body_length);
     head += "\r\n";
   }
-  if (version == 10 && keep) head += "Connection: keep-alive\r\n";
-  if (version != 10 && !keep) head += "Connection: close\r\n";
+  if (!keep) head += "Connection: close\r\n";
+  if (keep && version < 11) head += "Connection: keep-alive\r\n";
   head += "\r\n";
   return head;
 }
@@ -297,6 +331,10 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void onHead(beast::error_code ec) {
     if (ec == http::error::header_limit) {
+      // Past the limit before the request line was parsed: the target is what is too long (RFC 9112 3).
+      if (m_parser->get().target().empty()) {
+        return answerAndClose(m_server.handler.refusal(414, "request target too long"));
+      }
       return answerAndClose(m_server.handler.refusal(431, "request header fields too large"));
     }
     if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted ||
@@ -306,6 +344,9 @@ class Session : public std::enable_shared_from_this<Session> {
     if (ec) return answerAndClose(m_server.handler.refusal(400, "bad request: " + ec.message()));
 
     const auto& request = m_parser->get();
+    const std::string problem = framingProblem(request.version(), fieldLines(request, http::field::host),
+                                               request.count(http::field::transfer_encoding) > 0, m_parser->chunked());
+    if (!problem.empty()) return answerAndClose(m_server.handler.refusal(400, "bad request: " + problem));
     HttpRequest in;
     in.method = std::string(request.method_string());
     in.path = requestPath(std::string(request.target()));
@@ -319,7 +360,8 @@ class Session : public std::enable_shared_from_this<Session> {
     m_head = request.method() == http::verb::head;
     m_version = request.version();
     // A body is never read: after answering, its connection is closed.
-    m_keep_alive = request.keep_alive() && !in.has_body;
+    m_keep_alive =
+        clientKeepsConnection(request.version(), fieldLines(request, http::field::connection)) && !in.has_body;
     m_unread_body = in.has_body;
     m_busy = true;
     m_stream.expires_never();  // waiting for a bake is not the client's delay
