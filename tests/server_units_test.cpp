@@ -27,6 +27,7 @@
 #include "core/types.hpp"
 #include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
+#include "server/response_head.hpp"
 #include "server/route.hpp"
 #include "server/served_folder.hpp"
 #include "server/tile_cache.hpp"
@@ -245,6 +246,43 @@ TEST(ServeHttpRules, DatesAndMethods) {
     EXPECT_TRUE(server::isStandardMethod(method)) << method;
   }
   for (const char* method : {"get", "BREW", "PROPFIND", ""}) EXPECT_FALSE(server::isStandardMethod(method)) << method;
+}
+
+// An answer's head, the Date line aside (checked against the clock in
+// ServeVersions.AnswersCarryTheDate).
+std::string headWithoutDate(unsigned version, const server::HttpReply& reply, std::size_t length, bool keep) {
+  std::string head = server::responseHead(version, reply, length, keep);
+  const std::size_t date = head.find("\r\nDate: ");
+  if (date == std::string::npos) return "no Date: " + head;
+  return head.erase(date + 2, head.find("\r\n", date + 2) - date);
+}
+
+TEST(ServeResponseHead, StatusFieldsLengthAndConnection) {
+  server::HttpReply tile;
+  tile.headers = {{"ETag", "\"x\""}, {"Cache-Control", "no-store"}};
+  tile.content_type = "image/png";
+  EXPECT_EQ(headWithoutDate(11, tile, 5, true),
+            "HTTP/1.1 200 OK\r\nETag: \"x\"\r\nCache-Control: no-store\r\nContent-Type: image/png\r\n"
+            "Content-Length: 5\r\n\r\n");
+  EXPECT_EQ(headWithoutDate(11, tile, 5, false),
+            "HTTP/1.1 200 OK\r\nETag: \"x\"\r\nCache-Control: no-store\r\nContent-Type: image/png\r\n"
+            "Content-Length: 5\r\nConnection: close\r\n\r\n");
+  // HTTP/1.0: answered as HTTP/1.1, saying that the connection stays or goes.
+  EXPECT_NE(headWithoutDate(10, tile, 5, true).find("\r\nConnection: keep-alive\r\n\r\n"), std::string::npos);
+  EXPECT_NE(headWithoutDate(10, tile, 5, false).find("\r\nConnection: close\r\n\r\n"), std::string::npos);
+  // Without a body: no Content-Type, no Content-Length.
+  for (const int status : {304, 204}) {
+    server::HttpReply bodiless = tile;
+    bodiless.status = status;
+    const std::string head = headWithoutDate(11, bodiless, 5, true);
+    EXPECT_EQ(head.find("Content-"), std::string::npos) << head;
+  }
+  server::HttpReply too_large;
+  too_large.status = 413;
+  EXPECT_EQ(headWithoutDate(11, too_large, 0, false),
+            "HTTP/1.1 413 Content Too Large\r\nContent-Length: 0\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(server::reasonPhrase(414), "URI Too Long");
+  EXPECT_EQ(server::reasonPhrase(501), "Not Implemented");
 }
 
 TEST(ServeHttpRules, SingleByteRanges) {

@@ -5,7 +5,6 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
-#include <ctime>
 #include <limits>
 #include <mutex>
 #include <optional>
@@ -33,6 +32,7 @@
 #include "core/threads.hpp"
 #include "server/http_rules.hpp"
 #include "server/request_handler.hpp"
+#include "server/response_head.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -95,25 +95,6 @@ void raiseFileLimit(int connections) {
 // How much of a file a connection reads at a time while sending it.
 constexpr std::size_t kFilePieceBytes = 64 * 1024;
 
-// RFC 9110's reason phrases; Beast's list names 413 as RFC 7231 did.
-std::string reasonPhrase(int status) {
-  if (status == 413) return "Content Too Large";
-  const beast::string_view reason = http::obsolete_reason(http::int_to_status(unsigned(status)));
-  return std::string(reason.data(), reason.size());
-}
-
-// Now as an HTTP date, made once a second on each thread.
-const std::string& currentHttpDate() {
-  thread_local std::time_t made_at = -1;
-  thread_local std::string date;
-  const std::time_t now = std::time(nullptr);
-  if (now != made_at) {
-    date = httpDate(now);
-    made_at = now;
-  }
-  return date;
-}
-
 // The values of every field line of `field` in a request head.
 template <class Fields>
 std::vector<std::string_view> fieldLines(const Fields& fields, http::field field) {
@@ -122,45 +103,6 @@ std::vector<std::string_view> fieldLines(const Fields& fields, http::field field
     lines.emplace_back(line->value().data(), line->value().size());
   }
   return lines;
-}
-
-// The status line and header fields of an answer, as sent: the reply's
-// fields, then Content-Type and Content-Length (the length a GET would have,
-// also for HEAD), then Connection where the version's default does not hold.
-// Written here rather than through Beast's serializer, whose field list and
-// buffer views cost more than a tile's whole answer from the cache.
-std::string responseHead(unsigned version, const HttpReply& reply, std::size_t body_length, bool keep) {
-  std::string head;
-  head.reserve(384);
-  // HTTP/1.1 to an HTTP/1.0 client too (RFC 9110 6.2), with Connection saying what happens.
-  head += "HTTP/1.1 ";
-  head += std::to_string(reply.status);
-  head += ' ';
-  head += reasonPhrase(reply.status);
-  head += "\r\nDate: ";
-  head += currentHttpDate();
-  head += "\r\n";
-  for (const auto& [name, value] : reply.headers) {
-    head += name;
-    head += ": ";
-    head += value;
-    head += "\r\n";
-  }
-  const bool bodiless = reply.status == 204 || reply.status == 304 || (reply.status >= 100 && reply.status < 200);
-  if (!bodiless) {
-    if (!reply.content_type.empty()) {
-      head += "Content-Type: ";
-      head += reply.content_type;
-      head += "\r\n";
-    }
-    head += "Content-Length: ";
-    head += std::to_string(body_length);
-    head += "\r\n";
-  }
-  if (!keep) head += "Connection: close\r\n";
-  if (keep && version < 11) head += "Connection: keep-alive\r\n";
-  head += "\r\n";
-  return head;
 }
 
 std::size_t bodyLength(const HttpReply::Body& body) {
