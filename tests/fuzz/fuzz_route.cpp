@@ -1,19 +1,24 @@
 // libFuzzer target: the server's router. The input is a request target as a
 // client sends it ("/layer/3/4/2.png?x=1", "/viewer/%2e%2e/etc"); it goes
-// through requestPath() (query cut, percent-decoding) and parseRoute(), as
-// every request does in RequestHandler::handle. The same bytes are also read
-// as a Range header against a body of their own length.
+// through requestPath() (absolute form, query cut, percent-decoding) and
+// parseRoute(), as every request does in RequestHandler::handle. The same
+// bytes are also read as a Range header against a body of their own length,
+// and as a Host and a Connection field line.
 //
 // Beyond not crashing, a route must never let through what the router
 // promises to refuse: a served file (of the viewer, a vendor package or a
 // layer's tileset or archive) with an empty, "." or ".." segment, a
 // backslash or a control character; a layer name the layer rule refuses or
 // the server reserves; a tile with a negative number or a zoom above kMaxZoom.
+// A Host let through holds no space, control character, slash or backslash.
 #include <cstddef>
 #include <cstdint>
 #include <string>
+#include <string_view>
+#include <vector>
 
 #include "core/layer_name.hpp"
+#include "core/text.hpp"
 #include "core/types.hpp"
 #include "fuzz_support.hpp"
 #include "server/http_rules.hpp"
@@ -83,6 +88,18 @@ void checkRange(const std::string& header, std::size_t length) {
   }
 }
 
+void checkHeadLines(const std::string& text) {
+  const std::vector<std::string_view> lines{text};
+  if (server::framingProblem(11, lines, false, false).empty()) {
+    for (const char c : trim(text)) {
+      const auto u = static_cast<unsigned char>(c);
+      fuzz::require(u > 0x20 && u != 0x7f && c != '/' && c != '\\', "an accepted Host is host[:port]");
+    }
+  }
+  server::clientKeepsConnection(10, lines);
+  server::clientKeepsConnection(11, lines);
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
@@ -93,6 +110,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     checkRoute(server::parseRoute(path));
     checkRange(target, size);
     checkRange(target, size / 2);
+    checkHeadLines(target);
   });
   return 0;
 }
