@@ -53,9 +53,14 @@ double percentile(std::vector<double> values, double p) {
 }
 
 // A loopback connection; reads give up after `timeout_ms`. -1 when it fails.
-int connectTo(int port, int timeout_ms = 10000) {
+// `receive_buffer_bytes` (when not 0) bounds what the system takes in for
+// the client before it reads, which it would otherwise grow to megabytes.
+int connectTo(int port, int timeout_ms = 10000, int receive_buffer_bytes = 0) {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return -1;
+  if (receive_buffer_bytes > 0) {
+    ::setsockopt(fd, SOL_SOCKET, SO_RCVBUF, &receive_buffer_bytes, sizeof receive_buffer_bytes);
+  }
   const timeval timeout{timeout_ms / 1000, (timeout_ms % 1000) * 1000};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
   const int yes = 1;
@@ -269,9 +274,10 @@ TEST(ServeLimits, SlowHeadersAndIdleConnectionsAreClosedOnTime) {
   EXPECT_LT(kept_ms, 3500) << "an idle kept-alive connection was kept";
 }
 
-// A file is sent a piece at a time, each within the read timeout: a client
-// reading slowly but steadily downloads for as long as it takes, one that
-// stops reading is closed about a read timeout after the buffers fill.
+// Each write the socket takes has its own read timeout: a client reading
+// slowly but steadily downloads for as long as it takes, one that stops
+// reading is closed about a read timeout after the buffers fill. Both for a
+// file read piece by piece and for a tile answered from memory in one piece.
 TEST(ServeLimits, ASlowDownloadGoesOnAndAStalledOneIsClosed) {
   World world;
   world.config.read_timeout_s = 1;
@@ -282,44 +288,52 @@ TEST(ServeLimits, ASlowDownloadGoesOnAndAStalledOneIsClosed) {
   fs::resize_file(world.dir / "viewer" / "big.bin", kFileBytes);
   ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
   world.gate.open();
+  // A tile far larger than the sockets' buffers (the client's held to 64 KiB),
+  // which the layer reads whole into memory.
+  writeText(world.dir / "tiles" / "fake" / "3" / "1" / "1.png", std::string(std::size_t(32) << 20, 'p'));
+  constexpr int kClientBufferBytes = 64 * 1024;
 
-  const std::string request = "GET /viewer/big.bin HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
-  // Reads 64 KiB every 300 ms, for four read timeouts.
-  constexpr auto kSlowFor = std::chrono::milliseconds(4000);
-  std::size_t slow_bytes = 0;
-  bool slow_cut = false;
-  std::thread slow([&] {
-    const int fd = connectTo(running.port(), 2000);
-    if (!sendAll(fd, request)) return;
-    const auto start = Clock::now();
-    std::vector<char> buffer(64 * 1024);
-    while (Clock::now() - start < kSlowFor) {
-      const ssize_t got = ::recv(fd, buffer.data(), buffer.size(), 0);
-      if (got <= 0) {
-        slow_cut = true;
-        break;
+  for (const char* target : {"/viewer/big.bin", "/fake/3/1/1.png"}) {
+    SCOPED_TRACE(target);
+    const std::string request =
+        "GET " + std::string(target) + " HTTP/1.1\r\nHost: 127.0.0.1\r\nConnection: close\r\n\r\n";
+    // Reads 64 KiB every 300 ms, for four read timeouts.
+    constexpr auto kSlowFor = std::chrono::milliseconds(4000);
+    std::size_t slow_bytes = 0;
+    bool slow_cut = false;
+    std::thread slow([&] {
+      const int fd = connectTo(running.port(), 2000, kClientBufferBytes);
+      if (!sendAll(fd, request)) return;
+      const auto start = Clock::now();
+      std::vector<char> buffer(64 * 1024);
+      while (Clock::now() - start < kSlowFor) {
+        const ssize_t got = ::recv(fd, buffer.data(), buffer.size(), 0);
+        if (got <= 0) {
+          slow_cut = true;
+          break;
+        }
+        slow_bytes += std::size_t(got);
+        std::this_thread::sleep_for(std::chrono::milliseconds(300));
       }
-      slow_bytes += std::size_t(got);
-      std::this_thread::sleep_for(std::chrono::milliseconds(300));
-    }
-    ::close(fd);
-  });
-  // Takes nothing after the request: closed once the server's writes have
-  // waited a read timeout.
-  double stalled_ms = -1;
-  std::thread stalled([&] {
-    const int fd = connectTo(running.port(), 2000);
-    if (!sendAll(fd, request)) return;
-    const auto start = Clock::now();
-    std::this_thread::sleep_for(std::chrono::milliseconds(3000));
-    stalled_ms = msUntilClosed(fd, start, 20000);
-    ::close(fd);
-  });
-  slow.join();
-  stalled.join();
-  EXPECT_FALSE(slow_cut) << "a steady download was cut after " << slow_bytes << " bytes";
-  EXPECT_GT(slow_bytes, std::size_t(10) * 64 * 1024);
-  EXPECT_GT(stalled_ms, 0) << "a client that stopped reading kept its connection";
+      ::close(fd);
+    });
+    // Takes nothing after the request: closed once the server's writes have
+    // waited a read timeout.
+    double stalled_ms = -1;
+    std::thread stalled([&] {
+      const int fd = connectTo(running.port(), 2000, kClientBufferBytes);
+      if (!sendAll(fd, request)) return;
+      const auto start = Clock::now();
+      std::this_thread::sleep_for(std::chrono::milliseconds(3000));
+      stalled_ms = msUntilClosed(fd, start, 20000);
+      ::close(fd);
+    });
+    slow.join();
+    stalled.join();
+    EXPECT_FALSE(slow_cut) << "a steady download was cut after " << slow_bytes << " bytes";
+    EXPECT_GT(slow_bytes, std::size_t(10) * 64 * 1024);
+    EXPECT_GT(stalled_ms, 0) << "a client that stopped reading kept its connection";
+  }
 }
 
 // A queued connection would wait for one of the held ones to close, which
@@ -655,13 +669,30 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
        200, true},
       {"HTTP/1.0 keep-alive, close", "GET /fake/3/1/1.png HTTP/1.0\r\nConnection: keep-alive, close\r\n\r\n", 200,
        true},
-      // 3: a request target past the head's limit.
+      // 3: a request target past the head's limit; a line within it but
+      // headers beyond it (the line longer than the server's first read).
       {"a target too long", "GET /" + std::string(20000, 'a') + " HTTP/1.1\r\nHost: x\r\n\r\n", 414, true},
+      {"a long target and headers too large",
+       "GET /" + std::string(600, 'a') + " HTTP/1.1\r\nHost: x\r\nCookie: " + std::string(20000, 'c') + "\r\n\r\n", 431,
+       true},
       // RFC 9110 9.1: a method HTTP does not define is not implemented; one it does is not allowed.
       {"unknown method", "BREW /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},
       {"lower-case get", "get /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},
       {"DELETE", "DELETE /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 405, false},
   };
+  {
+    // A HEAD refused for its framing is still answered without a body.
+    const int fd = connectTo(running.port());
+    ASSERT_GE(fd, 0);
+    ASSERT_TRUE(sendAll(fd, "HEAD /fake/3/1/1.png HTTP/1.1\r\n\r\n"));
+    const RawAnswer answer = readAnswer(fd, true, Clock::now());
+    EXPECT_EQ(answer.status, 400);
+    EXPECT_NE(answer.header("Content-Length"), "0");
+    EXPECT_EQ(answer.body, "");
+    char extra[64];
+    EXPECT_LE(::recv(fd, extra, sizeof extra, 0), 0) << "a body followed the head";
+    ::close(fd);
+  }
   for (const auto& c : cases) {
     SCOPED_TRACE(c.what);
     const int fd = connectTo(running.port());
@@ -672,6 +703,10 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
     EXPECT_EQ(answer.header("Connection") == "close", c.closed);
     if (c.closed) {
       EXPECT_GE(msUntilClosed(fd, Clock::now(), 5000), 0);
+    } else {
+      // The connection goes on to the next request.
+      ASSERT_TRUE(sendAll(fd, "GET /health HTTP/1.1\r\nHost: x\r\n\r\n"));
+      EXPECT_EQ(readAnswer(fd, false, Clock::now()).status, 200);
     }
     if (c.status == 200) {
       EXPECT_EQ(answer.body, world.cached_png);

@@ -24,6 +24,7 @@
 #include "config/serve_config.hpp"
 #include "core/error.hpp"
 #include "core/open_files.hpp"
+#include "core/text.hpp"
 #include "core/types.hpp"
 #include "io/tile_files.hpp"
 #include "server/http_rules.hpp"
@@ -323,6 +324,11 @@ TEST(ServeHttpRules, ContentEtagsSpellHashAndLength) {
   EXPECT_EQ(server::contentEtag(""), "\"cbf29ce484222325-0\"");  // FNV-1a's offset basis
   EXPECT_EQ(server::contentEtag("a"), "\"af63dc4c8601ec8c-1\"");
   EXPECT_EQ(server::contentEtag(std::string(300, 'x')).substr(17), "-12c\"");
+  std::string padded;
+  appendHex(padded, 0x1f, 16);
+  EXPECT_EQ(padded, "000000000000001f");
+  appendHex(padded, 0);
+  EXPECT_EQ(padded, "000000000000001f0");
 }
 
 // A file's tag: inode, size and modification time in nanoseconds, in hex.

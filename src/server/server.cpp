@@ -117,51 +117,63 @@ std::size_t bodyLength(const HttpReply::Body& body) {
       body);
 }
 
-// An answer on its way out: its head, then its body a piece at a time.
+// An answer on its way out: its head, then its body a piece at a time (a
+// file's read as it goes, a string's or a tile's in memory in one piece).
 class Outgoing {
  public:
   // `send_body` false: HEAD, whose answer is the head alone.
   Outgoing(std::string head, HttpReply::Body body, bool send_body)
       : m_head(std::move(head)), m_body(std::move(body)), m_left(send_body ? bodyLength(m_body) : 0) {}
 
-  bool headSent() const { return m_head_sent; }
-  bool done() const { return m_head_sent && m_left == 0; }
-  net::const_buffer head() const { return net::buffer(m_head); }
+  bool started() const { return m_head_written > 0; }
+  bool done() const { return m_head_written == m_head.size() && m_piece_written == m_piece.size() && m_left == 0; }
 
-  // The next piece of the body (empty when none is left); none when the
+  // What to write next: what is left of the head and of the body's current
+  // piece, taking the next piece once that one is written; none when the
   // file it comes from could not be read.
-  std::optional<net::const_buffer> nextPiece() {
-    if (m_left == 0) return net::const_buffer();
-    return std::visit([this](const auto& part) { return pieceOf(part); }, m_body);
+  std::optional<std::array<net::const_buffer, 2>> unwritten() {
+    if (m_piece_written == m_piece.size() && m_left > 0) {
+      const std::optional<net::const_buffer> piece =
+          std::visit([this](const auto& part) { return pieceOf(part); }, m_body);
+      if (!piece) return std::nullopt;
+      m_piece = *piece;
+      m_piece_written = 0;
+      m_left -= m_piece.size();
+    }
+    return std::array<net::const_buffer, 2>{net::buffer(m_head) + m_head_written, m_piece + m_piece_written};
   }
 
-  // After the head (when it went too) and `piece_bytes` of the body were written.
-  void sent(std::size_t piece_bytes) {
-    m_head_sent = true;
-    m_sent += piece_bytes;
-    m_left -= piece_bytes;
+  // After a write took `bytes` of unwritten(): the head's first.
+  void wrote(std::size_t bytes) {
+    const std::size_t of_head = std::min(bytes, m_head.size() - m_head_written);
+    m_head_written += of_head;
+    m_piece_written += bytes - of_head;
   }
 
  private:
+  // Where the next piece starts in the body.
+  std::size_t offset() const { return bodyLength(m_body) - m_left; }
+
   std::optional<net::const_buffer> pieceOf(const std::string& text) const {
-    return net::const_buffer(text.data() + m_sent, m_left);
+    return net::const_buffer(text.data() + offset(), m_left);
   }
   std::optional<net::const_buffer> pieceOf(const HttpReply::MemoryPart& part) const {
-    return net::const_buffer(part.content->bytes.data() + part.first + m_sent, m_left);
+    return net::const_buffer(part.content->bytes.data() + part.first + offset(), m_left);
   }
   std::optional<net::const_buffer> pieceOf(const HttpReply::FilePart& part) {
-    std::optional<std::string> piece = part.file->read(part.first + m_sent, std::min(m_left, kFilePieceBytes));
+    std::optional<std::string> piece = part.file->read(part.first + offset(), std::min(m_left, kFilePieceBytes));
     if (!piece || piece->empty()) return std::nullopt;
-    m_piece = std::move(*piece);
-    return net::buffer(m_piece);
+    m_file_piece = std::move(*piece);
+    return net::buffer(m_file_piece);
   }
 
   std::string m_head;
   HttpReply::Body m_body;
-  std::size_t m_sent = 0;  // body bytes written
-  std::size_t m_left;      // body bytes still to write
-  bool m_head_sent = false;
-  std::string m_piece;  // the file piece being written
+  std::size_t m_left;  // body bytes not yet taken into a piece
+  std::size_t m_head_written = 0;
+  net::const_buffer m_piece;  // the body's piece being written
+  std::size_t m_piece_written = 0;
+  std::string m_file_piece;  // a file's piece, read for m_piece
 };
 
 class Session;
@@ -250,11 +262,16 @@ class Session : public std::enable_shared_from_this<Session> {
     if (m_closing || m_server.stopping) return m_stream.close();
     m_parser.emplace();
     m_parser->header_limit(m_server.max_header_bytes);
-    // No body is ever read, so none is too large to be announced: the answer (405 or 413) comes first.
+    // No body is ever read, so none is too large to be announced: the answer (405, 501 or 413) comes first.
     m_parser->body_limit(std::numeric_limits<std::uint64_t>::max());
     m_stream.expires_after(m_server.read_timeout);
     http::async_read_header(m_stream, m_buffer, *m_parser,
                             [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onHead(ec); });
+  }
+
+  bool bufferHoldsALine() const {
+    const auto read = m_buffer.cdata();
+    return std::string_view(static_cast<const char*>(read.data()), read.size()).find('\n') != std::string_view::npos;
   }
 
   // Between requests on a kept connection: the idle timeout until the next
@@ -273,8 +290,10 @@ class Session : public std::enable_shared_from_this<Session> {
 
   void onHead(beast::error_code ec) {
     if (ec == http::error::header_limit) {
-      // Past the limit before the request line was parsed: the target is what is too long (RFC 9112 3).
-      if (m_parser->get().target().empty()) {
+      // Past the limit before the request line ended: the target is what is
+      // too long (RFC 9112 3). The parser has taken nothing from the buffer
+      // until it has the line, and then waits for the whole head.
+      if (m_parser->get().target().empty() && !bufferHoldsALine()) {
         return answerAndClose(m_server.handler.refusal(414, "request target too long"));
       }
       return answerAndClose(m_server.handler.refusal(431, "request header fields too large"));
@@ -288,7 +307,10 @@ class Session : public std::enable_shared_from_this<Session> {
     const auto& request = m_parser->get();
     const std::string problem = framingProblem(request.version(), fieldLines(request, http::field::host),
                                                request.count(http::field::transfer_encoding) > 0, m_parser->chunked());
-    if (!problem.empty()) return answerAndClose(m_server.handler.refusal(400, "bad request: " + problem));
+    if (!problem.empty()) {
+      return answerAndClose(m_server.handler.refusal(400, "bad request: " + problem),
+                            request.method() == http::verb::head);
+    }
     HttpRequest in;
     in.method = std::string(request.method_string());
     in.path = requestPath(std::string(request.target()));
@@ -319,10 +341,11 @@ class Session : public std::enable_shared_from_this<Session> {
     }
   }
 
-  void answerAndClose(HttpReply reply) {
+  // `head_request`: the request is known to be a HEAD, whose answer has no body.
+  void answerAndClose(HttpReply reply, bool head_request = false) {
     m_keep_alive = false;
     m_unread_body = true;  // whatever is left of the request stays unread
-    m_head = false;
+    m_head = head_request;
     m_version = 11;
     m_busy = true;
     write(std::move(reply));
@@ -334,21 +357,24 @@ class Session : public std::enable_shared_from_this<Session> {
     sendSome(std::make_shared<Outgoing>(std::move(head), std::move(reply.body), !m_head), keep);
   }
 
-  // Writes the answer a piece at a time, each within the read timeout: a
-  // client that stops reading is cut off, a long download is not. The head
-  // goes with the first piece, in one write.
+  // Writes the answer as the socket takes it, each write within the read
+  // timeout: a client that stops reading is cut off, a long download is not.
+  // The head goes with the body's first piece.
   void sendSome(std::shared_ptr<Outgoing> out, bool keep) {
-    const std::optional<net::const_buffer> piece = out->nextPiece();
-    if (!piece) return onWritten(make_error_code(boost::system::errc::io_error), keep);
-    const std::array<net::const_buffer, 2> buffers{out->headSent() ? net::const_buffer() : out->head(), *piece};
+    const std::optional<std::array<net::const_buffer, 2>> buffers = out->unwritten();
+    if (!buffers) {
+      // A file that cannot be read: answered 500 if nothing was sent yet, else cut short.
+      if (!out->started()) return answerAndClose(m_server.handler.refusal(500, "the file could not be read"), m_head);
+      return onWritten(make_error_code(boost::system::errc::io_error), keep);
+    }
     m_stream.expires_after(m_server.read_timeout);
-    net::async_write(m_stream, buffers,
-                     [self = shared_from_this(), out, keep, bytes = piece->size()](beast::error_code ec, std::size_t) {
-                       if (ec) return self->onWritten(ec, keep);
-                       out->sent(bytes);
-                       if (out->done()) return self->onWritten(ec, keep);
-                       self->sendSome(out, keep);
-                     });
+    m_stream.async_write_some(*buffers,
+                              [self = shared_from_this(), out, keep](beast::error_code ec, std::size_t bytes) {
+                                if (ec) return self->onWritten(ec, keep);
+                                out->wrote(bytes);
+                                if (out->done()) return self->onWritten(ec, keep);
+                                self->sendSome(out, keep);
+                              });
   }
 
   void onWritten(beast::error_code ec, bool keep) {
