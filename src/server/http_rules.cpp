@@ -36,6 +36,24 @@ constexpr MediaType kMediaTypes[] = {
     {".pmtiles", "application/vnd.pmtiles"},
 };
 
+// The comma-separated items of a field line, without the spaces around them.
+std::vector<std::string_view> listItems(std::string_view line) {
+  std::vector<std::string_view> items;
+  while (true) {
+    const std::size_t comma = line.find(',');
+    const std::string_view item = trim(line.substr(0, comma));
+    if (!item.empty()) items.push_back(item);
+    if (comma == std::string_view::npos) return items;
+    line.remove_prefix(comma + 1);
+  }
+}
+
+bool equalsIgnoringCase(std::string_view a, std::string_view b) {
+  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
+           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
+         });
+}
+
 }  // namespace
 
 std::string contentTypeFor(const std::string& file_name) {
@@ -57,12 +75,8 @@ std::string contentEtag(const std::string& bytes) {
 
 bool noneMatchHits(const std::string& if_none_match, const std::string& etag) {
   const auto opaque = [](std::string_view tag) { return tag.substr(0, 2) == "W/" ? tag.substr(2) : tag; };
-  std::string_view rest(if_none_match);
-  while (!rest.empty()) {
-    const std::size_t comma = rest.find(',');
-    const std::string_view tag = trim(rest.substr(0, comma));
-    if (tag == "*" || (!tag.empty() && opaque(tag) == opaque(etag))) return true;
-    rest = comma == std::string_view::npos ? std::string_view() : rest.substr(comma + 1);
+  for (const std::string_view tag : listItems(if_none_match)) {
+    if (tag == "*" || opaque(tag) == opaque(etag)) return true;
   }
   return false;
 }
@@ -127,10 +141,7 @@ ByteRange parseRange(const std::string& range, std::size_t length) {
   ByteRange whole;
   std::string_view text = trim(range);
   constexpr std::string_view kUnit = "bytes=";
-  if (text.size() < kUnit.size()) return whole;
-  for (std::size_t i = 0; i < kUnit.size(); ++i) {
-    if (std::tolower(static_cast<unsigned char>(text[i])) != kUnit[i]) return whole;
-  }
+  if (!equalsIgnoringCase(text.substr(0, kUnit.size()), kUnit)) return whole;
   text = trim(text.substr(kUnit.size()));
   if (text.find(',') != std::string_view::npos) return whole;  // several ranges: answered whole
   const std::size_t dash = text.find('-');
@@ -173,24 +184,6 @@ bool isHostValue(std::string_view text) {
   return std::all_of(text.begin(), text.end(), [&](char c) {
     return std::isalnum(static_cast<unsigned char>(c)) || kSymbols.find(c) != std::string_view::npos;
   });
-}
-
-// The comma-separated items of a field line, without the spaces around them.
-std::vector<std::string_view> listItems(std::string_view line) {
-  std::vector<std::string_view> items;
-  while (true) {
-    const std::size_t comma = line.find(',');
-    const std::string_view item = trim(line.substr(0, comma));
-    if (!item.empty()) items.push_back(item);
-    if (comma == std::string_view::npos) return items;
-    line.remove_prefix(comma + 1);
-  }
-}
-
-bool equalsIgnoringCase(std::string_view a, std::string_view b) {
-  return a.size() == b.size() && std::equal(a.begin(), a.end(), b.begin(), [](char x, char y) {
-           return std::tolower(static_cast<unsigned char>(x)) == std::tolower(static_cast<unsigned char>(y));
-         });
 }
 
 }  // namespace
