@@ -22,6 +22,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <variant>
 #include <vector>
 
 #include "child_process.hpp"
@@ -262,6 +263,19 @@ TEST(Cli, UnwritableOutputNamesTheFolder) {
   EXPECT_EQ(filesUnder(dir), (std::set<std::string>{"blocker", "dem.tif"}));
 }
 
+// A long path in a message is cut to its start and length, and the reason
+// after it stays on the line.
+TEST(Cli, ALongOutputPathLeavesTheReasonOnTheLine) {
+  const fs::path dir = caseDir();
+  const fs::path dem = writeDemIn(dir);
+  fs::path out = dir;
+  for (int level = 0; level < 25; ++level) out /= std::string(200, 'd');
+  const RunResult r = runTerrabake(smallRunArgs(dem, out));
+  expectOneLineError(r, kExitInput);
+  EXPECT_LT(r.err.size(), 600u) << describe(r);
+  EXPECT_TRUE(contains(r.err, "bytes)': File name too long")) << describe(r);
+}
+
 TEST(Cli, BadBitsValueNamesTheFlag) {
   const fs::path dir = caseDir();
   const fs::path dem = writeDemIn(dir);
@@ -445,26 +459,46 @@ TEST(Cli, AMesaSettingThatPreventsAContextIsNamed) {
   }
 }
 
+// Runs as a user of their own, for what root ignores (limits on processes,
+// file permissions): a number no account has, so no other process counts
+// against its limits. `as_user` starts a command as that user; `dir`, under
+// /tmp, is a folder it can reach and write, with the small DEM.
+struct OtherUser {
+  std::string uid;
+  std::string as_user;
+  fs::path dir;
+  fs::path dem;
+};
+
+// The user, or the reason a test must skip: not root, no setpriv, or the
+// executable or the DEM out of that user's reach.
+std::variant<OtherUser, std::string> otherUser(const std::string& name) {
+  if (::geteuid() != 0 || !fs::exists("/usr/bin/setpriv")) return std::string("needs root and setpriv");
+  OtherUser user;
+  user.uid = std::to_string(3000000000u + unsigned(::getpid()) % 1000000u);
+  user.as_user = "/usr/bin/setpriv --reuid=" + user.uid + " --regid=" + user.uid + " --clear-groups ";
+  std::string dir_template = (fs::temp_directory_path() / ("terrabake-" + name + "-XXXXXX")).string();
+  if (::mkdtemp(dir_template.data()) == nullptr) return std::string("cannot make a folder under /tmp");
+  user.dir = dir_template;
+  fs::permissions(user.dir, fs::perms::all);
+  user.dem = writeDemIn(user.dir);
+  fs::permissions(user.dem, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
+  if (std::system((user.as_user + "test -x " TERRABAKE_EXE " -a -r " + user.dem.string()).c_str()) != 0) {
+    fs::remove_all(user.dir);
+    return std::string("the executable or the DEM is out of another user's reach");
+  }
+  return user;
+}
+
 // Under a limit on processes (ulimit -u, a container's pids limit) the
 // system refuses threads: a run starts the workers it can, or stops with one
 // line naming the limit, never ends by a signal. Root ignores the limit, and
 // it counts every process of a user, so the runs are made as a user of
-// their own, a number no account has.
+// their own.
 TEST(Cli, ALimitOnThreadsGivesFewerWorkersOrOneLine) {
-  if (::geteuid() != 0 || !fs::exists("/usr/bin/setpriv")) GTEST_SKIP() << "needs root and setpriv";
-  const std::string user = std::to_string(3000000000u + unsigned(::getpid()) % 1000000u);
-  const std::string as_user = "/usr/bin/setpriv --reuid=" + user + " --regid=" + user + " --clear-groups ";
-  // A folder of its own under /tmp, which that user can reach and write.
-  std::string dir_template = (fs::temp_directory_path() / "terrabake-nproc-XXXXXX").string();
-  ASSERT_NE(::mkdtemp(dir_template.data()), nullptr);
-  const fs::path dir = dir_template;
-  fs::permissions(dir, fs::perms::all);
-  const fs::path dem = writeDemIn(dir);
-  fs::permissions(dem, fs::perms::owner_read | fs::perms::group_read | fs::perms::others_read);
-  if (std::system((as_user + "test -x " TERRABAKE_EXE " -a -r " + dem.string()).c_str()) != 0) {
-    fs::remove_all(dir);
-    GTEST_SKIP() << "the executable or the DEM is out of another user's reach";
-  }
+  const auto found = otherUser("nproc");
+  if (const auto* why = std::get_if<std::string>(&found)) GTEST_SKIP() << *why;
+  const auto& [user, as_user, dir, dem] = std::get<OtherUser>(found);
   bool fewer_workers = false;
   // From a limit too low for the process itself (libraries start threads
   // before main, which nothing of ours can answer) to one that fits the 5
@@ -496,6 +530,49 @@ TEST(Cli, ALimitOnThreadsGivesFewerWorkersOrOneLine) {
     fewer_workers |= contains(said, "workers run: the system refused a thread");
   }
   EXPECT_TRUE(fewer_workers) << "no limit left the run fewer workers";
+  fs::remove_all(dir);
+}
+
+// An output the run may not write (its zoom folders another user's) is an
+// unwritable output: one line naming the tile and the file, exit 3, and the
+// run stops there, not one error a tile and exit 4.
+TEST(Cli, AnOutputItMayNotWriteStopsTheRunWithOneLine) {
+  const auto found = otherUser("eacces");
+  if (const auto* why = std::get_if<std::string>(&found)) GTEST_SKIP() << *why;
+  const auto& [user, as_user, dir, dem] = std::get<OtherUser>(found);
+  const fs::path out = dir / "out", layer = out / "ok";
+  std::vector<std::string> args = smallRunArgs(dem, out);
+  args.insert(args.end(), {"--workers", "2"});
+  const RunResult made = runTerrabake(args);
+  ASSERT_EQ(made.exit_code, kExitOk) << describe(made);
+  // The layer and its records handed to the user, its normal maps deleted:
+  // a --resume run of that user has every tile to make, in folders it may
+  // not write.
+  for (const fs::path& path : {layer, layer / "terrabake-job.txt", layer / "tilejson.json"}) {
+    ASSERT_EQ(::chown(path.c_str(), uid_t(std::stoul(user)), gid_t(std::stoul(user))), 0) << path;
+  }
+  for (const std::string& file : filesUnder(layer)) {
+    if (fs::path(file).extension() == ".png") fs::remove(layer / file);
+  }
+  const fs::path err = dir / "resumed.err";
+  args.push_back("--resume");
+  const int status = std::system((as_user + shellCommand("", args, "2>" + err.string() + " >/dev/null")).c_str());
+  const std::string said = test::readBytes(err);
+  ASSERT_TRUE(WIFEXITED(status)) << said;
+  EXPECT_EQ(WEXITSTATUS(status), kExitInput) << said;
+  std::vector<std::string> problems;
+  std::istringstream lines(said);
+  for (std::string line; std::getline(lines, line);) {
+    if (line.rfind("terrabake: info:", 0) != 0) problems.push_back(line);
+  }
+  ASSERT_EQ(problems.size(), 1u) << said;
+  EXPECT_TRUE(contains(problems[0], "terrabake: error: tile ")) << said;
+  EXPECT_TRUE(contains(problems[0], layer.string())) << said;
+  EXPECT_TRUE(contains(problems[0], "Permission denied; the run stopped there")) << said;
+  EXPECT_TRUE(contains(problems[0], "make the output writable and run it again with --resume")) << said;
+  for (const std::string& file : filesUnder(layer)) {
+    EXPECT_NE(fs::path(file).filename().string().front(), '.') << "left " << file;
+  }
   fs::remove_all(dir);
 }
 

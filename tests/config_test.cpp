@@ -468,6 +468,21 @@ TEST(ConfigErrors, LongValuesAreShortenedInMessages) {
   EXPECT_LT(loadMessage(key_path).size(), 400u);
 }
 
+// Values over 160 bytes are quoted by their start and length, each on its
+// own, so the reason after a long path stays on the line; apostrophes in
+// words are not quotes.
+TEST(ConfigErrors, MessagesShortenEachLongValueAndKeepWhatFollows) {
+  const std::string path(300, 'd');
+  EXPECT_EQ(messageLine("cannot write '" + path + "': File name too long"),
+            "cannot write '" + std::string(160, 'd') + "... (300 bytes)': File name too long");
+  EXPECT_EQ(messageLine("GDAL's reader of '" + path + "' and the layer's\ttiles"),
+            "GDAL's reader of '" + std::string(160, 'd') + "... (300 bytes)' and the layer's tiles");
+  EXPECT_EQ(messageLine("unexpected " + path + " here"), "unexpected " + std::string(160, 'd') + "... (300 bytes) here");
+  EXPECT_EQ(messageLine("a 'short' value, 'open"), "a 'short' value, 'open");
+  EXPECT_EQ(messageLine(std::string(3000, 'x') + " " + std::string(3000, 'y')).size(),
+            2 * (160 + std::string("... (3000 bytes)").size()) + 1);
+}
+
 TEST(ConfigErrors, FilesOverOneMebibyteAreRefused) {
   const std::string path = writeYaml("big.yaml", "dem: a.tif\n# " + std::string(2 << 20, 'x') + "\n");
   EXPECT_NE(loadMessage(path).find("a config file may hold at most 1048576"), std::string::npos);

@@ -30,6 +30,7 @@ using terrabake::Green;
 using terrabake::NodataSurface;
 using terrabake::OutputFormat;
 using terrabake::SchemeKind;
+using terrabake::TileId;
 
 namespace {
 
@@ -619,6 +620,35 @@ TEST(LayerLayout, PathsFollowTheLayerTemplate) {
   EXPECT_EQ(io::formatOfExtension("jpg"), std::nullopt);
   EXPECT_EQ(io::layerLocation("out/", "alps", OutputFormat::kFiles), "out/alps");
   EXPECT_EQ(io::layerLocation("out", "alps", OutputFormat::kMbtiles), "out/alps.mbtiles");
+}
+
+// A tile whose mesh cannot be written leaves neither its new normal map nor
+// the files an earlier run made of it: the tile is whole or absent, and a
+// --resume run makes it again.
+TEST(LayerLayout, ATileThatCannotBeWrittenWholeLeavesNoFile) {
+  const fs::path layer = freshDir("tile_whole_or_absent");
+  const TileId tile{3, 1, 1};
+  const fs::path png = io::tilePath(layer.string(), tile, io::TileFormat::kPng);
+  const fs::path elevation = io::tilePath(layer.string(), tile, io::TileFormat::kElevationPng);
+  const fs::path glb = io::tilePath(layer.string(), tile, io::TileFormat::kGlb);
+  io::writeFileAtomically(png.string(), {1});        // an earlier run's
+  fs::create_directories(glb / "child");              // a folder rename cannot replace
+  io::TileFiles files;
+  files.png = {2, 2};
+  files.elevation_png = {3, 3};
+  files.glb = {4, 4};
+
+  EXPECT_THROW(io::writeTileFiles(layer.string(), tile, files), InputError);
+  EXPECT_FALSE(fs::exists(png));
+  EXPECT_FALSE(fs::exists(elevation));
+  EXPECT_EQ(listNames(layer), (std::set<std::string>{"3", "3/1", "3/1/1.glb", "3/1/1.glb/child"}));
+
+  // The folder gone, the same files make the tile.
+  fs::remove_all(glb);
+  io::writeTileFiles(layer.string(), tile, files);
+  EXPECT_EQ(readBytes(png), files.png);
+  EXPECT_EQ(readBytes(elevation), files.elevation_png);
+  EXPECT_EQ(readBytes(glb), files.glb);
 }
 
 }  // namespace

@@ -12,8 +12,9 @@ using Action = std::function<int()>;  // returns the process exit code
 // Shown by `terrabake --help` and by every subcommand's --help, which is where
 // a script writer looks. Keep in step with ExitCode in core/error.hpp.
 inline constexpr const char* kExitCodes =
-    "Exit codes: 0 ok; 2 bad command line or config; 3 unreadable input, unwritable\n"
-    "output (a full disk stops `tile` at once; --resume makes the rest), no GL context,\n"
+    "Exit codes: 0 ok; 2 bad command line or config, or an output layer another job or\n"
+    "tool made; 3 unreadable input, unwritable output (a full disk or a folder it may\n"
+    "not write stops `tile` at once; --resume makes the rest), no GL context,\n"
     "or an address `serve` cannot listen on;\n"
     "4 the run finished but some tiles failed; 5 nothing to make:\n"
     "no tile of the job has a valid DEM sample (the warning says why; a shard with no\n"

@@ -119,14 +119,14 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return cli.exit(e);
   } catch (const CLI::ExtrasError& e) {
-    std::cerr << "terrabake: error: " << shortened(oneLine(e.what()), kMaxMessageBytes) << flagSuggestion(cli)
+    std::cerr << "terrabake: error: " << messageLine(e.what()) << flagSuggestion(cli)
               << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   } catch (const CLI::ParseError& e) {
     std::string problem = unknownCommand(cli);
     if (problem.empty()) problem = repeatedFlag(cli);
     if (problem.empty()) problem = e.what();
-    std::cerr << "terrabake: error: " << shortened(oneLine(problem), kMaxMessageBytes) << " (see terrabake --help)\n";
+    std::cerr << "terrabake: error: " << messageLine(problem) << " (see terrabake --help)\n";
     return int(ExitCode::kUsage);
   }
   if (verbose) log::setLevel(log::Level::kDebug);
@@ -136,13 +136,13 @@ int main(int argc, char** argv) {
     if (cli.got_subcommand("info")) return info();
     return tile();
   } catch (const NothingToMake& e) {
-    log::warning(shortened(oneLine(e.what()), kMaxMessageBytes));
+    log::warning(messageLine(e.what()));
     return int(e.code());
   } catch (const Error& e) {
-    log::error(shortened(oneLine(e.what()), kMaxMessageBytes));
+    log::error(messageLine(e.what()));
     return int(e.code());
   } catch (const std::exception& e) {
-    log::error("unexpected: " + shortened(oneLine(e.what()), kMaxMessageBytes));
+    log::error("unexpected: " + messageLine(e.what()));
     return int(ExitCode::kInput);
   }
 }

@@ -1,6 +1,8 @@
 #include "core/error.hpp"
 
+#include <algorithm>
 #include <cerrno>
+#include <cstring>
 #include <system_error>
 
 namespace terrabake {
@@ -25,8 +27,12 @@ std::string oneLine(const std::string& text) {
 }
 
 void throwIoError(const std::string& what, const std::string& path, int error) {
-  const std::string message = what + " '" + path + "': " + std::generic_category().message(error);
-  if (error == ENOSPC || error == EDQUOT || error == EROFS || error == EFBIG) throw OutputStorageError(message);
+  const std::string message = what + " '" + shortened(path) + "': " + std::generic_category().message(error);
+  if (error == ENOSPC || error == EDQUOT) throw OutputStorageError(message, "make room");
+  if (error == EFBIG) throw OutputStorageError(message, "allow larger files (ulimit -f)");
+  if (error == EROFS || error == EACCES || error == EPERM) {
+    throw OutputStorageError(message, "make the output writable");
+  }
   throw InputError(message);
 }
 
@@ -36,6 +42,50 @@ std::string shortened(const std::string& text, std::size_t max_bytes) {
   // Never inside a UTF-8 sequence.
   while (cut > 0 && (static_cast<unsigned char>(text[cut]) & 0xC0) == 0x80) --cut;
   return text.substr(0, cut) + "... (" + std::to_string(text.size()) + " bytes)";
+}
+
+namespace {
+
+bool isIn(char c, const char* set) { return c != '\0' && std::strchr(set, c) != nullptr; }
+
+// Whether the quote at `at` opens a value: first in the text, or after a
+// space or an opening bracket; an apostrophe inside a word ("GDAL's") does not.
+bool opensQuote(const std::string& text, std::size_t at) { return at == 0 || isIn(text[at - 1], " ([{=,:"); }
+
+// Whether the quote at `at` closes one: last, or before a space or punctuation.
+bool closesQuote(const std::string& text, std::size_t at) {
+  return at + 1 == text.size() || isIn(text[at + 1], " )]},;:.?!");
+}
+
+}  // namespace
+
+std::string messageLine(const std::string& text) {
+  const std::string line = oneLine(text);
+  std::string out;
+  out.reserve(std::min(line.size(), kMaxMessageBytes));
+  std::size_t at = 0;
+  while (at < line.size()) {
+    if (line[at] == '\'' && opensQuote(line, at)) {
+      std::size_t close = at + 1;
+      while (close < line.size() && !(line[close] == '\'' && closesQuote(line, close))) ++close;
+      if (close < line.size()) {
+        out += "'" + shortened(line.substr(at + 1, close - at - 1)) + "'";
+        at = close + 1;
+        continue;
+      }
+    }
+    if (line[at] != ' ' && (at == 0 || line[at - 1] == ' ')) {
+      std::size_t end = line.find(' ', at);
+      if (end == std::string::npos) end = line.size();
+      if (end - at > 160) {
+        out += shortened(line.substr(at, end - at));
+        at = end;
+        continue;
+      }
+    }
+    out += line[at++];
+  }
+  return shortened(out, kMaxMessageBytes);
 }
 
 }  // namespace terrabake

@@ -4,6 +4,7 @@
 #include <cstddef>
 #include <stdexcept>
 #include <string>
+#include <utility>
 
 namespace terrabake {
 
@@ -41,14 +42,18 @@ struct InputError : Error {
 };
 
 // A write the output's storage refuses, and will refuse for every tile after
-// it: no space left, over quota, read-only. A run stops at the first.
+// it: no space left, over quota, read-only, not ours to write. A run stops at
+// the first; `remedy` says what to do before running it again ("make room").
 struct OutputStorageError : InputError {
-  explicit OutputStorageError(const std::string& message) : InputError(message) {}
+  OutputStorageError(const std::string& message, std::string what_to_do)
+      : InputError(message), remedy(std::move(what_to_do)) {}
+  std::string remedy;
 };
 
 // Throws OutputStorageError for an errno value of that kind (ENOSPC, EDQUOT,
-// EROFS, EFBIG: a file larger than ulimit -f or the file system allows),
-// else InputError: "<what> '<path>': <the error's description>".
+// EFBIG: a file larger than ulimit -f or the file system allows; EROFS,
+// EACCES, EPERM), else InputError: "<what> '<path>': <the error's
+// description>", the path shortened().
 [[noreturn]] void throwIoError(const std::string& what, const std::string& path, int error);
 
 // A job that cannot make any tile, for a reason that is not an error of the
@@ -69,5 +74,12 @@ std::string shortened(const std::string& text, std::size_t max_bytes = 160);
 
 // The longest message main() prints; longer ones are cut the same way.
 inline constexpr std::size_t kMaxMessageBytes = 2000;
+
+// A message as main() prints it: one line (oneLine), each quoted value
+// ('...', the quotes opening after a space or bracket and closing before
+// one or before punctuation) and each other word longer than 160 bytes
+// shortened(), and the whole at most kMaxMessageBytes. So a long path never
+// hides the reason after it.
+std::string messageLine(const std::string& text);
 
 }  // namespace terrabake

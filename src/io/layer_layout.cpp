@@ -3,6 +3,8 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#include <utility>
+#include <vector>
 
 #include "core/error.hpp"
 #include "core/text.hpp"
@@ -76,13 +78,26 @@ bool isPmtilesCompanion(const std::string& file_name) {
 }
 
 void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files) {
-  writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kPng), files.png);
-  if (!files.elevation_png.empty()) {
-    writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kElevationPng), files.elevation_png);
-  }
-  writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kGlb), files.glb);
-  if (!files.high_res_glb.empty()) {
-    writeFileAtomically(tilePath(layer_dir, tile, TileFormat::kHighResGlb), files.high_res_glb);
+  const std::pair<TileFormat, const std::vector<std::uint8_t>*> in_order[] = {
+      {TileFormat::kPng, &files.png},
+      {TileFormat::kElevationPng, &files.elevation_png},
+      {TileFormat::kGlb, &files.glb},
+      {TileFormat::kHighResGlb, &files.high_res_glb}};
+  try {
+    for (const auto& [format, bytes] : in_order) {
+      if (format == TileFormat::kPng || format == TileFormat::kGlb || !bytes->empty()) {
+        writeFileAtomically(tilePath(layer_dir, tile, format), *bytes);
+      }
+    }
+  } catch (...) {
+    // A tile is whole or absent: its files written so far, and any of an
+    // earlier run that this one was replacing, go, the meshes first. A
+    // --resume run then makes the tile again.
+    for (auto it = std::rbegin(in_order); it != std::rend(in_order); ++it) {
+      std::error_code ignored;
+      std::filesystem::remove(tilePath(layer_dir, tile, it->first), ignored);
+    }
+    throw;
   }
 }
 

@@ -73,6 +73,8 @@ struct TileFiles {
 
 // Writes a tile's files into the layer folder, each atomically; the images
 // first, so a reader that finds the mesh also finds its texture and heights.
+// Where one cannot be written, the tile's files are removed (it is whole or
+// absent) and the error is thrown on.
 void writeTileFiles(const std::string& layer_dir, const TileId& tile, const TileFiles& files);
 
 // The files a tile of a layer has, in the order writeTileFiles writes them.

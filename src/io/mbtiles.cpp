@@ -90,10 +90,10 @@ struct MbtilesFile::Impl {
     const std::string message = "'" + path + "': " + what + ": " + reason;
     // A refused write (SQLITE_IOERR_WRITE: a file past ulimit -f, a failing
     // disk) comes without its errno, which later calls have overwritten.
-    if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_errcode(db) == SQLITE_READONLY ||
-               sqlite3_extended_errcode(db) == SQLITE_IOERR_WRITE)) {
-      throw OutputStorageError(message);
+    if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_extended_errcode(db) == SQLITE_IOERR_WRITE)) {
+      throw OutputStorageError(message, "make room");
     }
+    if (db && sqlite3_errcode(db) == SQLITE_READONLY) throw OutputStorageError(message, "make the output writable");
     throw InputError(message);
   }
 

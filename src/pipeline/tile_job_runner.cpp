@@ -170,7 +170,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         }
       } catch (const OutputStorageError& e) {
         // Every tile after it would fail the same way: stop the run here.
-        stopRun({"tile " + tile.str() + ": " + oneLine(e.what()), "make room"});
+        stopRun({"tile " + tile.str() + ": " + oneLine(e.what()), e.remedy});
         break;
       } catch (const std::bad_alloc&) {
         // So would most tiles after it, each with its own error line. Told
