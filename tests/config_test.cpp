@@ -320,6 +320,22 @@ TEST(ConfigErrors, SyntaxErrorNamesFileAndLine) {
   EXPECT_EQ(message.find('\n'), std::string::npos);
 }
 
+// A quote the file ends inside would take the keys after it into the value
+// (yaml-cpp accepts it when a line break follows): named with its key.
+TEST(ConfigErrors, AQuoteThatNeverClosesIsNamed) {
+  const std::string dir = writeYaml("open_quote.yaml", "dem: a.tif\ntiling:\n  zoom: 3\noutput:\n  dir: \"out\n  bits: 16\n");
+  EXPECT_EQ(loadMessage(dir), dir + ":5: output.dir: the value opens with \" and the file ends before it closes");
+  const std::string dem = writeYaml("open_single_quote.yaml", "dem: 'a.tif\ntiling:\n  zoom: 3\n");
+  EXPECT_EQ(loadMessage(dem), dem + ":1: dem: the value opens with ' and the file ends before it closes");
+  const std::string item = writeYaml("open_item.yaml", "dem:\n  - a.tif\n  - \"b.tif\ntiling:\n  zoom: 3\n");
+  EXPECT_EQ(loadMessage(item), item + ":3: dem: the value opens with \" and the file ends before it closes");
+  // Closed quotes, with an escaped quote and a doubled one inside, are values.
+  const TileJob job = loadTileJob(writeYaml(
+      "closed_quotes.yaml", "dem: 'it''s.tif'\ntiling:\n  zoom: \"3\"\noutput:\n  dir: \"a\\\"b\"\n"));
+  EXPECT_EQ(fs::path(job.dems.at(0)).filename(), "it's.tif");
+  EXPECT_EQ(fs::path(job.output_dir).filename(), "a\"b");
+}
+
 TEST(ConfigErrors, EmptyFileNamesTheRequiredKeys) {
   for (const std::string text : {"", "# only a comment\n"}) {
     const std::string path = writeYaml("empty.yaml", text);

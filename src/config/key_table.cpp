@@ -141,6 +141,7 @@ std::string readFile(const std::string& path) {
 
 struct FileContext {
   std::string file;
+  const std::string& text;
   fs::path base_dir;
   const std::vector<KeySpec>& specs;
   const std::function<void(std::size_t, const Value&)>& apply;
@@ -173,6 +174,30 @@ void checkScalar(const KeySpec& key, const std::string& text, const std::string&
   }
 }
 
+// yaml-cpp 0.7 takes a quoted value that the file ends inside (`dir: "out`
+// and a line break) as running to the end of the file, keys after it and
+// all: refused where the quote that opens a value never closes.
+void checkQuoteCloses(const FileContext& context, const KeySpec& key, const YAML::Node& node,
+                      const std::string& where) {
+  const std::string& text = context.text;
+  const YAML::Mark mark = node.Mark();
+  if (mark.is_null() || mark.pos < 0 || std::size_t(mark.pos) >= text.size()) return;
+  const char quote = text[std::size_t(mark.pos)];
+  if (quote != '"' && quote != '\'') return;
+  for (std::size_t k = std::size_t(mark.pos) + 1; k < text.size(); ++k) {
+    if (quote == '"' && text[k] == '\\') {
+      ++k;  // an escape: the next character is the value's
+    } else if (text[k] == quote) {
+      if (quote == '\'' && k + 1 < text.size() && text[k + 1] == '\'') {
+        ++k;  // '' is a quote inside a single-quoted value
+      } else {
+        return;
+      }
+    }
+  }
+  fail(where, key.name, std::string("the value opens with ") + quote + " and the file ends before it closes");
+}
+
 Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::Node& node,
                     const std::string& key_where) {
   Value value;
@@ -180,6 +205,7 @@ Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::
   value.where = node.IsNull() ? key_where : at(context, node.Mark(), key_where);
   value.base_dir = context.base_dir;
   if (node.IsScalar()) {
+    checkQuoteCloses(context, key, node, value.where);
     checkScalar(key, node.Scalar(), value.where);
     value.items.push_back({node.Scalar(), value.where});
   } else if (node.IsSequence()) {
@@ -189,6 +215,7 @@ Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::
       if (!item.IsScalar()) {
         fail(item_where, key.name, "list items must be plain values, got " + describe(item));
       }
+      checkQuoteCloses(context, key, item, item_where);
       checkScalar(key, item.Scalar(), item_where);
       value.items.push_back({item.Scalar(), item_where});
     }
@@ -268,7 +295,7 @@ void readYamlFile(const std::string& yaml_path, const std::vector<KeySpec>& spec
 
 void readYamlText(const std::string& text, const std::string& yaml_path, const std::vector<KeySpec>& specs,
                   const std::function<void(std::size_t, const Value&)>& apply) {
-  FileContext context{yaml_path, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
+  FileContext context{yaml_path, text, fs::absolute(yaml_path).parent_path().lexically_normal(), specs, apply, {}};
   // YAML is text: control characters other than tab and line breaks are not
   // allowed anywhere (the parser would report something else about them).
   const auto control = std::find_if(text.begin(), text.end(), [](char c) {
