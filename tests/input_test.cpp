@@ -17,6 +17,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <limits>
 #include <map>
 #include <memory>
 #include <sstream>
@@ -549,17 +550,24 @@ TEST(Inputs, RotatedDemIsRefusedByName) {
 TEST(Inputs, ImplausibleHeightsAreVoidsWithAWarning) {
   const fs::path dir = caseDir();
   const auto in_block = [](int c, int r) { return c >= 60 && c < 80 && r >= 90 && r < 110; };
-  writeHills(dir / "huge.tif", [&](int c, int r) { return in_block(c, r) ? 1e30f : hill(c, r); });
   writeHills(dir / "nan.tif", [&](int c, int r) { return in_block(c, r) ? NAN : hill(c, r); });
-  const RunResult huge = run(tileArgs(dir / "huge.tif", dir / "out", "huge"));
-  ASSERT_EQ(huge.exit_code, kExitOk) << describe(huge);
-  EXPECT_TRUE(contains(huge.err, "warning: dem: '" + (dir / "huge.tif").string() + "' holds heights")) << describe(huge);
-  EXPECT_TRUE(contains(huge.err, "treated as voids")) << describe(huge);
   const RunResult nan = run(tileArgs(dir / "nan.tif", dir / "out", "nan"));
   ASSERT_EQ(nan.exit_code, kExitOk) << describe(nan);
   EXPECT_FALSE(contains(nan.err, "warning")) << describe(nan);
-  // 1e30 is a void exactly like NaN: no normal leans on it.
-  expectSameTiles(dir / "out" / "nan", dir / "out" / "huge");
+  // Undeclared fill values far above or below any terrain, the lowest float
+  // among them, are voids exactly like NaN (no normal leans on them), and a
+  // warning says the file holds them.
+  const std::pair<std::string, float> fills[] = {
+      {"huge", 1e30f}, {"deep", -1e30f}, {"lowest", std::numeric_limits<float>::lowest()}};
+  for (const auto& [name, fill] : fills) {
+    const fs::path dem = dir / (name + ".tif");
+    writeHills(dem, [&, fill = fill](int c, int r) { return in_block(c, r) ? fill : hill(c, r); });
+    const RunResult filled = run(tileArgs(dem, dir / "out", name));
+    ASSERT_EQ(filled.exit_code, kExitOk) << describe(filled);
+    EXPECT_TRUE(contains(filled.err, "warning: dem: '" + dem.string() + "' holds heights")) << describe(filled);
+    EXPECT_TRUE(contains(filled.err, "treated as voids")) << describe(filled);
+    expectSameTiles(dir / "out" / "nan", dir / "out" / name);
+  }
 }
 
 // GIS exports fill with -9999 and often leave the nodata tag out; a file

@@ -8,8 +8,11 @@
 
 namespace terrabake::dem {
 
-// Heights at or below this are void markers, declared or not: SRTM writes
-// -32768 and some products -32767; nothing on Earth lies below -11 km.
+// Samples from -32768 to -32767 are void markers, declared or not: SRTM
+// writes -32768 and some products -32767. Samples below are heights beyond
+// the plausible range (a void, and a warning that says the file holds them),
+// unless the file declares them its nodata value.
+inline constexpr double kVoidMarkerMin = -32768.0;
 inline constexpr double kVoidMarkerMax = -32767.0;
 
 // The fill value of GIS exports that often goes undeclared: a void where a
@@ -62,7 +65,8 @@ struct VoidRule {
   }
   // A void marker or the declared nodata value (a NaN nodata matches nothing here).
   bool isMarked(float sample) const {
-    const bool marker = sample <= kVoidMarkerMax;
+    const bool at_least = sample >= kVoidMarkerMin, at_most = sample <= kVoidMarkerMax;
+    const bool marker = at_least & at_most;
     const bool declared = sample == nodata.value_or(std::numeric_limits<double>::quiet_NaN());
     return marker | declared;
   }
