@@ -229,6 +229,11 @@ void readMap(FileContext& context, const YAML::Node& map, const std::string& pre
   for (const auto& entry : map) {
     const YAML::Node& key_node = entry.first;
     const YAML::Node& value_node = entry.second;
+    // `~: 1` or `[a]: 1`: a key that names nothing.
+    if (!key_node.IsScalar() || key_node.Scalar().empty()) {
+      fail(at(context, key_node.Mark(), context.file), prefix,
+           "a key must be a name, got " + (key_node.IsMap() || key_node.IsSequence() ? describe(key_node) : "an empty one"));
+    }
     const std::string& part = key_node.Scalar();
     const std::string name = prefix.empty() ? part : prefix + "." + part;
     const std::string where = at(context, key_node.Mark(), context.file);
@@ -427,7 +432,9 @@ ZoomRange parseZoom(const KeySpec& key, const Value& value) {
   const std::string_view high_text = dash == std::string_view::npos ? text : text.substr(dash + 1);
   const std::optional<int> high = toInt(high_text);
   range.max_auto = dash != std::string_view::npos && trim(high_text) == kAuto;
-  if (!low || (!high && !range.max_auto)) {
+  // "9--10" is no range, not a range up to level -10.
+  const bool signed_high = dash != std::string_view::npos && !trim(high_text).empty() && trim(high_text).front() == '-';
+  if (!low || (!high && !range.max_auto) || signed_high) {
     fail(item.where, key.name, "expected " + withArticle(key.type) + ", got " + quoted(item.text));
   }
   range.min_zoom = *low;

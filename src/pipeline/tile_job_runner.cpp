@@ -264,7 +264,8 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         "no tile written: none of the " + std::to_string(count) + " tiles of the " +
         (options.shard_count > 1 ? "shard" : "job") + " holds a valid DEM sample " +
         (narrow ? "(the DEM is under two texels of zoom " + std::to_string(plan->max_zoom) +
-                      " across, and a texel needs half its area on data: tile deeper zooms)"
+                      " across, and a texel needs half its area on data: " +
+                      (plan->max_zoom < kMaxZoom ? "tile deeper zooms" : "tile with a larger tiling.tile_size") + ")"
                 : "(every sample is nodata, NaN or implausible there)");
     if (options.shard_count > 1) {
       log::warning(reason);  // other shards may still make theirs
