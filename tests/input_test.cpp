@@ -293,6 +293,40 @@ TEST(Inputs, FifoAsDemOrConfigIsRefusedAtOnce) {
   EXPECT_TRUE(contains(device.err, "character device")) << describe(device);
 }
 
+// A VRT opens its sources with it: a FIFO among them, named relative to the
+// VRT or in a VRT the VRT names, is refused as the DEM itself would be.
+TEST(Inputs, FifoAmongAVrtsSourcesIsRefusedAtOnce) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "dem.tif");
+  ASSERT_EQ(::mkfifo((dir / "pipe").c_str(), 0600), 0);
+  // A VRT of the DEM, its source then swapped for another.
+  const auto vrtOf = [&](const std::string& name, const std::string& source) {
+    std::unique_ptr<GDALDataset> dem(GDALDataset::Open((dir / "dem.tif").c_str(), GDAL_OF_RASTER));
+    ASSERT_NE(dem, nullptr);
+    GDALDriver* vrt = GetGDALDriverManager()->GetDriverByName("VRT");
+    std::unique_ptr<GDALDataset> copy(vrt->CreateCopy((dir / name).c_str(), dem.get(), FALSE, nullptr, nullptr, nullptr));
+    ASSERT_NE(copy, nullptr);
+    copy.reset();
+    std::string text = test::readBytes(dir / name);
+    const std::string from = ">dem.tif<";
+    ASSERT_NE(text.find(from), std::string::npos) << text;
+    text.replace(text.find(from), from.size(), ">" + source + "<");
+    writeText(dir / name, text);
+  };
+  vrtOf("inner.vrt", "pipe");
+  vrtOf("outer.vrt", "inner.vrt");
+  vrtOf("absolute.vrt", (dir / "pipe").string());
+  vrtOf("plain.vrt", "dem.tif");
+  for (const std::string name : {"inner.vrt", "outer.vrt", "absolute.vrt"}) {
+    const RunResult r = run(tileArgs(dir / name, dir / "out", "fifo"), {}, std::chrono::seconds(10));
+    EXPECT_EQ(r.exit_code, kExitInput) << name << "\n" << describe(r);
+    EXPECT_TRUE(contains(r.err, "'" + (dir / "pipe").string() + "': it is a FIFO")) << name << "\n" << describe(r);
+    EXPECT_LT(r.seconds, 5 * test::kSanitizerSlowdown) << describe(r);
+  }
+  const RunResult plain = run(tileArgs(dir / "plain.vrt", dir / "out", "plain"));
+  EXPECT_EQ(plain.exit_code, kExitOk) << describe(plain);
+}
+
 // ------------------------------------------------------------ garbage refused
 
 TEST(Inputs, FlippedDemsGiveTheTilesOfTheNorthUpOne) {

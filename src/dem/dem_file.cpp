@@ -1,6 +1,7 @@
 #include "dem/dem_file.hpp"
 
 #include <cpl_conv.h>
+#include <cpl_minixml.h>
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
 #include <ogr_spatialref.h>
@@ -15,8 +16,10 @@
 #include <cstdlib>
 #include <cstring>
 #include <map>
+#include <memory>
 #include <optional>
 #include <tuple>
+#include <vector>
 
 #include "core/error.hpp"
 #include "core/log.hpp"
@@ -178,6 +181,46 @@ bool isReadableFile(const std::string& path) {
   return true;
 }
 
+// A VRT's sources are opened with it: each plain file it names (nested
+// VRTs' too, to a depth GDAL itself would refuse beyond) is checked as the
+// DEM is, so a FIFO among them is refused rather than waited on.
+constexpr int kMaxVrtDepth = 8;
+
+bool isVrtFile(const std::string& path) {
+  VSILFILE* file = VSIFOpenL(path.c_str(), "rb");
+  if (!file) return false;
+  char head[1024] = {};
+  const std::size_t n = VSIFReadL(head, 1, sizeof head - 1, file);
+  VSIFCloseL(file);
+  return std::strstr(std::string(head, n).c_str(), "<VRTDataset") != nullptr;
+}
+
+void checkVrtSources(const std::string& vrt_path, int depth) {
+  if (depth > kMaxVrtDepth || !isVrtFile(vrt_path)) return;
+  std::unique_ptr<CPLXMLNode, void (*)(CPLXMLNode*)> tree(CPLParseXMLFile(vrt_path.c_str()), CPLDestroyXMLNode);
+  if (!tree) return;  // GDAL says what is wrong with it when it opens the file
+  const std::string folder = CPLGetPath(vrt_path.c_str());
+  std::vector<const CPLXMLNode*> pending = {tree.get()};
+  while (!pending.empty()) {
+    const CPLXMLNode* node = pending.back();
+    pending.pop_back();
+    for (const CPLXMLNode* child = node->psChild; child; child = child->psNext) {
+      if (child->eType == CXT_Element) pending.push_back(child);
+    }
+    if (node->eType != CXT_Element ||
+        (std::strcmp(node->pszValue, "SourceFilename") != 0 && std::strcmp(node->pszValue, "SourceDataset") != 0)) {
+      continue;
+    }
+    const std::string name = CPLGetXMLValue(node, nullptr, "");
+    if (name.empty()) continue;
+    // As GDAL reads it: relative to the VRT's folder where it says so and the name is relative.
+    const bool relative = std::strcmp(CPLGetXMLValue(node, "relativeToVRT", "0"), "1") == 0 &&
+                          CPLIsFilenameRelative(name.c_str());
+    const std::string source = relative ? std::string(CPLProjectRelativeFilename(folder.c_str(), name.c_str())) : name;
+    if (isReadableFile(source)) checkVrtSources(source, depth + 1);
+  }
+}
+
 std::string colourName(GDALColorInterp interp) {
   const char* name = GDALGetColorInterpretationName(interp);
   return name ? name : "unknown";
@@ -200,6 +243,7 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   ensureGdalReady();
   const std::string name = "'" + shortened(name_in_messages.empty() ? path : name_in_messages) + "'";
   const bool is_file = isReadableFile(path);
+  if (is_file) checkVrtSources(path, 0);
   CPLErrorReset();
   DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
       path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
