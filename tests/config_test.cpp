@@ -502,6 +502,11 @@ TEST(ConfigErrors, MessagesShortenEachLongValueAndKeepWhatFollows) {
   EXPECT_EQ(messageLine("a 'short' value, 'open"), "a 'short' value, 'open");
   EXPECT_EQ(messageLine(std::string(3000, 'x') + " " + std::string(3000, 'y')).size(),
             2 * (160 + std::string("... (3000 bytes)").size()) + 1);
+  // A value cut where the message was made keeps its length, not the cut's.
+  for (const std::string& made : {"got '" + shortened(path) + "'", "a " + shortened(std::string(3000, 'w')) + " word",
+                                  "got '" + shortened(std::string(170, 'q')) + "' here"}) {
+    EXPECT_EQ(messageLine(made), made);
+  }
 }
 
 TEST(ConfigErrors, FilesOverOneMebibyteAreRefused) {

@@ -1,8 +1,10 @@
 #include "core/error.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cerrno>
 #include <cstring>
+#include <string_view>
 #include <system_error>
 
 namespace terrabake {
@@ -57,6 +59,21 @@ bool closesQuote(const std::string& text, std::size_t at) {
   return at + 1 == text.size() || isIn(text[at + 1], " )]},;:.?!");
 }
 
+// Whether text[at, end) is a cut made already: shortened()'s "... (N
+// bytes)" ends it (a quoted value) or follows it (a word), and a second cut
+// would give the length of the first.
+bool isCutAlready(const std::string& text, std::size_t at, std::size_t end) {
+  const std::string_view part(text.data() + at, end - at);
+  const std::size_t dots = part.rfind("...");
+  if (dots == std::string_view::npos || dots > 160) return false;
+  std::string_view rest = std::string_view(text).substr(at + dots + 3);
+  if (rest.substr(0, 2) != " (") return false;
+  rest.remove_prefix(2);
+  std::size_t digits = 0;
+  while (digits < rest.size() && std::isdigit(static_cast<unsigned char>(rest[digits]))) ++digits;
+  return digits > 0 && rest.substr(digits, 7) == " bytes)";
+}
+
 }  // namespace
 
 std::string messageLine(const std::string& text) {
@@ -69,7 +86,8 @@ std::string messageLine(const std::string& text) {
       std::size_t close = at + 1;
       while (close < line.size() && !(line[close] == '\'' && closesQuote(line, close))) ++close;
       if (close < line.size()) {
-        out += "'" + shortened(line.substr(at + 1, close - at - 1)) + "'";
+        const std::string value = line.substr(at + 1, close - at - 1);
+        out += "'" + (isCutAlready(line, at + 1, close) ? value : shortened(value)) + "'";
         at = close + 1;
         continue;
       }
@@ -77,7 +95,7 @@ std::string messageLine(const std::string& text) {
     if (line[at] != ' ' && (at == 0 || line[at - 1] == ' ')) {
       std::size_t end = line.find(' ', at);
       if (end == std::string::npos) end = line.size();
-      if (end - at > 160) {
+      if (end - at > 160 && !isCutAlready(line, at, end)) {
         out += shortened(line.substr(at, end - at));
         at = end;
         continue;
