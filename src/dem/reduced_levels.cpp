@@ -51,6 +51,10 @@ std::vector<float> halved(const std::vector<float>& finer, int width, int height
 
 }  // namespace
 
+// Levels from half resolution on sum to a third of the file's pixels (plus
+// rounding up at odd sizes), four bytes each.
+static_assert(double(ReducedLevels::kMaxBytes) >= 1.01 * ReducedLevels::kMaxSourcePixels * sizeof(float) / 3);
+
 std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open_band, const VoidRule& voids,
                                                           const std::string& path) {
   const std::pair<DatasetPtr, int> first_handle = open_band();

@@ -23,12 +23,18 @@ namespace terrabake::dem {
 
 class ReducedLevels {
  public:
-  // Every level together, in memory, shared by the job's readers.
-  static constexpr std::size_t kMaxBytes = std::size_t(128) << 20;
   // Files above this many pixels are not reduced (building reads the whole
   // file once: about half a second for 16384 x 16384 on two cores); their coarse zooms
   // read decimated instead.
   static constexpr double kMaxSourcePixels = double(1L << 28);
+  // Every level together, in memory, shared by the job's readers: room for
+  // all of them from half resolution on for any file reduced (a third of
+  // kMaxSourcePixels floats, 341 MiB), so that no zoom's texels span more
+  // than two pixels of what they read. With a quarter of that, a 16384 x
+  // 16384 file kept levels from a quarter on only, and the zoom whose texels
+  // span 2-4 of its pixels averaged the file itself: 1.5-1.8 times the time
+  // of a tile of the deepest zoom.
+  static constexpr std::size_t kMaxBytes = std::size_t(384) << 20;
 
   // A handle of the file (north-up) and its band of heights, for one
   // thread: a GDAL handle is read by one thread at a time.
