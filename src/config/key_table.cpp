@@ -430,10 +430,11 @@ ZoomRange parseZoom(const KeySpec& key, const Value& value) {
   const size_t dash = text.find('-', 1);
   const std::optional<int> low = toInt(text.substr(0, dash));
   const std::string_view high_text = dash == std::string_view::npos ? text : text.substr(dash + 1);
+  const std::string_view high_trimmed = trim(high_text);
   const std::optional<int> high = toInt(high_text);
-  range.max_auto = dash != std::string_view::npos && trim(high_text) == kAuto;
+  range.max_auto = dash != std::string_view::npos && high_trimmed == kAuto;
   // "9--10" is no range, not a range up to level -10.
-  const bool signed_high = dash != std::string_view::npos && !trim(high_text).empty() && trim(high_text).front() == '-';
+  const bool signed_high = dash != std::string_view::npos && !high_trimmed.empty() && high_trimmed.front() == '-';
   if (!low || (!high && !range.max_auto) || signed_high) {
     fail(item.where, key.name, "expected " + withArticle(key.type) + ", got " + quoted(item.text));
   }

@@ -18,6 +18,7 @@
 #include <map>
 #include <memory>
 #include <optional>
+#include <string_view>
 #include <tuple>
 #include <vector>
 
@@ -192,7 +193,7 @@ bool isVrtFile(const std::string& path) {
   char head[1024] = {};
   const std::size_t n = VSIFReadL(head, 1, sizeof head - 1, file);
   VSIFCloseL(file);
-  return std::strstr(std::string(head, n).c_str(), "<VRTDataset") != nullptr;
+  return std::string_view(head, n).find("<VRTDataset") != std::string_view::npos;
 }
 
 void checkVrtSources(const std::string& vrt_path, int depth) {
