@@ -285,6 +285,12 @@ TEST(ServeHttp, CorsOnEveryAnswerAndPreflight) {
   EXPECT_EQ(reply->get_header_value("Access-Control-Allow-Methods"), "GET, HEAD, OPTIONS");
   EXPECT_EQ(reply->get_header_value("Access-Control-Allow-Headers"), "if-none-match");
   EXPECT_FALSE(reply->get_header_value("Access-Control-Max-Age").empty());
+
+  // A list in two field lines is one list (RFC 9110 5.3).
+  preflight.headers.emplace("Access-Control-Request-Headers", "range");
+  const auto two_lines = client.send(preflight);
+  ASSERT_TRUE(two_lines);
+  EXPECT_EQ(two_lines->get_header_value("Access-Control-Allow-Headers"), "if-none-match, range");
 }
 
 TEST(ServeHttp, OtherMethodsAreNotAllowed) {

@@ -679,6 +679,11 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
       {"unknown method", "BREW /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},
       {"lower-case get", "get /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},
       {"DELETE", "DELETE /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 405, false},
+      // 2.2: empty lines before a request line are ignored.
+      {"empty lines first", "\r\n\n" + tile + "Host: x\r\n\r\n", 200, false},
+      // 2.3 and RFC 9110 2.5: a later HTTP/1.x is answered as HTTP/1.1; another major version is not spoken.
+      {"HTTP/1.2", "GET /fake/3/1/1.png HTTP/1.2\r\nHost: x\r\n\r\n", 200, false},
+      {"HTTP/2.0", "GET /fake/3/1/1.png HTTP/2.0\r\nHost: x\r\n\r\n", 505, true},
   };
   {
     // A HEAD refused for its framing is still answered without a body.

@@ -240,6 +240,25 @@ TEST(ServeHttpRules, CloseInAnyConnectionLineEndsTheConnection) {
   EXPECT_TRUE(server::clientKeepsConnection(11, Lines{"closed, upgrade"}));
 }
 
+TEST(ServeHttpRules, EmptyLinesBeforeARequestLineAndItsVersion) {
+  EXPECT_EQ(server::emptyLinesAtStart("GET / HTTP/1.1\r\n"), 0u);
+  EXPECT_EQ(server::emptyLinesAtStart("\r\n\n\r\nGET"), 5u);
+  EXPECT_EQ(server::emptyLinesAtStart("\r\n\r"), 2u) << "a CR whose LF has not come yet stays";
+  EXPECT_EQ(server::emptyLinesAtStart(" \r\n"), 0u);
+
+  using server::LineVersion;
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/1.1"), LineVersion::kAsItIs);
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/1.0"), LineVersion::kAsItIs);
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/1.2"), LineVersion::kLaterMinor);
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/1.9"), LineVersion::kLaterMinor);
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/2.0"), LineVersion::kOtherMajor);
+  EXPECT_EQ(server::requestLineVersion("GET / HTTP/0.9"), LineVersion::kOtherMajor);
+  // Other shapes are the parser's to refuse.
+  for (const char* line : {"GET /", "GET / HTTP/1.10", "GET / HTTP/1.x", "GET / http/1.2", "HTTP/1.2", ""}) {
+    EXPECT_EQ(server::requestLineVersion(line), LineVersion::kAsItIs) << line;
+  }
+}
+
 TEST(ServeHttpRules, DatesAndMethods) {
   EXPECT_EQ(server::httpDate(784111777), "Sun, 06 Nov 1994 08:49:37 GMT");  // RFC 9110 5.6.7's example
   EXPECT_EQ(server::httpDate(0), "Thu, 01 Jan 1970 00:00:00 GMT");

@@ -197,6 +197,33 @@ std::string framingProblem(unsigned version, const std::vector<std::string_view>
   return "";
 }
 
+std::size_t emptyLinesAtStart(std::string_view bytes) {
+  std::size_t at = 0;
+  while (true) {
+    if (bytes.substr(at, 2) == "\r\n") {
+      at += 2;
+    } else if (bytes.substr(at, 1) == "\n") {
+      at += 1;
+    } else {
+      return at;
+    }
+  }
+}
+
+LineVersion requestLineVersion(std::string_view line) {
+  constexpr std::string_view kName = " HTTP/";
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  // " HTTP/" DIGIT "." DIGIT at the end.
+  if (line.size() < kName.size() + 3) return LineVersion::kAsItIs;
+  const std::string_view version = line.substr(line.size() - kName.size() - 3);
+  if (version.substr(0, kName.size()) != kName || !digit(version[kName.size()]) || version[kName.size() + 1] != '.' ||
+      !digit(version[kName.size() + 2])) {
+    return LineVersion::kAsItIs;
+  }
+  if (version[kName.size()] != '1') return LineVersion::kOtherMajor;
+  return version[kName.size() + 2] > '1' ? LineVersion::kLaterMinor : LineVersion::kAsItIs;
+}
+
 bool clientKeepsConnection(unsigned version, const std::vector<std::string_view>& connection_lines) {
   bool keep_alive = false;
   for (const std::string_view line : connection_lines) {

@@ -23,6 +23,21 @@ std::string requestPath(const std::string& target);
 std::string framingProblem(unsigned version, const std::vector<std::string_view>& host_lines,
                            bool has_transfer_encoding, bool chunked);
 
+// How many bytes at the start of `bytes` are empty lines (CR LF, or a bare
+// LF), which a server ignores before a request line (RFC 9112 2.2).
+std::size_t emptyLinesAtStart(std::string_view bytes);
+
+// What the version at the end of a request line (without its line end)
+// asks of the server, RFC 9112 2.3: a later HTTP/1.x it reads and answers
+// as HTTP/1.1, the highest 1.x it knows (RFC 9110 2.5); another major
+// version it does not speak (505).
+enum class LineVersion {
+  kAsItIs,      // HTTP/1.0 or HTTP/1.1, or a line of another shape: the parser's to judge
+  kLaterMinor,  // its minor digit, the line's last character, reads as 1
+  kOtherMajor,
+};
+LineVersion requestLineVersion(std::string_view line);
+
 // Whether the client lets the connection stay open after its request: "close"
 // in any Connection field line ends it (RFC 9112 9.6); HTTP/1.1 keeps it
 // otherwise, HTTP/1.0 only with "keep-alive" (9.3).

@@ -244,7 +244,7 @@ class Session : public std::enable_shared_from_this<Session> {
     }
     net::dispatch(m_stream.get_executor(), [self = shared_from_this()] {
       // A connection's first request head must come within the read timeout.
-      self->readHead();
+      self->readRequestLine();
     });
   }
 
@@ -258,33 +258,66 @@ class Session : public std::enable_shared_from_this<Session> {
   }
 
  private:
-  void readHead() {
+  // Reads until the buffer holds a request line, within the read timeout
+  // from `started` on; drops the empty lines before it (RFC 9112 2.2) and
+  // reads a later HTTP/1.x as HTTP/1.1, which the parser would refuse; then
+  // the head.
+  void readRequestLine(bool started = false) {
     if (m_closing || m_server.stopping) return m_stream.close();
+    if (!started) m_stream.expires_after(m_server.read_timeout);
+    m_buffer.consume(emptyLinesAtStart(bufferText()));
+    const std::string_view text = bufferText();
+    const std::size_t end = text.find('\n');
+    if (end == std::string_view::npos && text.size() < m_server.max_header_bytes) {
+      return m_stream.async_read_some(m_buffer.prepare(4096),
+                                      [self = shared_from_this()](beast::error_code ec, std::size_t got) {
+                                        if (ec) return self->m_stream.close();
+                                        self->m_buffer.commit(got);
+                                        self->readRequestLine(true);
+                                      });
+    }
+    if (end != std::string_view::npos) {
+      const std::string_view line = text.substr(0, end > 0 && text[end - 1] == '\r' ? end - 1 : end);
+      switch (requestLineVersion(line)) {
+        case LineVersion::kAsItIs: break;
+        case LineVersion::kLaterMinor:
+          static_cast<char*>(m_buffer.data().data())[line.size() - 1] = '1';
+          break;
+        case LineVersion::kOtherMajor:
+          return answerAndClose(m_server.handler.refusal(505, "HTTP version not supported: use HTTP/1.1"),
+                                line.substr(0, 5) == "HEAD ");
+      }
+    }
+    readHead();
+  }
+
+  void readHead() {
     m_parser.emplace();
     m_parser->header_limit(m_server.max_header_bytes);
     // No body is ever read, so none is too large to be announced: the answer (405, 501 or 413) comes first.
     m_parser->body_limit(std::numeric_limits<std::uint64_t>::max());
-    m_stream.expires_after(m_server.read_timeout);
     http::async_read_header(m_stream, m_buffer, *m_parser,
                             [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onHead(ec); });
   }
 
-  bool bufferHoldsALine() const {
+  std::string_view bufferText() const {
     const auto read = m_buffer.cdata();
-    return std::string_view(static_cast<const char*>(read.data()), read.size()).find('\n') != std::string_view::npos;
+    return {static_cast<const char*>(read.data()), read.size()};
   }
+
+  bool bufferHoldsALine() const { return bufferText().find('\n') != std::string_view::npos; }
 
   // Between requests on a kept connection: the idle timeout until the next
   // request begins, then the read timeout for its head.
   void awaitNext() {
     if (m_closing || m_server.stopping) return m_stream.close();
-    if (m_buffer.size() > 0) return readHead();  // pipelined: it has begun
+    if (m_buffer.size() > 0) return readRequestLine();  // pipelined: it has begun
     m_stream.expires_after(m_server.idle_timeout);
     m_stream.async_read_some(m_buffer.prepare(4096),
                              [self = shared_from_this()](beast::error_code ec, std::size_t got) {
                                if (ec) return self->m_stream.close();
                                self->m_buffer.commit(got);
-                               self->readHead();
+                               self->readRequestLine();
                              });
   }
 
@@ -318,7 +351,10 @@ class Session : public std::enable_shared_from_this<Session> {
     in.if_none_match = std::string(request[http::field::if_none_match]);
     in.range = std::string(request[http::field::range]);
     in.if_range = std::string(request[http::field::if_range]);
-    in.cors_request_headers = std::string(request[http::field::access_control_request_headers]);
+    // A list may come in several field lines (RFC 9110 5.3): all of it is asked for.
+    for (const std::string_view line : fieldLines(request, http::field::access_control_request_headers)) {
+      in.cors_request_headers += (in.cors_request_headers.empty() ? "" : ", ") + std::string(line);
+    }
     const auto length = m_parser->content_length();
     in.has_body = m_parser->chunked() || (length && *length > 0);
     m_head = request.method() == http::verb::head;

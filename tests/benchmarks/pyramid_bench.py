@@ -21,7 +21,9 @@
    repeating the sample, so nothing on disk), tiled zoom by zoom from the one
    where it fits a tile to the deepest `auto` picks, one worker; each zoom is
    limited to about --max-tiles tiles round the DEM's centre. It prints the mean time per tile
-   of each zoom and its ratio to the deepest zoom's with as many tiles.
+   of each zoom and its ratio to the deepest zoom's with as many tiles, run right after it.
+   With --rounds N each zoom and its reference take turns N times, and the
+   table gives the medians (the ratio: the median of the rounds' ratios).
 
 Every run writes into a folder no other run used, and the folders are removed
 when the script ends. Timings on a shared machine are noisy: compare rows of
@@ -190,7 +192,8 @@ def per_zoom(work):
     lon, lat = lon_lat_of_centre(args.per_zoom)
     shallowest, deepest = zoom_range(vrt)
     print(f"\nPer zoom: {size} x {size} DEM without overviews (30 m, EPSG:32632), zooms {shallowest}-{deepest}, "
-          f"at most about {args.max_tiles} tiles round the centre each, backend cpu")
+          f"at most about {args.max_tiles} tiles round the centre each, backend cpu"
+          + (f"; medians of {args.rounds} rounds, the largest peak" if args.rounds > 1 else ""))
     print(f"{'zoom':>5}{'tiles':>7}{'run s':>8}{'ms/tile':>9}{'deepest, as many tiles':>24}{'ratio':>7}"
           f"{'peak MiB':>10}")
 
@@ -206,14 +209,17 @@ def per_zoom(work):
         return tiles, seconds, sum(float(v) for v in re.findall(r"([0-9.]+) ms", stages)), peak
 
     # Each zoom against the deepest zoom with as many tiles, so that what a
-    # worker does on its first tile (opening files, GDAL's caches) weighs the same.
-    references = {}
+    # worker does on its first tile (opening files, GDAL's caches) weighs the
+    # same, run right after it, so that both meet the same load on the machine.
     for z in range(shallowest, deepest + 1):
-        tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
-        if tiles not in references:
-            references[tiles] = run_zoom(deepest, tiles)[2]
-        print(f"{z:>5}{tiles:>7}{seconds:>8.2f}{ms:>9.1f}{references[tiles]:>24.1f}"
-              f"{ms / references[tiles]:>6.2f}x{peak:>10.0f}", flush=True)
+        rounds = []
+        for _ in range(args.rounds):
+            tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
+            reference = run_zoom(deepest, tiles)[2]
+            rounds.append((seconds, ms, reference, ms / reference, peak))
+        seconds, ms, reference, ratio, _ = (statistics.median(column) for column in zip(*rounds))
+        peak = max(r[4] for r in rounds)
+        print(f"{z:>5}{tiles:>7}{seconds:>8.2f}{ms:>9.1f}{reference:>24.1f}{ratio:>6.2f}x{peak:>10.0f}", flush=True)
     print("ms/tile: the worker's time per tile (1 worker), all stages (terrabake's `time per tile` line); run s: the\n"
           "whole run's wall time, with what it does once (opening the DEM, making its reduced levels, the backdrop).")
 
