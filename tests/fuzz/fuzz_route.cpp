@@ -11,6 +11,7 @@
 // backslash or a control character; a layer name the layer rule refuses or
 // the server reserves; a tile with a negative number or a zoom above kMaxZoom.
 // A Host let through holds no space, control character, slash or backslash.
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
 #include <string>
@@ -98,6 +99,16 @@ void checkHeadLines(const std::string& text) {
   }
   server::clientKeepsConnection(10, lines);
   server::clientKeepsConnection(11, lines);
+
+  const std::size_t empty = server::emptyLinesAtStart(text);
+  fuzz::require(empty <= text.size() && text.find_first_not_of("\r\n") >= std::min(empty, text.size()),
+                "only line ends are skipped before a request line");
+  if (server::requestLineVersion(text) == server::LineVersion::kLaterMinor) {
+    std::string read_as = text;
+    read_as.back() = '1';
+    fuzz::require(server::requestLineVersion(read_as) == server::LineVersion::kAsItIs,
+                  "a later HTTP/1.x read as HTTP/1.1 is spoken");
+  }
 }
 
 }  // namespace
