@@ -540,6 +540,18 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   }
   for (auto& reader : readers) reader.join();
   EXPECT_EQ(wrong, 0);
+
+  // A layer removed while served: the file's connections would read it on,
+  // but it answers 404 and, as a folder layer whose tilejson.json went, is
+  // no longer listed.
+  fs::remove(mbtilesPath(job));
+  fs::remove(folder / "tilejson.json");
+  const auto gone = client.Get(("/packed/" + tiles.front().str() + ".png").c_str());
+  ASSERT_TRUE(gone);
+  EXPECT_EQ(gone->status, 404);
+  const auto listed = client.Get("/layers.json");
+  ASSERT_TRUE(listed && listed->status == 200);
+  EXPECT_EQ(Json::parse(listed->body).at("layers"), Json::array());
 }
 
 }  // namespace

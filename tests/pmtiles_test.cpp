@@ -253,6 +253,61 @@ TEST(Pmtiles, AnUnreadableTileIsA500ThatNamesNoLocalPath) {
   EXPECT_NE(answer->body.find("the server's log says why"), std::string::npos) << answer->body;
 }
 
+// A run made again replaces a served layer's archives whole: within a
+// second the server answers from the new ones, its tile cache included, and
+// once they are removed it answers 404 and no longer lists the layer.
+TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeaves) {
+  const fs::path tiles_dir = test::caseDir() / "tiles";
+  config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
+  job.output_dir = tiles_dir.string();
+  job.layer = "again";
+  job.min_zoom = job.max_zoom = 10;
+  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  const fs::path archive = tiles_dir / "again.pmtiles";
+  const auto someTile = [&] {
+    const io::PmtilesReader reader(archive.string());
+    const auto tilejson = nlohmann::json::parse(reader.metadata());
+    const double lon = tilejson.at("center").at(0).get<double>();
+    const double lat = tilejson.at("center").at(1).get<double>() * M_PI / 180;
+    const TileId tile{10, int(std::floor((lon + 180) / 360 * 1024)),
+                      int(std::floor((1 - std::asinh(std::tan(lat)) / M_PI) / 2 * 1024))};
+    return std::make_pair(tile, reader.tile(tile).value_or(""));
+  };
+  const auto [tile, first_bytes] = someTile();
+  ASSERT_FALSE(first_bytes.empty());
+  const std::string url = "/again/" + io::relativeTilePath(tile, io::TileFormat::kPng);
+
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (tiles_dir / "no_viewer").string();
+  ASSERT_GT(config.cache_mib, 0) << "the tile cache is on";
+  const test::ServerThread server(config);
+  for (int k = 0; k < 2; ++k) {  // the second from the cache
+    const auto answer = test::get(server.port(), url);
+    ASSERT_TRUE(answer);
+    EXPECT_EQ(answer->body, first_bytes);
+  }
+
+  job.bits = 16;
+  pipeline::RunOptions force;
+  force.force = true;
+  ASSERT_GT(pipeline::runTileJob(job, force).written, 0);
+  const std::string second_bytes = someTile().second;
+  ASSERT_NE(second_bytes, first_bytes);
+  EXPECT_TRUE(test::waitFor([&] {
+    const auto answer = test::get(server.port(), url);
+    return answer && answer->status == 200 && answer->body == second_bytes;
+  })) << "the new archive's tile";
+  EXPECT_NE(test::get(server.port(), "/layers.json")->body.find("\"again\""), std::string::npos);
+
+  for (const char* name : {"again.pmtiles", "again.meshes.pmtiles", "again.hires.pmtiles", "again.elevation.pmtiles"}) {
+    fs::remove(tiles_dir / name);
+  }
+  EXPECT_TRUE(test::waitFor([&] { return test::statusOf(server.port(), url) == 404; }));
+  EXPECT_EQ(test::get(server.port(), "/layers.json")->body.find("\"again\""), std::string::npos);
+}
+
 TEST(Pmtiles, FlatSeaIsStoredOnceSoTheArchiveIsSmallerThanTheFolder) {
   config::TileJob folder_job = coastJob("pmtiles_dedup_folder", OutputFormat::kFiles);
   config::TileJob archive_job = coastJob("pmtiles_dedup_archive", OutputFormat::kPmtiles);

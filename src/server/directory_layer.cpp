@@ -28,6 +28,14 @@ DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& fo
       m_elevation_tilejson(elevationTileJsonText(m_folder)),
       m_coverage(coverageOf(io::readTileJson(m_tilejson))) {}
 
+bool DirectoryLayer::isGone() const {
+  try {
+    return !m_folder.etag(io::kTileJsonFile);
+  } catch (const UnreadableFile&) {
+    return false;  // there, if unreadable now
+  }
+}
+
 std::string DirectoryLayer::tileJson(const std::string& layer_url) const {
   return io::servedTileJson(m_tilejson, layer_url);
 }

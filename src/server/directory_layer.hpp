@@ -25,6 +25,8 @@ class DirectoryLayer : public LayerSource {
   bool tilesMayBeKept() const override { return true; }
   bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
+  // Its tilejson.json was removed.
+  bool isGone() const override;
 
  private:
   std::string m_name;

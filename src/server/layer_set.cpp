@@ -31,8 +31,11 @@ LayerSource* LayerSet::find(const std::string& name) const {
 
 std::vector<std::pair<std::string, LayerSource*>> LayerSet::all() const {
   lookForNewLayers();
-  const Names& names = *m_names.load(std::memory_order_acquire);
-  return {names.begin(), names.end()};
+  std::vector<std::pair<std::string, LayerSource*>> layers;
+  for (const auto& [name, layer] : *m_names.load(std::memory_order_acquire)) {
+    if (!layer->isGone()) layers.emplace_back(name, layer);
+  }
+  return layers;
 }
 
 std::vector<LayerSource*> LayerSet::held() const {

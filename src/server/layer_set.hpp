@@ -2,7 +2,8 @@
 // The layers a server answers for, by name: those it started with and those
 // a look into the tiles folder finds later (a layer a batch run finished
 // while the server runs). Layers are only ever added, so a layer found stays
-// valid, at the same address, as long as the set.
+// valid, at the same address, as long as the set; one removed from the
+// folder is no longer listed, and answers 404 for its tiles.
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -31,7 +32,8 @@ class LayerSet {
   // requests for a layer that does not exist cost a look now and then.
   LayerSource* find(const std::string& name) const;
 
-  // Every layer in name order, after a look for new ones (as find's).
+  // Every layer in name order, after a look for new ones (as find's), but
+  // those whose tilejson.json or archive was removed.
   std::vector<std::pair<std::string, LayerSource*>> all() const;
 
   // The layers held now, without a look.

@@ -29,10 +29,13 @@ struct TileAnswer {
   std::string reason;                          // otherwise: for the response and the log
 };
 
-// What an archive (MBTiles, PMTiles) gives for a tile it holds, or lacks.
-inline TileAnswer archivedTileAnswer(std::optional<std::string> bytes) {
+// What an archive (MBTiles, PMTiles) gives for a tile it holds, or lacks;
+// `generation`: FileContent's.
+inline TileAnswer archivedTileAnswer(std::optional<std::string> bytes, std::uint64_t generation = 0) {
   if (!bytes) return {TileAnswer::Status::kNotFound, nullptr, "no such tile in the layer"};
-  return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(hashTaggedContent(std::move(*bytes))), {}};
+  FileContent content = hashTaggedContent(std::move(*bytes));
+  content.generation = generation;
+  return {TileAnswer::Status::kFound, std::make_shared<const FileContent>(std::move(content)), {}};
 }
 
 // What an archive that could not be read gives: the reason, which names
@@ -94,6 +97,10 @@ class LayerSource {
   virtual bool isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& /*kept*/) const {
     return false;
   }
+
+  // Whether what holds the layer (its tilejson.json, its archive) was
+  // removed since the server found it: /layers.json no longer lists it.
+  virtual bool isGone() const { return false; }
 
   virtual BakeCounters bakeCounters() const { return {}; }
 

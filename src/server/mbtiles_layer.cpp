@@ -1,5 +1,8 @@
 #include "server/mbtiles_layer.hpp"
 
+#include <sys/stat.h>
+
+#include <cerrno>
 #include <stdexcept>
 
 #include "io/tile_files.hpp"
@@ -34,7 +37,13 @@ std::string MbtilesLayer::tileJson(const std::string& layer_url) const {
   return io::servedTileJson(m_tilejson, layer_url);
 }
 
+bool MbtilesLayer::isGone() const {
+  struct stat info {};
+  return ::stat(m_path.c_str(), &info) != 0 && errno == ENOENT;
+}
+
 TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
+  if (isGone()) return {TileAnswer::Status::kNotFound, nullptr, "the layer's file was removed"};
   if (!m_coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }

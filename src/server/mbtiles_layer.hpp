@@ -28,6 +28,8 @@ class MbtilesLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
+  // The file was removed: connections still open would read it on.
+  bool isGone() const override;
 
  private:
   MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file);

@@ -2,6 +2,7 @@
 // Reading the files the server sends, only ever from inside one folder, with
 // the ETag that validates them.
 #include <cstddef>
+#include <cstdint>
 #include <filesystem>
 #include <optional>
 #include <stdexcept>
@@ -14,6 +15,9 @@ namespace terrabake::server {
 struct FileContent {
   std::string bytes;
   std::string etag;
+  // Of an archive's tile: which of the archives the layer has had in turn
+  // (a run made again replaces them) it was read from. 0 otherwise.
+  std::uint64_t generation = 0;
 };
 
 // Bytes with no version of their own (MBTiles rows, PMTiles entries,
