@@ -542,16 +542,60 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   EXPECT_EQ(wrong, 0);
 
   // A layer removed while served: the file's connections would read it on,
-  // but it answers 404 and, as a folder layer whose tilejson.json went, is
-  // no longer listed.
+  // but within a second it answers 404 and, as a folder layer whose
+  // tilejson.json went, is no longer listed.
   fs::remove(mbtilesPath(job));
   fs::remove(folder / "tilejson.json");
-  const auto gone = client.Get(("/packed/" + tiles.front().str() + ".png").c_str());
-  ASSERT_TRUE(gone);
-  EXPECT_EQ(gone->status, 404);
-  const auto listed = client.Get("/layers.json");
-  ASSERT_TRUE(listed && listed->status == 200);
-  EXPECT_EQ(Json::parse(listed->body).at("layers"), Json::array());
+  EXPECT_TRUE(test::waitFor(
+      [&] { return test::statusOf(server.port(), "/packed/" + tiles.front().str() + ".png") == 404; }));
+  EXPECT_TRUE(test::waitFor([&] {
+    const auto listed = client.Get("/layers.json");
+    return listed && listed->status == 200 && Json::parse(listed->body).at("layers") == Json::array();
+  }));
+}
+
+// A served layer that a run extends by a zoom (--force: another job) is
+// read again: within a second its tilejson and the new zoom's tiles are
+// served, from a folder and from an MBTiles file alike.
+TEST(Mbtiles, AServedLayerExtendedByARunServesItsNewZoom) {
+  const fs::path dir = caseDir();
+  const fs::path tiles_dir = dir / "tiles";
+  config::TileJob folder_job = smallJob(tiles_dir, "folder", OutputFormat::kFiles);
+  config::TileJob job = smallJob(tiles_dir, "packed", OutputFormat::kMbtiles);
+  folder_job.max_zoom = job.max_zoom = folder_job.min_zoom;
+  ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (dir / "no_viewer").string();
+  const ServerThread server(config);
+  const int deeper = folder_job.min_zoom + 1;
+  const std::string zoom_key = "\"maxzoom\": " + std::to_string(deeper);
+  EXPECT_EQ(test::get(server.port(), "/folder/tilejson.json")->body.find(zoom_key), std::string::npos);
+
+  pipeline::RunOptions force;
+  force.force = true;
+  folder_job.max_zoom = job.max_zoom = deeper;
+  ASSERT_EQ(pipeline::runTileJob(folder_job, force).failed, 0);
+  ASSERT_EQ(pipeline::runTileJob(job, force).failed, 0);
+  const fs::path folder = test::layerDir(folder_job);
+  std::vector<TileId> deep_tiles;
+  for (const TileId& tile : folderTiles(folder)) {
+    if (tile.z == deeper) deep_tiles.push_back(tile);
+  }
+  ASSERT_FALSE(deep_tiles.empty());
+  for (const char* layer : {"folder", "packed"}) {
+    SCOPED_TRACE(layer);
+    const std::string url = "/" + std::string(layer) + "/" + deep_tiles.front().str() + ".png";
+    EXPECT_TRUE(test::waitFor([&] {
+      const auto answer = test::get(server.port(), url);
+      return answer && answer->status == 200 && answer->body == readBytes(tileFile(folder, deep_tiles.front(), "png"));
+    }));
+    EXPECT_NE(test::get(server.port(), "/" + std::string(layer) + "/tilejson.json")->body.find(zoom_key),
+              std::string::npos);
+  }
 }
 
 }  // namespace

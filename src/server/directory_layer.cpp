@@ -1,8 +1,11 @@
 #include "server/directory_layer.hpp"
 
+#include <cstdint>
+#include <memory>
 #include <stdexcept>
 
 #include "io/tile_files.hpp"
+#include "server/tile_coverage.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -21,32 +24,46 @@ std::optional<std::string> elevationTileJsonText(const ServedFolder& folder) {
 
 }  // namespace
 
+struct DirectoryLayer::Description {
+  std::string tilejson;
+  std::optional<std::string> elevation_tilejson;  // elevation.json, when the layer has one
+  TileCoverage coverage;
+};
+
 DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& folder)
     : m_name(std::move(name)),
       m_folder(folder),
-      m_tilejson(tileJsonText(m_folder)),
-      m_elevation_tilejson(elevationTileJsonText(m_folder)),
-      m_coverage(coverageOf(io::readTileJson(m_tilejson))) {}
+      m_description(
+          "layer " + m_name + ": " + (folder / io::kTileJsonFile).string(),
+          [this]() -> std::optional<std::string> {
+            // Both are written by renaming a new file into place: their ETags tell a change.
+            const std::optional<std::string> tilejson = m_folder.etag(io::kTileJsonFile);
+            if (!tilejson) return std::nullopt;
+            return *tilejson + " " + m_folder.etag(io::kElevationTileJsonFile).value_or("");
+          },
+          [this](std::uint64_t /*generation*/) {
+            std::string tilejson = tileJsonText(m_folder);
+            TileCoverage coverage = coverageOf(io::readTileJson(tilejson));
+            return std::make_shared<const Description>(
+                Description{std::move(tilejson), elevationTileJsonText(m_folder), std::move(coverage)});
+          }) {}
 
-bool DirectoryLayer::isGone() const {
-  try {
-    return !m_folder.etag(io::kTileJsonFile);
-  } catch (const UnreadableFile&) {
-    return false;  // there, if unreadable now
-  }
-}
+DirectoryLayer::~DirectoryLayer() = default;
 
 std::string DirectoryLayer::tileJson(const std::string& layer_url) const {
-  return io::servedTileJson(m_tilejson, layer_url);
+  return io::servedTileJson(m_description.last()->tilejson, layer_url);
 }
 
 std::optional<std::string> DirectoryLayer::elevationTileJson(const std::string& layer_url) const {
-  if (!m_elevation_tilejson) return std::nullopt;
-  return io::servedTileJson(*m_elevation_tilejson, layer_url);
+  const std::shared_ptr<const Description> description = m_description.last();
+  if (!description->elevation_tilejson) return std::nullopt;
+  return io::servedTileJson(*description->elevation_tilejson, layer_url);
 }
 
 TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
-  if (!m_coverage.contains(tile)) {
+  const std::shared_ptr<const Description> description = m_description.current();
+  if (!description) return {TileAnswer::Status::kNotFound, nullptr, "the layer's tilejson.json was removed"};
+  if (!description->coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }
   std::optional<FileContent> file = m_folder.read(io::relativeTilePath(tile, format));

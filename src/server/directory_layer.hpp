@@ -7,15 +7,17 @@
 
 #include "server/layer_source.hpp"
 #include "server/served_folder.hpp"
-#include "server/tile_coverage.hpp"
+#include "server/stored_state.hpp"
 
 namespace terrabake::server {
 
 class DirectoryLayer : public LayerSource {
  public:
   // Reads <folder>/tilejson.json (and elevation.json when there); throws std::runtime_error when it is
-  // missing or says no zooms and bounds.
+  // missing or says no zooms and bounds. They are read again when a run
+  // made again or extended replaces them.
   DirectoryLayer(std::string name, const std::filesystem::path& folder);
+  ~DirectoryLayer() override;
 
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return false; }
@@ -26,14 +28,14 @@ class DirectoryLayer : public LayerSource {
   bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
   // Its tilejson.json was removed.
-  bool isGone() const override;
+  bool isGone() const override { return !m_description.current(); }
 
  private:
+  struct Description;  // what tilejson.json and elevation.json say
+
   std::string m_name;
   ServedFolder m_folder;
-  std::string m_tilejson;
-  std::optional<std::string> m_elevation_tilejson;  // elevation.json, when the layer has one
-  TileCoverage m_coverage;
+  StoredState<Description> m_description;
 };
 
 }  // namespace terrabake::server

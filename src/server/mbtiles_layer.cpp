@@ -3,9 +3,11 @@
 #include <sys/stat.h>
 
 #include <cerrno>
+#include <cstdint>
 #include <stdexcept>
 
 #include "io/tile_files.hpp"
+#include "server/tile_coverage.hpp"
 
 namespace terrabake::server {
 namespace {
@@ -19,32 +21,61 @@ std::string tileJsonText(const io::MbtilesFile& file) {
   return std::move(*json);
 }
 
+// The file's device and inode: which file the path names now.
+std::string fileIdentity(const struct stat& info) {
+  return std::to_string(info.st_dev) + ":" + std::to_string(info.st_ino);
+}
+
 }  // namespace
 
-MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
-    : MbtilesLayer(std::move(name), io::MbtilesFile::openForReading(path)) {}
+struct MbtilesLayer::Description {
+  std::string file;  // fileIdentity() of the file it was read from
+  std::string tilejson;
+  TileCoverage coverage;
+  bool tms_rows;  // the layer's y counts from the south as the file's rows do
+};
 
-MbtilesLayer::MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file)
+MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
     : m_name(std::move(name)),
-      m_path(file->path()),
-      m_tilejson(tileJsonText(*file)),
-      m_coverage(coverageOf(io::readTileJson(m_tilejson))),
-      m_tms_rows(io::readTileJson(m_tilejson).tms_rows) {
-  m_idle.push_back(std::move(file));
+      m_path(path),
+      m_description(
+          "layer " + m_name + ": " + path,
+          [this]() -> std::optional<std::string> {
+            // Rows are written in place: the size and time tell a run that
+            // wrote more, the inode a file made anew.
+            struct stat info {};
+            if (::stat(m_path.c_str(), &info) != 0) {
+              if (errno == ENOENT) return std::nullopt;
+              throw std::runtime_error("cannot stat " + m_path);
+            }
+            return fileIdentity(info) + " " + std::to_string(info.st_size) + " " +
+                   std::to_string(info.st_mtim.tv_sec) + "." + std::to_string(info.st_mtim.tv_nsec);
+          },
+          [this](std::uint64_t /*generation*/) { return describe(); }) {}
+
+MbtilesLayer::~MbtilesLayer() = default;
+
+std::shared_ptr<const MbtilesLayer::Description> MbtilesLayer::describe() {
+  std::unique_ptr<io::MbtilesFile> file = io::MbtilesFile::openForReading(m_path);
+  // The file just opened, but for a new one renamed into place in between,
+  // which the next look reads again.
+  struct stat info {};
+  if (::stat(m_path.c_str(), &info) != 0) throw std::runtime_error("cannot stat " + m_path);
+  const std::string tilejson = tileJsonText(*file);
+  const auto read = io::readTileJson(tilejson);
+  auto description = std::make_shared<const Description>(Description{fileIdentity(info), tilejson, coverageOf(read), read.tms_rows});
+  giveBack(description->file, std::move(file));
+  return description;
 }
 
 std::string MbtilesLayer::tileJson(const std::string& layer_url) const {
-  return io::servedTileJson(m_tilejson, layer_url);
-}
-
-bool MbtilesLayer::isGone() const {
-  struct stat info {};
-  return ::stat(m_path.c_str(), &info) != 0 && errno == ENOENT;
+  return io::servedTileJson(m_description.last()->tilejson, layer_url);
 }
 
 TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
-  if (isGone()) return {TileAnswer::Status::kNotFound, nullptr, "the layer's file was removed"};
-  if (!m_coverage.contains(tile)) {
+  const std::shared_ptr<const Description> description = m_description.current();
+  if (!description) return {TileAnswer::Status::kNotFound, nullptr, "the layer's file was removed"};
+  if (!description->coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
   }
   if (format == io::TileFormat::kElevationPng) {
@@ -52,9 +83,9 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   }
   std::optional<std::string> bytes;
   try {
-    std::unique_ptr<io::MbtilesFile> file = borrow();
-    bytes = file->readTile(io::mbtilesTable(format), io::mbtilesKey(tile, m_tms_rows));
-    giveBack(std::move(file));  // not after a failure: that connection may be broken
+    std::unique_ptr<io::MbtilesFile> file = borrow(description->file);
+    bytes = file->readTile(io::mbtilesTable(format), io::mbtilesKey(tile, description->tms_rows));
+    giveBack(description->file, std::move(file));  // not after a failure: that connection may be broken
   } catch (const std::exception& e) {
     return unreadableTileAnswer(m_name, tile, e);
   }
@@ -62,28 +93,32 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
 }
 
 std::optional<FileContent> MbtilesLayer::tilesetFile(const std::string& path) {
-  std::unique_ptr<io::MbtilesFile> file = borrow();
+  const std::shared_ptr<const Description> description = m_description.current();
+  if (!description) return std::nullopt;
+  std::unique_ptr<io::MbtilesFile> file = borrow(description->file);
   std::optional<std::string> json = file->tilesetDocument(path);
-  giveBack(std::move(file));
+  giveBack(description->file, std::move(file));
   if (!json) return std::nullopt;
   return hashTaggedContent(std::move(*json));
 }
 
-std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow() {
+std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow(const std::string& file) {
   {
     const std::lock_guard<std::mutex> lock(m_mutex);
+    // Connections to a file the path no longer names would read it on.
+    if (m_idle_file != file) m_idle.clear(), m_idle_file = file;
     if (!m_idle.empty()) {
-      std::unique_ptr<io::MbtilesFile> file = std::move(m_idle.back());
+      std::unique_ptr<io::MbtilesFile> connection = std::move(m_idle.back());
       m_idle.pop_back();
-      return file;
+      return connection;
     }
   }
   return io::MbtilesFile::openForReading(m_path);
 }
 
-void MbtilesLayer::giveBack(std::unique_ptr<io::MbtilesFile> file) {
+void MbtilesLayer::giveBack(const std::string& file, std::unique_ptr<io::MbtilesFile> connection) {
   const std::lock_guard<std::mutex> lock(m_mutex);
-  m_idle.push_back(std::move(file));
+  if (file == m_idle_file || m_idle.empty()) m_idle_file = file, m_idle.push_back(std::move(connection));
 }
 
 }  // namespace terrabake::server

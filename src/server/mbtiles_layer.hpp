@@ -9,7 +9,7 @@
 
 #include "io/mbtiles.hpp"
 #include "server/layer_source.hpp"
-#include "server/tile_coverage.hpp"
+#include "server/stored_state.hpp"
 
 namespace terrabake::server {
 
@@ -20,8 +20,10 @@ class MbtilesLayer : public LayerSource {
  public:
   // Opens the file read-only. Throws InputError when it is not an MBTiles
   // file terrabake wrote, std::runtime_error when its tilejson (metadata row
-  // `json`, written when its run finished) is missing or unusable.
+  // `json`, written when its run finished) is missing or unusable. The
+  // tilejson is read again when a run writes into the file or makes it anew.
   MbtilesLayer(std::string name, const std::string& path);
+  ~MbtilesLayer() override;
 
   const std::string& name() const override { return m_name; }
   bool bakesOnDemand() const override { return false; }
@@ -29,23 +31,25 @@ class MbtilesLayer : public LayerSource {
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
   // The file was removed: connections still open would read it on.
-  bool isGone() const override;
+  bool isGone() const override { return !m_description.current(); }
 
  private:
-  MbtilesLayer(std::string name, std::unique_ptr<io::MbtilesFile> file);
+  struct Description;  // the file's tilejson, and which file that is
+
+  std::shared_ptr<const Description> describe();
 
   // A connection is used by one thread at a time: each request borrows an
-  // idle one, or opens another, so requests read in parallel.
-  std::unique_ptr<io::MbtilesFile> borrow();
-  void giveBack(std::unique_ptr<io::MbtilesFile> file);
+  // idle one, or opens another, so requests read in parallel. `file`: the
+  // Description's, which the connections kept must read.
+  std::unique_ptr<io::MbtilesFile> borrow(const std::string& file);
+  void giveBack(const std::string& file, std::unique_ptr<io::MbtilesFile> connection);
 
   std::string m_name;
   std::string m_path;
-  std::string m_tilejson;
-  TileCoverage m_coverage;
-  bool m_tms_rows;  // the layer's y counts from the south as the file's rows do
-  std::mutex m_mutex;
+  std::mutex m_mutex;  // guards the two below
   std::vector<std::unique_ptr<io::MbtilesFile>> m_idle;
+  std::string m_idle_file;  // the file the idle connections read
+  StoredState<Description> m_description;  // after the connections: reading it gives one back
 };
 
 }  // namespace terrabake::server

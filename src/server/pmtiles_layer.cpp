@@ -5,8 +5,6 @@
 
 #include <nlohmann/json.hpp>
 
-#include "core/error.hpp"
-#include "core/log.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 
@@ -39,7 +37,6 @@ std::map<io::TileFormat, std::unique_ptr<io::PmtilesReader>> openArchives(const 
 }  // namespace
 
 struct PmtilesLayer::Archives {
-  std::string stamp;  // <layer>.pmtiles's ETag (inode, size, time) when opened
   std::uint64_t generation = 0;
   std::map<io::TileFormat, std::unique_ptr<io::PmtilesReader>> readers;
   std::map<std::string, io::TileFormat> files;  // archive file name -> its kind of tile
@@ -47,9 +44,8 @@ struct PmtilesLayer::Archives {
   TileCoverage coverage;
   std::string elevation_tilejson;  // empty: no elevation archive
 
-  Archives(const std::string& path, std::string file_stamp, std::uint64_t number)
-      : stamp(std::move(file_stamp)),
-        generation(number),
+  Archives(const std::string& path, std::uint64_t number)
+      : generation(number),
         readers(openArchives(path)),
         tilejson(tileJsonOf(*readers.at(io::TileFormat::kPng))),
         coverage(coverageOf(io::readTileJson(tilejson))) {
@@ -60,56 +56,28 @@ struct PmtilesLayer::Archives {
 };
 
 PmtilesLayer::PmtilesLayer(std::string name, const std::string& path)
-    : m_name(std::move(name)), m_path(path), m_folder(fs::path(path).parent_path()) {
-  const std::string file_name = fs::path(path).filename().string();
-  m_archives = std::make_shared<const Archives>(path, m_folder.etag(file_name).value_or(""), 1);
-  m_next_look = std::chrono::steady_clock::now() + kLookInterval;
-}
+    : m_name(std::move(name)),
+      m_folder(fs::path(path).parent_path()),
+      m_archives(
+          "layer " + m_name + ": " + path,
+          [this, file_name = fs::path(path).filename().string()] { return m_folder.etag(file_name); },
+          [path](std::uint64_t generation) { return std::make_shared<const Archives>(path, generation); }) {}
 
 PmtilesLayer::~PmtilesLayer() = default;
 
-std::shared_ptr<const PmtilesLayer::Archives> PmtilesLayer::current() const {
-  const std::lock_guard<std::mutex> lock(m_mutex);
-  const auto now = std::chrono::steady_clock::now();
-  if (now < m_next_look) return m_gone ? nullptr : m_archives;
-  m_next_look = now + kLookInterval;
-  std::optional<std::string> stamp;
-  try {
-    stamp = m_folder.etag(fs::path(m_path).filename().string());
-  } catch (const std::exception&) {
-    return m_gone ? nullptr : m_archives;  // there but unreadable now: the archives opened go on
-  }
-  m_gone = !stamp;
-  if (m_gone) return nullptr;
-  if (*stamp == m_archives->stamp || *stamp == m_unreadable) return m_archives;
-  try {
-    m_archives = std::make_shared<const Archives>(m_path, *stamp, m_archives->generation + 1);
-    log::info("layer " + m_name + ": " + m_path + " was replaced; its tiles are served from the new archives");
-  } catch (const std::exception& e) {
-    m_unreadable = *stamp;
-    log::warning("layer " + m_name + ": " + m_path + " was replaced by one that cannot be read (" +
-                 oneLine(e.what()) + "); the archives read before are served");
-  }
-  return m_archives;
-}
-
-bool PmtilesLayer::isGone() const { return current() == nullptr; }
-
 std::string PmtilesLayer::tileJson(const std::string& layer_url) const {
-  current();  // a replaced archive's
   // A layer whose archive is gone tells what it held last; its tiles are 404.
-  const std::lock_guard<std::mutex> lock(m_mutex);
-  return io::servedTileJson(m_archives->tilejson, layer_url);
+  return io::servedTileJson(m_archives.last()->tilejson, layer_url);
 }
 
 std::optional<std::string> PmtilesLayer::elevationTileJson(const std::string& layer_url) const {
-  const std::shared_ptr<const Archives> archives = current();
+  const std::shared_ptr<const Archives> archives = m_archives.current();
   if (!archives || archives->elevation_tilejson.empty()) return std::nullopt;
   return io::servedTileJson(archives->elevation_tilejson, layer_url);
 }
 
 TileAnswer PmtilesLayer::tile(const TileId& tile, io::TileFormat format, const Later& /*later*/) {
-  const std::shared_ptr<const Archives> archives = current();
+  const std::shared_ptr<const Archives> archives = m_archives.current();
   if (!archives) return {TileAnswer::Status::kNotFound, nullptr, "the layer's archive was removed"};
   if (!archives->coverage.contains(tile)) {
     return {TileAnswer::Status::kNotFound, nullptr, "outside the layer's zooms or bounds"};
@@ -128,12 +96,12 @@ TileAnswer PmtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
 }
 
 bool PmtilesLayer::isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& kept) const {
-  const std::shared_ptr<const Archives> archives = current();
+  const std::shared_ptr<const Archives> archives = m_archives.current();
   return archives && archives->generation == kept.generation;
 }
 
 std::optional<OpenedFile> PmtilesLayer::archive(const std::string& file_name) {
-  const std::shared_ptr<const Archives> archives = current();
+  const std::shared_ptr<const Archives> archives = m_archives.current();
   if (!archives || !archives->files.count(file_name)) return std::nullopt;
   return m_folder.open(file_name);
 }
