@@ -21,9 +21,10 @@
    repeating the sample, so nothing on disk), tiled zoom by zoom from the one
    where it fits a tile to the deepest `auto` picks, one worker; each zoom is
    limited to about --max-tiles tiles round the DEM's centre. It prints the mean time per tile
-   of each zoom and its ratio to the deepest zoom's with as many tiles, run right after it.
-   With --rounds N each zoom and its reference take turns N times, and the
-   table gives the medians (the ratio: the median of the rounds' ratios).
+   of each zoom and its ratio to the deepest zoom's with as many tiles, run next to it.
+   With --rounds N each zoom and its reference take turns N times (every other round the
+   reference first), and the table gives the medians (the ratio: the median of the rounds'
+   ratios).
 
 Every run writes into a folder no other run used, and the folders are removed
 when the script ends. Timings on a shared machine are noisy: compare rows of
@@ -210,12 +211,18 @@ def per_zoom(work):
 
     # Each zoom against the deepest zoom with as many tiles, so that what a
     # worker does on its first tile (opening files, GDAL's caches) weighs the
-    # same, run right after it, so that both meet the same load on the machine.
+    # same, run next to it, so that both meet the same load on the machine;
+    # every other round the reference runs first.
     for z in range(shallowest, deepest + 1):
         rounds = []
-        for _ in range(args.rounds):
-            tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
-            reference = run_zoom(deepest, tiles)[2]
+        tiles = None
+        for turn in range(args.rounds):
+            if turn % 2 and tiles is not None:
+                reference = run_zoom(deepest, tiles)[2]
+                tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
+            else:
+                tiles, seconds, ms, peak = run_zoom(z, args.max_tiles)
+                reference = run_zoom(deepest, tiles)[2]
             rounds.append((seconds, ms, reference, ms / reference, peak))
         seconds, ms, reference, ratio, _ = (statistics.median(column) for column in zip(*rounds))
         peak = max(r[4] for r in rounds)
