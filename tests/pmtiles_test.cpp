@@ -254,9 +254,10 @@ TEST(Pmtiles, AnUnreadableTileIsA500ThatNamesNoLocalPath) {
 }
 
 // A run made again replaces a served layer's archives whole: within a
-// second the server answers from the new ones, its tile cache included, and
-// once they are removed it answers 404 and no longer lists the layer.
-TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeaves) {
+// second the server answers from the new ones, its tile cache included;
+// once they are removed it answers 404 and no longer lists the layer, and
+// the layer made again as a folder is served from the folder.
+TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeavesAndMayComeBack) {
   const fs::path tiles_dir = test::caseDir() / "tiles";
   config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
   job.output_dir = tiles_dir.string();
@@ -306,6 +307,16 @@ TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeave
   }
   EXPECT_TRUE(test::waitFor([&] { return test::statusOf(server.port(), url) == 404; }));
   EXPECT_EQ(test::get(server.port(), "/layers.json")->body.find("\"again\""), std::string::npos);
+  EXPECT_EQ(test::statusOf(server.port(), "/again/tilejson.json"), 404);
+
+  // Made again in another form, under the same name: served again, from its files.
+  job.format = OutputFormat::kFiles;
+  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  const std::string folder_bytes = test::readBytes(tiles_dir / "again" / io::relativeTilePath(tile, io::TileFormat::kPng));
+  EXPECT_TRUE(test::waitFor([&] {
+    const auto answer = test::get(server.port(), url);
+    return answer && answer->status == 200 && answer->body == folder_bytes;
+  })) << "the folder layer's tile";
 }
 
 TEST(Pmtiles, FlatSeaIsStoredOnceSoTheArchiveIsSmallerThanTheFolder) {

@@ -121,9 +121,12 @@ inline std::vector<std::unique_ptr<server::LayerSource>> onlyLayer(std::unique_p
 // the scope guard that stops and joins it, whatever the test did.
 class ServerThread {
  public:
-  ServerThread(const config::ServeConfig& config, std::vector<std::unique_ptr<server::LayerSource>> layers)
-      : m_server(config, std::move(layers)), m_thread([this] { m_server.run(); }) {}
-  explicit ServerThread(const config::ServeConfig& config) : ServerThread(config, server::openLayers(config)) {}
+  ServerThread(const config::ServeConfig& config, std::vector<std::unique_ptr<server::LayerSource>> layers,
+               server::LayerSet::LookForNew look_for_new = {})
+      : m_server(config, std::move(layers), std::move(look_for_new)), m_thread([this] { m_server.run(); }) {}
+  // As `terrabake serve` serves the config: its layers, and those found later.
+  explicit ServerThread(const config::ServeConfig& config)
+      : ServerThread(config, server::openLayers(config), server::lookForStoredLayers(config.tiles_dir)) {}
   ~ServerThread() {
     m_server.stop();
     m_thread.join();

@@ -526,7 +526,7 @@ TEST(ServeLimits, AHugeBodyIsAnsweredBeforeItIsRead) {
   EXPECT_EQ(exchange(running.port(), "GET", "/fake/3/1/1.png").status, 200) << "the server goes on";
 }
 
-TEST(ServeLimits, HeadersBeyondTheLimitAre431) {
+TEST(ServeLimits, HeadersBeyondTheLimitAre431AndALineBeyondIt414) {
   World world;
   world.config.max_header_bytes = 4096;
   ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
@@ -536,6 +536,9 @@ TEST(ServeLimits, HeadersBeyondTheLimitAre431) {
   EXPECT_TRUE(big.closed);
   const RawAnswer fits = exchange(running.port(), "GET", "/health", "X-Fits: " + std::string(2000, 'a') + "\r\n");
   EXPECT_EQ(fits.status, 200);
+  // A line past the limit, which the server's first read takes whole: the target is what is too long.
+  const RawAnswer long_line = exchange(running.port(), "GET", "/health?" + std::string(5000, 'a'));
+  EXPECT_EQ(long_line.status, 414) << long_line.head;
 }
 
 // --- Ranges ------------------------------------------------------------------
@@ -675,6 +678,11 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
       {"a long target and headers too large",
        "GET /" + std::string(600, 'a') + " HTTP/1.1\r\nHost: x\r\nCookie: " + std::string(20000, 'c') + "\r\n\r\n", 431,
        true},
+      // The limit holds the line and the headers together, each well within it.
+      {"a line and headers beyond the limit together",
+       "GET /fake/3/1/1.png?" + std::string(10000, 'a') + " HTTP/1.1\r\nHost: x\r\nX-Pad: " + std::string(10000, 'b') +
+           "\r\n\r\n",
+       431, true},
       // RFC 9110 9.1: a method HTTP does not define is not implemented; one it does is not allowed.
       {"unknown method", "BREW /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},
       {"lower-case get", "get /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 501, false},

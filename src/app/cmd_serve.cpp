@@ -48,9 +48,7 @@ Action addServeCommand(CLI::App& app) {
 
     // Layers a batch run finishes in the tiles folder while the server runs
     // are served once a request names them.
-    server::Server server(config, server::openLayers(config), [tiles = config.tiles_dir](const auto& known) {
-      return server::openStoredLayers(tiles, known, false);
-    });
+    server::Server server(config, server::openLayers(config), server::lookForStoredLayers(config.tiles_dir));
     // The one line on stdout: scripts and tests read the port from it.
     std::printf("terrabake: serving %s on %s\n", config.tiles_dir.c_str(), server.url().c_str());
     std::fflush(stdout);

@@ -77,7 +77,10 @@ TileAnswer DirectoryLayer::tile(const TileId& tile, io::TileFormat format, const
 // A tile file is replaced only by renaming a new one into place (`terrabake
 // tile --resume`, --force), which changes its ETag: one stat tells.
 bool DirectoryLayer::isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const {
-  return m_folder.stillHas(io::relativeTilePath(tile, format), kept.etag);
+  // Still inside what the layer covers, which a run made again may narrow.
+  const std::shared_ptr<const Description> description = m_description.current();
+  return description && description->coverage.contains(tile) &&
+         m_folder.stillHas(io::relativeTilePath(tile, format), kept.etag);
 }
 
 std::optional<FileContent> DirectoryLayer::tilesetFile(const std::string& path) { return m_folder.read(path); }

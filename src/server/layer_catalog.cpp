@@ -115,6 +115,10 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
   return layers;
 }
 
+LayerSet::LookForNew lookForStoredLayers(const std::string& tiles_dir) {
+  return [tiles_dir](const std::set<std::string>& known) { return openStoredLayers(tiles_dir, known, false); };
+}
+
 std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& config) {
   std::vector<std::unique_ptr<LayerSource>> layers;
   std::set<std::string> names;

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "config/serve_config.hpp"
+#include "server/layer_set.hpp"
 #include "server/layer_source.hpp"
 
 namespace terrabake::server {
@@ -24,5 +25,8 @@ std::vector<std::unique_ptr<LayerSource>> openLayers(const config::ServeConfig& 
 // about on the `first_look` only. Throws InputError for an unreadable folder.
 std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& tiles_dir,
                                                            const std::set<std::string>& known, bool first_look);
+
+// The later looks (openStoredLayers) into `tiles_dir`, for a Server.
+LayerSet::LookForNew lookForStoredLayers(const std::string& tiles_dir);
 
 }  // namespace terrabake::server

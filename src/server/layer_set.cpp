@@ -23,7 +23,7 @@ LayerSource* LayerSet::find(const std::string& name) const {
   for (bool looked = false;; looked = true) {
     const Names& names = *m_names.load(std::memory_order_acquire);
     const auto found = names.find(name);
-    if (found != names.end()) return found->second;
+    if (found != names.end() && !found->second->isGone()) return found->second;
     if (looked) return nullptr;
     lookForNewLayers();
   }
@@ -53,8 +53,11 @@ void LayerSet::lookForNewLayers() const {
   if (!look.owns_lock() || now - m_last_look < kLookInterval) return;
   m_last_look = now;
   const Names& names = *m_names.load(std::memory_order_relaxed);  // written under this lock only
+  // A layer removed may come back, in its own form or another.
   std::set<std::string> known;
-  for (const auto& [name, layer] : names) known.insert(name);
+  for (const auto& [name, layer] : names) {
+    if (!layer->isGone()) known.insert(name);
+  }
   std::vector<std::unique_ptr<LayerSource>> found;
   try {
     found = m_look_for_new(known);
@@ -66,7 +69,7 @@ void LayerSet::lookForNewLayers() const {
   if (found.empty()) return;
   auto more = std::make_unique<Names>(names);
   for (auto& layer : found) {
-    more->emplace(layer->name(), layer.get());
+    (*more)[layer->name()] = layer.get();
     m_layers.push_back(std::move(layer));
   }
   m_names.store(more.get(), std::memory_order_release);

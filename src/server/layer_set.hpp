@@ -2,8 +2,9 @@
 // The layers a server answers for, by name: those it started with and those
 // a look into the tiles folder finds later (a layer a batch run finished
 // while the server runs). Layers are only ever added, so a layer found stays
-// valid, at the same address, as long as the set; one removed from the
-// folder is no longer listed, and answers 404 for its tiles.
+// valid, at the same address, as long as the set; one whose files were
+// removed is no longer found nor listed, and a look may find its name again
+// (the layer made anew, in any form), which then names the new layer.
 #include <atomic>
 #include <chrono>
 #include <cstddef>
@@ -27,16 +28,17 @@ class LayerSet {
   // `look_for_new` may be empty: then the set keeps the layers it starts with.
   LayerSet(std::vector<std::unique_ptr<LayerSource>> layers, LookForNew look_for_new);
 
-  // The layer named `name`, or null. A name the set does not hold sends it
-  // looking for new layers first, at most once every kLookInterval, so
-  // requests for a layer that does not exist cost a look now and then.
+  // The layer named `name`, or null (also for a layer whose files were
+  // removed). A name the set does not hold sends it looking for new layers
+  // first, at most once every kLookInterval, so requests for a layer that
+  // does not exist cost a look now and then.
   LayerSource* find(const std::string& name) const;
 
   // Every layer in name order, after a look for new ones (as find's), but
   // those whose tilejson.json or archive was removed.
   std::vector<std::pair<std::string, LayerSource*>> all() const;
 
-  // The layers held now, without a look.
+  // The layers held now, without a look, removed ones too.
   std::vector<LayerSource*> held() const;
 
   // The longest a layer added to the tiles folder waits to be found.

@@ -1,5 +1,7 @@
 #include "server/request_handler.hpp"
 
+#include <algorithm>
+
 #include <filesystem>
 #include <memory>
 #include <optional>
@@ -347,7 +349,8 @@ HttpReply RequestHandler::health() const {
   HttpReply reply;
   reply.content_type = "application/json";
   reply.body = Json{{"status", "ok"},
-                    {"layers", layers.size()},
+                    {"layers", std::count_if(layers.begin(), layers.end(),
+                                             [](const LayerSource* layer) { return !layer->isGone(); })},
                     {"bakes_started", total.started},
                     {"bakes_joined", total.joined},
                     {"bakes_written", total.written},

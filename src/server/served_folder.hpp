@@ -15,8 +15,8 @@ namespace terrabake::server {
 struct FileContent {
   std::string bytes;
   std::string etag;
-  // Of an archive's tile: which of the archives the layer has had in turn
-  // (a run made again replaces them) it was read from. 0 otherwise.
+  // Of an archive's tile: which archives it was read from (a run made again
+  // replaces them; each opening has a number of its own). 0 otherwise.
   std::uint64_t generation = 0;
 };
 

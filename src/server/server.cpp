@@ -268,7 +268,11 @@ class Session : public std::enable_shared_from_this<Session> {
     m_buffer.consume(emptyLinesAtStart(bufferText()));
     const std::string_view text = bufferText();
     const std::size_t end = text.find('\n');
-    if (end == std::string_view::npos && text.size() < m_server.max_header_bytes) {
+    // The line alone past the head's limit: its target is what is too long (RFC 9112 3).
+    if (std::min(end, text.size()) >= m_server.max_header_bytes) {
+      return answerAndClose(m_server.handler.refusal(414, "request target too long"));
+    }
+    if (end == std::string_view::npos) {
       return m_stream.async_read_some(m_buffer.prepare(4096),
                                       [self = shared_from_this()](beast::error_code ec, std::size_t got) {
                                         if (ec) return self->m_stream.close();
@@ -276,36 +280,35 @@ class Session : public std::enable_shared_from_this<Session> {
                                         self->readRequestLine(true);
                                       });
     }
-    if (end != std::string_view::npos) {
-      const std::string_view line = text.substr(0, end > 0 && text[end - 1] == '\r' ? end - 1 : end);
-      switch (requestLineVersion(line)) {
-        case LineVersion::kAsItIs: break;
-        case LineVersion::kLaterMinor:
-          static_cast<char*>(m_buffer.data().data())[line.size() - 1] = '1';
-          break;
-        case LineVersion::kOtherMajor:
-          return answerAndClose(m_server.handler.refusal(505, "HTTP version not supported: use HTTP/1.1"),
-                                line.substr(0, 5) == "HEAD ");
-      }
+    const std::string_view line = text.substr(0, end > 0 && text[end - 1] == '\r' ? end - 1 : end);
+    switch (requestLineVersion(line)) {
+      case LineVersion::kAsItIs: break;
+      case LineVersion::kLaterMinor:
+        static_cast<char*>(m_buffer.data().data())[line.size() - 1] = '1';
+        break;
+      case LineVersion::kOtherMajor:
+        return answerAndClose(m_server.handler.refusal(505, "HTTP version not supported: use HTTP/1.1"),
+                              line.substr(0, 5) == "HEAD ");
     }
     readHead();
   }
 
   void readHead() {
     m_parser.emplace();
+    // Beast holds the line and the fields to this each: the whole head's
+    // size is checked once it is read (onHead).
     m_parser->header_limit(m_server.max_header_bytes);
     // No body is ever read, so none is too large to be announced: the answer (405, 501 or 413) comes first.
     m_parser->body_limit(std::numeric_limits<std::uint64_t>::max());
-    http::async_read_header(m_stream, m_buffer, *m_parser,
-                            [self = shared_from_this()](beast::error_code ec, std::size_t) { self->onHead(ec); });
+    http::async_read_header(
+        m_stream, m_buffer, *m_parser,
+        [self = shared_from_this()](beast::error_code ec, std::size_t head_bytes) { self->onHead(ec, head_bytes); });
   }
 
   std::string_view bufferText() const {
     const auto read = m_buffer.cdata();
     return {static_cast<const char*>(read.data()), read.size()};
   }
-
-  bool bufferHoldsALine() const { return bufferText().find('\n') != std::string_view::npos; }
 
   // Between requests on a kept connection: the idle timeout until the next
   // request begins, then the read timeout for its head.
@@ -321,14 +324,8 @@ class Session : public std::enable_shared_from_this<Session> {
                              });
   }
 
-  void onHead(beast::error_code ec) {
-    if (ec == http::error::header_limit) {
-      // Past the limit before the request line ended: the target is what is
-      // too long (RFC 9112 3). The parser has taken nothing from the buffer
-      // until it has the line, and then waits for the whole head.
-      if (m_parser->get().target().empty() && !bufferHoldsALine()) {
-        return answerAndClose(m_server.handler.refusal(414, "request target too long"));
-      }
+  void onHead(beast::error_code ec, std::size_t head_bytes) {
+    if (ec == http::error::header_limit || (!ec && head_bytes > m_server.max_header_bytes)) {
       return answerAndClose(m_server.handler.refusal(431, "request header fields too large"));
     }
     if (ec == http::error::end_of_stream || ec == beast::error::timeout || ec == net::error::operation_aborted ||

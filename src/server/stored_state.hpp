@@ -3,6 +3,7 @@
 // area it covers, its opened archives), read again when they change: a run
 // made again or extended while the server runs. Internal to the server
 // module.
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <exception>
@@ -18,14 +19,22 @@
 
 namespace terrabake::server {
 
+// Numbers no two states of the process share, so that what was read from
+// one layer's files is never taken for what another, made later under the
+// same name, reads.
+inline std::uint64_t nextStateGeneration() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
+
 template <class State>
 class StoredState {
  public:
   // What identifies the files' version now (an ETag, an inode and a
   // time), nullopt when they are gone; throws when it cannot be told.
   using Stamp = std::function<std::optional<std::string>()>;
-  // The state of the files as they are now, numbered `generation` (1, 2,
-  // ... in the order read); throws when they cannot be read.
+  // The state of the files as they are now, numbered `generation`
+  // (nextStateGeneration()); throws when they cannot be read.
   using Read = std::function<std::shared_ptr<const State>(std::uint64_t generation)>;
 
   // How long a change may go unnoticed: a look costs a stat or two, made by
@@ -36,7 +45,7 @@ class StoredState {
   StoredState(std::string what, Stamp stamp, Read read)
       : m_what(std::move(what)), m_stamp_of(std::move(stamp)), m_read(std::move(read)) {
     m_stamp = m_stamp_of().value_or("");
-    m_state = m_read(m_generation = 1);
+    m_state = m_read(nextStateGeneration());
     m_next_look = std::chrono::steady_clock::now() + kLookInterval;
   }
 
@@ -57,7 +66,7 @@ class StoredState {
     m_gone = !stamp;
     if (m_gone || *stamp == m_stamp || *stamp == m_unreadable) return m_gone ? nullptr : m_state;
     try {
-      m_state = m_read(++m_generation);
+      m_state = m_read(nextStateGeneration());
       m_stamp = *stamp;
       m_unreadable.clear();
       log::info(m_what + " changed: read again");
@@ -88,7 +97,6 @@ class StoredState {
   mutable std::shared_ptr<const State> m_state;
   mutable std::string m_stamp;       // of the files m_state was read from
   mutable std::string m_unreadable;  // of the last change that could not be read, not tried again; "" none
-  mutable std::uint64_t m_generation = 0;
   mutable bool m_gone = false;
   mutable std::chrono::steady_clock::time_point m_next_look;
 };
