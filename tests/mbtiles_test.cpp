@@ -453,11 +453,7 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   tiles.pop_back();
   deleteTile(mbtilesPath(job), missing, true);
 
-  config::ServeConfig config;
-  config.tiles_dir = tiles_dir.string();
-  config.port = 0;
-  config.viewer_dir = (dir / "no_viewer").string();
-  const ServerThread server(config);
+  const ServerThread server(test::servingLayersIn(tiles_dir));
   httplib::Client client("127.0.0.1", server.port());
 
   const auto layers = client.Get("/layers.json");
@@ -566,11 +562,7 @@ TEST(Mbtiles, AServedLayerExtendedByARunServesItsNewZoom) {
   ASSERT_EQ(pipeline::runTileJob(folder_job).failed, 0);
   ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
 
-  config::ServeConfig config;
-  config.tiles_dir = tiles_dir.string();
-  config.port = 0;
-  config.viewer_dir = (dir / "no_viewer").string();
-  const ServerThread server(config);
+  const ServerThread server(test::servingLayersIn(tiles_dir));
   const int deeper = folder_job.min_zoom + 1;
   const std::string zoom_key = "\"maxzoom\": " + std::to_string(deeper);
   EXPECT_EQ(test::get(server.port(), "/folder/tilejson.json")->body.find(zoom_key), std::string::npos);

@@ -74,6 +74,24 @@ nlohmann::json checkWithNpm(const fs::path& archive, const fs::path& folder, con
   return json.is_discarded() ? nlohmann::json::object() : json;
 }
 
+// Zoom 10 of the coast as PMTiles layer `layer` in `tiles_dir`, made.
+config::TileJob madeZoom10Layer(const fs::path& tiles_dir, const std::string& layer) {
+  config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
+  job.output_dir = tiles_dir.string();
+  job.layer = layer;
+  job.min_zoom = job.max_zoom = 10;
+  EXPECT_GT(pipeline::runTileJob(job).written, 0);
+  return job;
+}
+
+// The zoom-10 tile under the centre a layer's tilejson names.
+TileId zoom10TileAtCentre(const nlohmann::json& tilejson) {
+  const double lon = tilejson.at("center").at(0).get<double>();
+  const double lat = tilejson.at("center").at(1).get<double>() * M_PI / 180;
+  return {10, int(std::floor((lon + 180) / 360 * 1024)),
+          int(std::floor((1 - std::asinh(std::tan(lat)) / M_PI) / 2 * 1024))};
+}
+
 TEST(Pmtiles, TileIdsAreTheSpecsHilbertIds) {
   // The table of spec/v3/spec.md §4.1.
   EXPECT_EQ(io::pmtilesTileId({0, 0, 0}), 0u);
@@ -131,11 +149,7 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   ASSERT_GT(pipeline::runTileJob(folder_job).written, 20);
   ASSERT_GT(pipeline::runTileJob(archive_job).written, 20);
 
-  config::ServeConfig config;
-  config.tiles_dir = tiles_dir.string();
-  config.port = 0;
-  config.viewer_dir = (tiles_dir / "no_viewer").string();
-  const test::ServerThread server(config);
+  const test::ServerThread server(test::servingLayersIn(tiles_dir));
   const int port = server.port();
 
   // The same tiles at the same URLs, every kind of them.
@@ -227,25 +241,13 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
 // path, goes to the server's log, as a failed bake's does.
 TEST(Pmtiles, AnUnreadableTileIsA500ThatNamesNoLocalPath) {
   const fs::path tiles_dir = test::caseDir() / "tiles";
-  config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
-  job.output_dir = tiles_dir.string();
-  job.layer = "cut";
-  job.min_zoom = job.max_zoom = 10;
-  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  madeZoom10Layer(tiles_dir, "cut");
   const fs::path archive = tiles_dir / "cut.pmtiles";
   const std::uint64_t data_offset = io::PmtilesReader(archive.string()).header().data_offset;
 
-  config::ServeConfig config;
-  config.tiles_dir = tiles_dir.string();
-  config.port = 0;
-  config.viewer_dir = (tiles_dir / "no_viewer").string();
-  const test::ServerThread server(config);
+  const test::ServerThread server(test::servingLayersIn(tiles_dir));
   fs::resize_file(archive, data_offset);
-  const auto tilejson = nlohmann::json::parse(test::get(server.port(), "/cut/tilejson.json")->body);
-  // The tile under the layer's centre.
-  const double lon = tilejson.at("center").at(0).get<double>(), lat = tilejson.at("center").at(1).get<double>() * M_PI / 180;
-  const TileId tile{10, int(std::floor((lon + 180) / 360 * 1024)),
-                    int(std::floor((1 - std::asinh(std::tan(lat)) / M_PI) / 2 * 1024))};
+  const TileId tile = zoom10TileAtCentre(nlohmann::json::parse(test::get(server.port(), "/cut/tilejson.json")->body));
   const auto answer = test::get(server.port(), "/cut/" + io::relativeTilePath(tile, io::TileFormat::kPng));
   ASSERT_TRUE(answer);
   EXPECT_EQ(answer->status, 500);
@@ -259,29 +261,18 @@ TEST(Pmtiles, AnUnreadableTileIsA500ThatNamesNoLocalPath) {
 // the layer made again as a folder is served from the folder.
 TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeavesAndMayComeBack) {
   const fs::path tiles_dir = test::caseDir() / "tiles";
-  config::TileJob job = coastJob("unused", OutputFormat::kPmtiles);
-  job.output_dir = tiles_dir.string();
-  job.layer = "again";
-  job.min_zoom = job.max_zoom = 10;
-  ASSERT_GT(pipeline::runTileJob(job).written, 0);
+  config::TileJob job = madeZoom10Layer(tiles_dir, "again");
   const fs::path archive = tiles_dir / "again.pmtiles";
   const auto someTile = [&] {
     const io::PmtilesReader reader(archive.string());
-    const auto tilejson = nlohmann::json::parse(reader.metadata());
-    const double lon = tilejson.at("center").at(0).get<double>();
-    const double lat = tilejson.at("center").at(1).get<double>() * M_PI / 180;
-    const TileId tile{10, int(std::floor((lon + 180) / 360 * 1024)),
-                      int(std::floor((1 - std::asinh(std::tan(lat)) / M_PI) / 2 * 1024))};
+    const TileId tile = zoom10TileAtCentre(nlohmann::json::parse(reader.metadata()));
     return std::make_pair(tile, reader.tile(tile).value_or(""));
   };
   const auto [tile, first_bytes] = someTile();
   ASSERT_FALSE(first_bytes.empty());
   const std::string url = "/again/" + io::relativeTilePath(tile, io::TileFormat::kPng);
 
-  config::ServeConfig config;
-  config.tiles_dir = tiles_dir.string();
-  config.port = 0;
-  config.viewer_dir = (tiles_dir / "no_viewer").string();
+  const config::ServeConfig config = test::servingLayersIn(tiles_dir);
   ASSERT_GT(config.cache_mib, 0) << "the tile cache is on";
   const test::ServerThread server(config);
   for (int k = 0; k < 2; ++k) {  // the second from the cache

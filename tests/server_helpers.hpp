@@ -110,6 +110,15 @@ inline Case makeCase(const std::string& live_backend = "cpu") {
   return c;
 }
 
+// A serve config of the layers in `tiles_dir`, on any free port, with no viewer.
+inline config::ServeConfig servingLayersIn(const std::filesystem::path& tiles_dir) {
+  config::ServeConfig config;
+  config.tiles_dir = tiles_dir.string();
+  config.port = 0;
+  config.viewer_dir = (tiles_dir / "no_viewer").string();
+  return config;
+}
+
 // A server's layer list holding just `layer`.
 inline std::vector<std::unique_ptr<server::LayerSource>> onlyLayer(std::unique_ptr<server::LayerSource> layer) {
   std::vector<std::unique_ptr<server::LayerSource>> layers;
