@@ -1,7 +1,6 @@
 #include "server/request_handler.hpp"
 
 #include <algorithm>
-
 #include <filesystem>
 #include <memory>
 #include <optional>

@@ -259,9 +259,9 @@ class Session : public std::enable_shared_from_this<Session> {
 
  private:
   // Reads until the buffer holds a request line, within the read timeout
-  // from `started` on; drops the empty lines before it (RFC 9112 2.2) and
-  // reads a later HTTP/1.x as HTTP/1.1, which the parser would refuse; then
-  // the head.
+  // (`started`: set already, for a line still coming in); drops the empty
+  // lines before it (RFC 9112 2.2) and reads a later HTTP/1.x as HTTP/1.1,
+  // which the parser would refuse; then the head.
   void readRequestLine(bool started = false) {
     if (m_closing || m_server.stopping) return m_stream.close();
     if (!started) m_stream.expires_after(m_server.read_timeout);
