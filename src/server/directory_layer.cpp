@@ -1,6 +1,5 @@
 #include "server/directory_layer.hpp"
 
-#include <cstdint>
 #include <memory>
 #include <stdexcept>
 
@@ -41,7 +40,7 @@ DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& fo
             if (!tilejson) return std::nullopt;
             return *tilejson + " " + m_folder.etag(io::kElevationTileJsonFile).value_or("");
           },
-          [this](std::uint64_t /*generation*/) {
+          [this] {
             std::string tilejson = tileJsonText(m_folder);
             TileCoverage coverage = coverageOf(io::readTileJson(tilejson));
             return std::make_shared<const Description>(

@@ -3,7 +3,6 @@
 #include <sys/stat.h>
 
 #include <cerrno>
-#include <cstdint>
 #include <stdexcept>
 
 #include "io/tile_files.hpp"
@@ -51,7 +50,7 @@ MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
             return fileIdentity(info) + " " + std::to_string(info.st_size) + " " +
                    std::to_string(info.st_mtim.tv_sec) + "." + std::to_string(info.st_mtim.tv_nsec);
           },
-          [this](std::uint64_t /*generation*/) { return describe(); }) {}
+          [this] { return describe(); }) {}
 
 MbtilesLayer::~MbtilesLayer() = default;
 
@@ -63,7 +62,8 @@ std::shared_ptr<const MbtilesLayer::Description> MbtilesLayer::describe() {
   if (::stat(m_path.c_str(), &info) != 0) throw std::runtime_error("cannot stat " + m_path);
   const std::string tilejson = tileJsonText(*file);
   const auto read = io::readTileJson(tilejson);
-  auto description = std::make_shared<const Description>(Description{fileIdentity(info), tilejson, coverageOf(read), read.tms_rows});
+  auto description =
+      std::make_shared<const Description>(Description{fileIdentity(info), tilejson, coverageOf(read), read.tms_rows});
   giveBack(description->file, std::move(file));
   return description;
 }

@@ -1,5 +1,7 @@
 #include "server/pmtiles_layer.hpp"
 
+#include <atomic>
+#include <cstdint>
 #include <filesystem>
 #include <stdexcept>
 
@@ -34,6 +36,14 @@ std::map<io::TileFormat, std::unique_ptr<io::PmtilesReader>> openArchives(const 
   return readers;
 }
 
+// Numbers no two openings of archives in the process share, so that a tile
+// kept from one is never taken for one of another, made later under the
+// same name.
+std::uint64_t nextGeneration() {
+  static std::atomic<std::uint64_t> next{1};
+  return next++;
+}
+
 }  // namespace
 
 struct PmtilesLayer::Archives {
@@ -44,8 +54,8 @@ struct PmtilesLayer::Archives {
   TileCoverage coverage;
   std::string elevation_tilejson;  // empty: no elevation archive
 
-  Archives(const std::string& path, std::uint64_t number)
-      : generation(number),
+  explicit Archives(const std::string& path)
+      : generation(nextGeneration()),
         readers(openArchives(path)),
         tilejson(tileJsonOf(*readers.at(io::TileFormat::kPng))),
         coverage(coverageOf(io::readTileJson(tilejson))) {
@@ -61,7 +71,7 @@ PmtilesLayer::PmtilesLayer(std::string name, const std::string& path)
       m_archives(
           "layer " + m_name + ": " + path,
           [this, file_name = fs::path(path).filename().string()] { return m_folder.etag(file_name); },
-          [path](std::uint64_t generation) { return std::make_shared<const Archives>(path, generation); }) {}
+          [path] { return std::make_shared<const Archives>(path); }) {}
 
 PmtilesLayer::~PmtilesLayer() = default;
 

@@ -3,9 +3,7 @@
 // area it covers, its opened archives), read again when they change: a run
 // made again or extended while the server runs. Internal to the server
 // module.
-#include <atomic>
 #include <chrono>
-#include <cstdint>
 #include <exception>
 #include <functional>
 #include <memory>
@@ -19,23 +17,14 @@
 
 namespace terrabake::server {
 
-// Numbers no two states of the process share, so that what was read from
-// one layer's files is never taken for what another, made later under the
-// same name, reads.
-inline std::uint64_t nextStateGeneration() {
-  static std::atomic<std::uint64_t> next{1};
-  return next++;
-}
-
 template <class State>
 class StoredState {
  public:
   // What identifies the files' version now (an ETag, an inode and a
   // time), nullopt when they are gone; throws when it cannot be told.
   using Stamp = std::function<std::optional<std::string>()>;
-  // The state of the files as they are now, numbered `generation`
-  // (nextStateGeneration()); throws when they cannot be read.
-  using Read = std::function<std::shared_ptr<const State>(std::uint64_t generation)>;
+  // The state of the files as they are now; throws when they cannot be read.
+  using Read = std::function<std::shared_ptr<const State>()>;
 
   // How long a change may go unnoticed: a look costs a stat or two, made by
   // whichever request comes first once this has passed since the last.
@@ -45,7 +34,7 @@ class StoredState {
   StoredState(std::string what, Stamp stamp, Read read)
       : m_what(std::move(what)), m_stamp_of(std::move(stamp)), m_read(std::move(read)) {
     m_stamp = m_stamp_of().value_or("");
-    m_state = m_read(nextStateGeneration());
+    m_state = m_read();
     m_next_look = std::chrono::steady_clock::now() + kLookInterval;
   }
 
@@ -66,7 +55,7 @@ class StoredState {
     m_gone = !stamp;
     if (m_gone || *stamp == m_stamp || *stamp == m_unreadable) return m_gone ? nullptr : m_state;
     try {
-      m_state = m_read(nextStateGeneration());
+      m_state = m_read();
       m_stamp = *stamp;
       m_unreadable.clear();
       log::info(m_what + " changed: read again");
