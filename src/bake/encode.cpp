@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <stdexcept>
 #include <vector>
 
@@ -64,6 +65,7 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
   Image<std::uint16_t> image;
   image.width = image.height = map.size;
   image.channels = 3;
+  image.pixels.reserve(map.texels.size() * 3 + 3);  // the quantisation's padding, below
   image.pixels.resize(map.texels.size() * 3);
   // The components in image order first, so that they are quantised as
   // plain numbers, several at a time.
@@ -80,11 +82,15 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
   }
   // Four at a time (GCC and Clang vector extensions), the same double
   // arithmetic in each lane as one value alone; three components of padding
-  // keep the last four read inside.
+  // keep the last four read inside, and the last four stored land in
+  // padding too, cut off at the end.
   using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
   using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
   using Whole = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
-  for (std::size_t k = 0; k < image.pixels.size(); k += 4) {
+  using Samples = std::uint16_t __attribute__((vector_size(4 * sizeof(std::uint16_t))));
+  const std::size_t count = image.pixels.size();
+  image.pixels.resize(count + 3);
+  for (std::size_t k = 0; k < count; k += 4) {
     Lanes c = {components[k], components[k + 1], components[k + 2], components[k + 3]};
     const Mask small = (c > -kZeroSnap) & (c < kZeroSnap);
     c = small ? Lanes{} : c;
@@ -93,11 +99,10 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
     // Round half up: the value is never negative, so truncating it plus a
     // half rounds it.
     const Lanes q = (c * 0.5 + 0.5) * max_value + 0.5;
-    const Whole whole = __builtin_convertvector(q, Whole);
-    for (std::size_t lane = 0; lane < 4 && k + lane < image.pixels.size(); ++lane) {
-      image.pixels[k + lane] = std::uint16_t(whole[lane]);
-    }
+    const Samples samples = __builtin_convertvector(__builtin_convertvector(q, Whole), Samples);
+    std::memcpy(&image.pixels[k], &samples, sizeof samples);
   }
+  image.pixels.resize(count);
   return image;
 }
 

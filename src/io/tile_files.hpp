@@ -41,28 +41,12 @@ TempFile createTempFile(const std::string& path);
 // process of this host that no longer runs, or any writer over a minute ago.
 bool isAbandonedTempFile(const std::string& path);
 
-// How PNG rows are compressed: libpng's row filters (a PNG_FILTER_* mask; 0:
-// libpng's default, which tries all five per row), then zlib with a strategy
-// and a level. Levels choose how hard LZ77 searches, so they matter only
-// with kLz77. The default is what tiles use, chosen by measurement
-// (docs/performance.md, "PNG encoding"): after Paeth, zlib's run-length
-// matches code the flat stretches of a map (sea, plains, smooth slopes)
-// in a fraction of the bytes, while a map of varied terrain, whose
-// residuals rarely repeat, is smaller and quicker to code with Huffman
-// codes alone. kRunLengthOrHuffman takes run-length matches for an image
-// where many pixels repeat their left neighbour, Huffman codes alone for
-// the others.
-enum class ZlibStrategy { kLz77, kRunLength, kHuffmanOnly, kRunLengthOrHuffman };
-struct PngCompression {
-  int level = 2;
-  int filters = 0x80;  // PNG_FILTER_PAETH
-  ZlibStrategy strategy = ZlibStrategy::kRunLengthOrHuffman;
-};
-
 // PNG bytes of an RGB or RGBA image whose samples are 8-bit (0..255) or
-// 16-bit (0..65535) values. Linear data: no sRGB or gamma chunk; alpha is
-// stored as given (unassociated), colour is never premultiplied by it.
-std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits, PngCompression compression = {});
+// 16-bit (0..65535) values, every row Paeth-filtered and deflated by
+// zlibCompress (io/deflate.hpp). Linear data: no sRGB or gamma chunk;
+// alpha is stored as given (unassociated), colour is never premultiplied
+// by it.
+std::vector<std::uint8_t> encodePng(const Image<std::uint16_t>& image, int bits);
 
 // Where a tile's mesh sits on the globe and which image it wears.
 struct GlbInfo {

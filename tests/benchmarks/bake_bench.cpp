@@ -103,7 +103,6 @@ struct BenchData {
   std::map<int, SyntheticTile> synthetic;  // by tile size
   bake::NormalMap normal_map;              // CPU bake of the 256 synthetic tile, to encode
   mesh::SampleGrid sample_grid;            // a 256 window of the bundled sample DEM (30 m texels)
-  bake::NormalMap sample_normal_map;       // its CPU bake, with the grid mesh
 };
 
 BenchData& benchData() {
@@ -138,7 +137,7 @@ void prepareBenchData() {
   const SyntheticTile& tile = data.synthetic.at(kTileSize);
   data.normal_map = bake::CpuBaker().bake(tile.high, tile.low, kTileSize);
 
-  // Real terrain for the PNG cases: the sample DEM's own pixels (30 m) round its middle.
+  // Real terrain for the adaptive mesher's cases: the sample DEM's own pixels (30 m) round its middle.
   const dem::DemSource sample({std::string(TERRABAKE_SOURCE_DIR) + "/tests/data/sample_dem.tif"});
   const GridSpec& grid = sample.info().grid;
   const Raster<float> pixels = sample.read(grid, sample.planFor(grid));
@@ -148,8 +147,6 @@ void prepareBenchData() {
     return double(pixels.at(c, r));
   };
   data.sample_grid = test::sampleHeightField(sample_height, kTileSize, kGrid, grid.cell_w);
-  data.sample_normal_map = bake::CpuBaker().bake(mesh::buildHighResMesh(data.sample_grid),
-                                                 mesh::buildLowPolyMesh(data.sample_grid, kGrid), kTileSize);
 }
 
 // GlBaker::bake does not make its context current, so at most one GL user (a
@@ -285,22 +282,6 @@ void benchEncodePng(benchmark::State& state) {
   }
 }
 
-// PNG compression settings against each other (docs/performance.md, "PNG encoding"), on
-// a normal map of the sample DEM's real terrain and on the smooth synthetic
-// one: time, and bytes as a counter.
-void benchPngCompression(benchmark::State& state, io::PngCompression compression, bool real_terrain) {
-  const BenchData& data = benchData();
-  const Image<std::uint16_t> image =
-      bake::encodeNormalMap(real_terrain ? data.sample_normal_map : data.normal_map, 8, Green::kUp);
-  std::size_t bytes = 0;
-  for (auto _ : state) {
-    const std::vector<std::uint8_t> png = io::encodePng(image, 8, compression);
-    bytes = png.size();
-    benchmark::DoNotOptimize(png.data());
-  }
-  state.counters["KiB"] = double(bytes) / 1024;
-}
-
 void benchEncodeGlb(benchmark::State& state) {
   const mesh::TriangleMesh& low = benchData().synthetic.at(kTileSize).low;
   io::GlbInfo info;
@@ -399,30 +380,6 @@ void registerBenchmarks() {
   benchmark::RegisterBenchmark("BM_HoleFill", benchHoleFill)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodePng", benchEncodePng)->Unit(benchmark::kMillisecond)->UseRealTime();
   benchmark::RegisterBenchmark("BM_EncodeGlb", benchEncodeGlb)->Unit(benchmark::kMillisecond)->UseRealTime();
-  constexpr std::pair<const char*, int> kPngFilters[] = {{"default", 0}, {"sub", 0x10}, {"up", 0x20}, {"paeth", 0x80}};
-  struct Deflate {
-    const char* name;
-    int level;
-    io::ZlibStrategy strategy;
-  };
-  constexpr Deflate kDeflates[] = {{"level1", 1, io::ZlibStrategy::kLz77},
-                                   {"level2", 2, io::ZlibStrategy::kLz77},
-                                   {"level4", 4, io::ZlibStrategy::kLz77},
-                                   {"level6", 6, io::ZlibStrategy::kLz77},
-                                   {"rle", 2, io::ZlibStrategy::kRunLength},
-                                   {"huffman", 2, io::ZlibStrategy::kHuffmanOnly}};
-  for (const bool real_terrain : {true, false}) {
-    for (const Deflate& deflate : kDeflates) {
-      for (const auto& [filter_name, filters] : kPngFilters) {
-        const std::string name = std::string("BM_PngCompression/") + (real_terrain ? "sample" : "synthetic") + "/" +
-                                 deflate.name + "/" + filter_name;
-        benchmark::RegisterBenchmark(name.c_str(), benchPngCompression,
-                                     io::PngCompression{deflate.level, filters, deflate.strategy}, real_terrain)
-            ->Unit(benchmark::kMillisecond)
-            ->UseRealTime();
-      }
-    }
-  }
   for (const BackendCase& backend : kBackends) {
     benchmark::RegisterBenchmark((std::string("BM_WholeTile/") + backend.name).c_str(), benchWholeTile, backend)
         ->MinTime(kWholeTileMinTimeS)
