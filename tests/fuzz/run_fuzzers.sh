@@ -29,7 +29,7 @@ else
   (cd "$repo" && cmake --workflow --preset fuzz) >&2
 fi
 
-targets=(config route tile_path pmtiles)
+targets=(config route tile_path pmtiles png)
 # Leaks count as crashes (libFuzzer's -detect_leaks, on by default);
 # UBSan stops at its first report (-fno-sanitize-recover) with a stack.
 export ASAN_OPTIONS=${ASAN_OPTIONS:-abort_on_error=1:detect_leaks=1}
