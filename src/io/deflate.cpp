@@ -195,10 +195,13 @@ HuffmanCode fittedCode(const std::vector<std::uint32_t>& frequency, int max_bits
   return canonicalCode(huffmanLengths(frequency, max_bits));
 }
 
-// A block's symbols: a byte (0-255) or a run of the byte before, its length
-// plus 256 (259-514).
-using Token = std::uint16_t;
-constexpr Token kRunTokenBase = 256;
+// A block's content: stretches of bytes coded one by one, each followed by
+// a run of its last byte (run 0: none, at the block's end).
+struct Stretch {
+  std::size_t first;
+  std::size_t count;
+  std::size_t run;
+};
 
 // The code-length sequence of a block header, run-length coded with
 // symbols 16 (repeat the last length 3-6 times), 17 (3-10 zeros) and 18
@@ -230,16 +233,27 @@ std::vector<CodeLengthToken> codeLengthTokens(const std::vector<std::uint8_t>& l
   return out;
 }
 
-void writeBlock(BitWriter& out, const Token* tokens, std::size_t count, bool last) {
+void writeBlock(BitWriter& out, const std::uint8_t* data, const std::vector<Stretch>& stretches, bool last) {
+  // Bytes are counted in four tables, a byte in each in turn: in a stretch
+  // of one byte value each count would otherwise wait for the one before.
+  std::array<std::array<std::uint32_t, 256>, 4> byte_counts{};
   std::vector<std::uint32_t> literal_frequency(kLiteralLengthSymbols, 0), distance_frequency(kDistanceSymbols, 0);
-  for (std::size_t k = 0; k < count; ++k) {
-    const Token t = tokens[k];
-    if (t < kRunTokenBase) {
-      ++literal_frequency[t];
-    } else {
-      ++literal_frequency[std::size_t(257 + kLengthSymbols.index[t - kRunTokenBase])];
+  std::size_t bytes = 0;
+  for (const Stretch& stretch : stretches) {
+    const std::uint8_t* p = data + stretch.first;
+    std::size_t k = 0;
+    for (; k + 4 <= stretch.count; k += 4) {
+      ++byte_counts[0][p[k]], ++byte_counts[1][p[k + 1]], ++byte_counts[2][p[k + 2]], ++byte_counts[3][p[k + 3]];
+    }
+    for (; k < stretch.count; ++k) ++byte_counts[0][p[k]];
+    bytes += stretch.count;
+    if (stretch.run > 0) {
+      ++literal_frequency[257 + kLengthSymbols.index[stretch.run]];
       ++distance_frequency[0];  // distance 1
     }
+  }
+  for (std::size_t b = 0; b < 256; ++b) {
+    literal_frequency[b] = byte_counts[0][b] + byte_counts[1][b] + byte_counts[2][b] + byte_counts[3][b];
   }
   literal_frequency[kEndOfBlock] = 1;
   const HuffmanCode literals = fittedCode(literal_frequency, kMaxCodeBits);
@@ -257,8 +271,8 @@ void writeBlock(BitWriter& out, const Token* tokens, std::size_t count, bool las
   std::size_t header_count = kCodeLengthSymbols;
   while (header_count > 4 && header_code.length[std::size_t(kCodeLengthOrder[header_count - 1])] == 0) --header_count;
 
-  // Every token takes at most 15 + 5 + 15 bits; the header less than 400 bytes.
-  out.reserve(count * 5 + 512);
+  // A byte takes at most 15 bits, a run 15 + 5 + 15; the header less than 400 bytes.
+  out.reserve(2 * bytes + 5 * stretches.size() + 512);
   out.put(last ? 1 : 0, 1);
   out.put(2, 2);  // dynamic Huffman codes
   out.put(literal_count - 257, 5);
@@ -276,18 +290,27 @@ void writeBlock(BitWriter& out, const Token* tokens, std::size_t count, bool las
     out.put(t.extra, kExtraBits[t.symbol]);
     out.flush();
   }
-  for (std::size_t k = 0; k < count; ++k) {
-    const Token t = tokens[k];
-    if (t < kRunTokenBase) {
-      out.put(literals.code[t], literals.length[t]);
-    } else {
-      const int run = t - kRunTokenBase;
-      const std::size_t s = kLengthSymbols.index[std::size_t(run)];
-      out.put(literals.code[257 + s], literals.length[257 + s]);
-      out.put(std::uint32_t(run - kLengthBase[s]), kLengthExtraBits[s]);
-      out.put(distances.code[0], distances.length[0]);
+  for (const Stretch& stretch : stretches) {
+    const std::uint8_t* p = data + stretch.first;
+    std::size_t k = 0;
+    // Three bytes' codes (45 bits at most) fit beside the seven a flush may leave.
+    for (; k + 3 <= stretch.count; k += 3) {
+      out.put(literals.code[p[k]], literals.length[p[k]]);
+      out.put(literals.code[p[k + 1]], literals.length[p[k + 1]]);
+      out.put(literals.code[p[k + 2]], literals.length[p[k + 2]]);
+      out.flush();
     }
-    out.flush();
+    for (; k < stretch.count; ++k) {
+      out.put(literals.code[p[k]], literals.length[p[k]]);
+      out.flush();
+    }
+    if (stretch.run > 0) {
+      const std::size_t s = kLengthSymbols.index[stretch.run];
+      out.put(literals.code[257 + s], literals.length[257 + s]);
+      out.put(std::uint32_t(stretch.run - std::size_t(kLengthBase[s])), kLengthExtraBits[s]);
+      out.put(distances.code[0], distances.length[0]);
+      out.flush();
+    }
   }
   out.put(literals.code[kEndOfBlock], literals.length[kEndOfBlock]);
   out.flush();
@@ -311,28 +334,30 @@ std::vector<std::uint8_t> zlibCompress(const std::uint8_t* data, std::size_t siz
   bits.put(0x01, 8);
   bits.flush();
 
-  std::vector<Token> tokens(std::min(size, kBlockBytes));
+  std::vector<Stretch> stretches;
   std::size_t k = 0;
   do {
     // A run may reach past the block's end; the next block starts where it ends.
     const std::size_t block_end = std::min(size, k + kBlockBytes);
-    std::size_t count = 0;
+    stretches.clear();
     // The first byte has none before it to repeat.
-    if (k == 0 && size > 0) tokens[count++] = data[k++];
+    std::size_t first = k;
+    if (k == 0 && size > 0) ++k;
     while (k < block_end) {
       // Most bytes start no run: one comparison of kMinRun bytes at once tells.
       std::uint64_t next = 0;
       if (k + kMinRun <= size) std::memcpy(&next, data + k, sizeof next);
-      const bool may_run = k + kMinRun <= size && next == data[k - 1] * 0x0101010101010101ull;
-      const std::size_t run = may_run ? runAt(data, k, std::min<std::size_t>(kMaxMatch, size - k)) : 0;
-      if (run >= kMinRun) {
-        tokens[count++] = Token(kRunTokenBase + run);
+      if (k + kMinRun <= size && next == data[k - 1] * 0x0101010101010101ull) {
+        const std::size_t run = runAt(data, k, std::min<std::size_t>(kMaxMatch, size - k));
+        stretches.push_back({first, k - first, run});
         k += run;
+        first = k;
       } else {
-        tokens[count++] = data[k++];
+        ++k;
       }
     }
-    writeBlock(bits, tokens.data(), count, k >= size);
+    if (k > first || stretches.empty()) stretches.push_back({first, k - first, 0});
+    writeBlock(bits, data, stretches, k >= size);
   } while (k < size);
   std::size_t end = bits.finish();
   const std::uint32_t adler = std::uint32_t(adler32_z(adler32(0, nullptr, 0), data, size));
