@@ -5,7 +5,6 @@
 #include <algorithm>
 #include <array>
 #include <cstring>
-#include <stdexcept>
 
 namespace terrabake::io {
 namespace {
@@ -55,7 +54,9 @@ struct LengthSymbols {
 const LengthSymbols kLengthSymbols;
 
 // Bits written least significant first, as deflate packs them: put() adds
-// up to 56 bits, flush() writes out the whole bytes without a branch.
+// bits to a 64-bit buffer, flush() writes out its whole bytes without a
+// branch and leaves at most 7, so up to 57 bits may be put between flushes.
+static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "flush() stores the buffer's bytes as they lie");
 class BitWriter {
  public:
   explicit BitWriter(std::vector<std::uint8_t>& out) : m_out(out) {}
@@ -71,7 +72,7 @@ class BitWriter {
   }
 
   void flush() {
-    std::memcpy(&m_out[m_at], &m_bits, sizeof m_bits);  // little-endian, as deflate wants
+    std::memcpy(&m_out[m_at], &m_bits, sizeof m_bits);
     const int whole = m_count & ~7;
     m_at += std::size_t(whole / 8);
     m_bits = whole == 64 ? 0 : m_bits >> whole;
@@ -115,8 +116,9 @@ std::vector<std::uint8_t> huffmanLengths(std::vector<std::uint32_t> frequency, i
     }
   }
   std::sort(used.begin(), used.end(), [&](int a, int b) {
-    return frequency[std::size_t(a)] != frequency[std::size_t(b)] ? frequency[std::size_t(a)] < frequency[std::size_t(b)]
-                                                                  : a < b;
+    return frequency[std::size_t(a)] != frequency[std::size_t(b)]
+               ? frequency[std::size_t(a)] < frequency[std::size_t(b)]
+               : a < b;
   });
 
   // Huffman's tree by two queues: the leaves in rising frequency, then the
@@ -127,7 +129,8 @@ std::vector<std::uint8_t> huffmanLengths(std::vector<std::uint32_t> frequency, i
   for (int k = 0; k < leaves; ++k) weight[std::size_t(k)] = frequency[std::size_t(used[std::size_t(k)])];
   int next_leaf = 0, next_joined = leaves;
   const auto lightest = [&](int joined_end) {
-    if (next_leaf < leaves && (next_joined >= joined_end || weight[std::size_t(next_leaf)] <= weight[std::size_t(next_joined)])) {
+    if (next_leaf < leaves &&
+        (next_joined >= joined_end || weight[std::size_t(next_leaf)] <= weight[std::size_t(next_joined)])) {
       return next_leaf++;
     }
     return next_joined++;
@@ -218,7 +221,10 @@ std::vector<CodeLengthToken> codeLengthTokens(const std::vector<std::uint8_t>& l
     while (k + run < lengths.size() && lengths[k + run] == value) ++run;
     k += run;
     if (value == 0) {
-      for (; run >= 11; run -= std::min<std::size_t>(run, 138)) out.push_back({18, std::uint8_t(std::min<std::size_t>(run, 138) - 11)});
+      for (std::size_t n; run >= 11; run -= n) {
+        n = std::min<std::size_t>(run, 138);
+        out.push_back({18, std::uint8_t(n - 11)});
+      }
       if (run >= 3) {
         out.push_back({17, std::uint8_t(run - 3)});
         run = 0;
@@ -226,7 +232,10 @@ std::vector<CodeLengthToken> codeLengthTokens(const std::vector<std::uint8_t>& l
     } else {
       out.push_back({value, 0});
       --run;
-      for (; run >= 3; run -= std::min<std::size_t>(run, 6)) out.push_back({16, std::uint8_t(std::min<std::size_t>(run, 6) - 3)});
+      for (std::size_t n; run >= 3; run -= n) {
+        n = std::min<std::size_t>(run, 6);
+        out.push_back({16, std::uint8_t(n - 3)});
+      }
     }
     for (; run > 0; --run) out.push_back({value, 0});
   }

@@ -24,9 +24,14 @@ void checkImage(const Image<std::uint16_t>& image, int bits) {
   }
 }
 
-// Sixteen bytes of a row at a time, widened so that the predictor's sums
-// cannot wrap (GCC and Clang vector extensions).
+// Several bytes of a row at a time, widened so that the predictor's sums
+// cannot wrap (GCC and Clang vector extensions): as many as fill a vector
+// register once widened.
+#if defined(__AVX2__)
 constexpr std::size_t kLanes = 16;
+#else
+constexpr std::size_t kLanes = 8;
+#endif
 using Bytes = std::uint8_t __attribute__((vector_size(kLanes)));
 using Wide = std::int16_t __attribute__((vector_size(2 * kLanes)));
 

@@ -77,7 +77,8 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     const std::size_t pixel_bytes = std::size_t(image.channels * bits / 8);
     image.height = int((size - 2) / (std::size_t(image.width) * pixel_bytes));
     if (image.height == 0) return;
-    for (std::size_t k = 2; image.pixels.size() < std::size_t(image.width) * std::size_t(image.height) * std::size_t(image.channels);
+    for (std::size_t k = 2;
+         image.pixels.size() < std::size_t(image.width) * std::size_t(image.height) * std::size_t(image.channels);
          k += std::size_t(bits / 8)) {
       image.pixels.push_back(bits == 8 ? data[k] : std::uint16_t(data[k] << 8 | data[k + 1]));
     }
