@@ -199,7 +199,7 @@ HuffmanCode fittedCode(const std::vector<std::uint32_t>& frequency, int max_bits
 }
 
 // A block's content: stretches of bytes coded one by one, each followed by
-// a run of its last byte (run 0: none, at the block's end).
+// a run repeating the byte before the run (run 0: none, at the block's end).
 struct Stretch {
   std::size_t first;
   std::size_t count;
@@ -325,6 +325,15 @@ void writeBlock(BitWriter& out, const std::uint8_t* data, const std::vector<Stre
   out.flush();
 }
 
+// Whether a run long enough to code starts at `at` (> 0): most bytes start
+// none, and one comparison of its kMinRun bytes at once tells.
+bool startsRun(const std::uint8_t* data, std::size_t at, std::size_t size) {
+  if (at + kMinRun > size) return false;
+  std::uint64_t next;
+  std::memcpy(&next, data + at, sizeof next);
+  return next == data[at - 1] * 0x0101010101010101ull;
+}
+
 // The number of bytes from `at` on, up to `most`, that repeat the byte before `at`.
 std::size_t runAt(const std::uint8_t* data, std::size_t at, std::size_t most) {
   std::size_t run = 0;
@@ -353,10 +362,7 @@ std::vector<std::uint8_t> zlibCompress(const std::uint8_t* data, std::size_t siz
     std::size_t first = k;
     if (k == 0 && size > 0) ++k;
     while (k < block_end) {
-      // Most bytes start no run: one comparison of kMinRun bytes at once tells.
-      std::uint64_t next = 0;
-      if (k + kMinRun <= size) std::memcpy(&next, data + k, sizeof next);
-      if (k + kMinRun <= size && next == data[k - 1] * 0x0101010101010101ull) {
+      if (startsRun(data, k, size)) {
         const std::size_t run = runAt(data, k, std::min<std::size_t>(kMaxMatch, size - k));
         stretches.push_back({first, k - first, run});
         k += run;
