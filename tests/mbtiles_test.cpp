@@ -538,12 +538,16 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   EXPECT_EQ(wrong, 0);
 
   // A layer removed while served: the file's connections would read it on,
-  // but within a second it answers 404 and, as a folder layer whose
-  // tilejson.json went, is no longer listed.
+  // but within a second it answers 404, holds the file open no more (its
+  // space is freed) and, as a folder layer whose tilejson.json went, is no
+  // longer listed.
+  const std::string packed_path = fs::absolute(mbtilesPath(job)).string();
   fs::remove(mbtilesPath(job));
   fs::remove(folder / "tilejson.json");
+  EXPECT_GT(test::removedFilesHeldOpen(packed_path), 0) << "the connections the requests above opened";
   EXPECT_TRUE(test::waitFor(
       [&] { return test::statusOf(server.port(), "/packed/" + tiles.front().str() + ".png") == 404; }));
+  EXPECT_EQ(test::removedFilesHeldOpen(packed_path), 0);
   EXPECT_TRUE(test::waitFor([&] {
     const auto listed = client.Get("/layers.json");
     return listed && listed->status == 200 && Json::parse(listed->body).at("layers") == Json::array();

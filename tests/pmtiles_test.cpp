@@ -296,7 +296,11 @@ TEST(Pmtiles, AServedLayerMadeAgainIsServedFromItsNewArchivesAndARemovedOneLeave
   for (const char* name : {"again.pmtiles", "again.meshes.pmtiles", "again.hires.pmtiles", "again.elevation.pmtiles"}) {
     fs::remove(tiles_dir / name);
   }
+  const std::string archives = fs::absolute(tiles_dir / "again.").string();
+  EXPECT_GT(test::removedFilesHeldOpen(archives), 0) << "the archives the server opened";
   EXPECT_TRUE(test::waitFor([&] { return test::statusOf(server.port(), url) == 404; }));
+  // Closed once gone, so that their space is freed.
+  EXPECT_EQ(test::removedFilesHeldOpen(archives), 0);
   EXPECT_EQ(test::get(server.port(), "/layers.json")->body.find("\"again\""), std::string::npos);
   EXPECT_EQ(test::statusOf(server.port(), "/again/tilejson.json"), 404);
 

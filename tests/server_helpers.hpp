@@ -198,6 +198,23 @@ class Gate {
   bool m_open = false;
 };
 
+// How many of this process's open files were removed and named something
+// starting with `prefix` (an absolute path): /proc/self/fd links to a
+// removed file end in " (deleted)".
+inline int removedFilesHeldOpen(const std::string& prefix) {
+  int held = 0;
+  std::error_code ec;
+  for (const auto& fd : std::filesystem::directory_iterator("/proc/self/fd", ec)) {
+    const std::string target = std::filesystem::read_symlink(fd.path(), ec).string();
+    const std::string removed = " (deleted)";
+    if (!ec && target.rfind(prefix, 0) == 0 && target.size() >= removed.size() &&
+        target.compare(target.size() - removed.size(), removed.size(), removed) == 0) {
+      ++held;
+    }
+  }
+  return held;
+}
+
 // Polls `condition` for up to kWaitLimit.
 inline bool waitFor(const std::function<bool()>& condition) { return waitUntil(condition, kWaitLimit); }
 

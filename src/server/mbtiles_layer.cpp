@@ -50,7 +50,14 @@ MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
             return fileIdentity(info) + " " + std::to_string(info.st_size) + " " +
                    std::to_string(info.st_mtim.tv_sec) + "." + std::to_string(info.st_mtim.tv_nsec);
           },
-          [this] { return describe(); }) {}
+          [this] { return describe(); },
+          [this](const Description& description) {
+            // Idle connections would hold the removed file open.
+            const std::lock_guard<std::mutex> lock(m_mutex);
+            m_idle.clear();
+            m_removed = true;
+            return std::make_shared<const Description>(description);
+          }) {}
 
 MbtilesLayer::~MbtilesLayer() = default;
 
@@ -64,6 +71,10 @@ std::shared_ptr<const MbtilesLayer::Description> MbtilesLayer::describe() {
   const auto read = io::readTileJson(tilejson);
   auto description =
       std::make_shared<const Description>(Description{fileIdentity(info), tilejson, coverageOf(read), read.tms_rows});
+  {
+    const std::lock_guard<std::mutex> lock(m_mutex);
+    m_removed = false;
+  }
   giveBack(description->file, std::move(file));
   return description;
 }
@@ -118,6 +129,7 @@ std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow(const std::string& file) {
 
 void MbtilesLayer::giveBack(const std::string& file, std::unique_ptr<io::MbtilesFile> connection) {
   const std::lock_guard<std::mutex> lock(m_mutex);
+  if (m_removed) return;  // closes it
   if (file == m_idle_file || m_idle.empty()) m_idle_file = file, m_idle.push_back(std::move(connection));
 }
 

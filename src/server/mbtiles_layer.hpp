@@ -30,7 +30,8 @@ class MbtilesLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
-  // The file was removed: connections still open would read it on.
+  // The file was removed (its idle connections are then closed, so that its
+  // space is freed; a tile read at that moment closes its own after it).
   bool isGone() const override { return !m_description.current(); }
 
  private:
@@ -46,9 +47,10 @@ class MbtilesLayer : public LayerSource {
 
   std::string m_name;
   std::string m_path;
-  std::mutex m_mutex;  // guards the two below
+  std::mutex m_mutex;  // guards the three below
   std::vector<std::unique_ptr<io::MbtilesFile>> m_idle;
   std::string m_idle_file;  // the file the idle connections read
+  bool m_removed = false;   // the file is gone: connections given back are closed
   StoredState<Description> m_description;  // after the connections: reading it gives one back
 };
 

@@ -63,6 +63,15 @@ struct PmtilesLayer::Archives {
     const auto elevation = readers.find(io::TileFormat::kElevationPng);
     if (elevation != readers.end()) elevation_tilejson = tileJsonOf(*elevation->second);
   }
+
+  // A copy of `open` but for its readers, which hold the archives open.
+  struct WithoutReaders {};
+  Archives(const Archives& open, WithoutReaders)
+      : generation(open.generation),
+        files(open.files),
+        tilejson(open.tilejson),
+        coverage(open.coverage),
+        elevation_tilejson(open.elevation_tilejson) {}
 };
 
 PmtilesLayer::PmtilesLayer(std::string name, const std::string& path)
@@ -71,7 +80,10 @@ PmtilesLayer::PmtilesLayer(std::string name, const std::string& path)
       m_archives(
           "layer " + m_name + ": " + path,
           [this, file_name = fs::path(path).filename().string()] { return m_folder.etag(file_name); },
-          [path] { return std::make_shared<const Archives>(path); }) {}
+          [path] { return std::make_shared<const Archives>(path); },
+          [](const Archives& archives) {
+            return std::make_shared<const Archives>(archives, Archives::WithoutReaders{});
+          }) {}
 
 PmtilesLayer::~PmtilesLayer() = default;
 

@@ -25,14 +25,18 @@ class StoredState {
   using Stamp = std::function<std::optional<std::string>()>;
   // The state of the files as they are now; throws when they cannot be read.
   using Read = std::function<std::shared_ptr<const State>()>;
+  // What to keep of a state once its files are gone: all but what holds
+  // them open, so that a removed file's space is freed while the server
+  // runs. Empty: the state is kept as it is.
+  using Release = std::function<std::shared_ptr<const State>(const State&)>;
 
   // How long a change may go unnoticed: a look costs a stat or two, made by
   // whichever request comes first once this has passed since the last.
   static constexpr std::chrono::seconds kLookInterval{1};
 
   // Reads the files now; throws as `read` does. `what` names them in the log.
-  StoredState(std::string what, Stamp stamp, Read read)
-      : m_what(std::move(what)), m_stamp_of(std::move(stamp)), m_read(std::move(read)) {
+  StoredState(std::string what, Stamp stamp, Read read, Release release = {})
+      : m_what(std::move(what)), m_stamp_of(std::move(stamp)), m_read(std::move(read)), m_release(std::move(release)) {
     m_stamp = m_stamp_of().value_or("");
     m_state = m_read();
     m_next_look = std::chrono::steady_clock::now() + kLookInterval;
@@ -53,9 +57,14 @@ class StoredState {
       return m_gone ? nullptr : m_state;  // there but unreadable now: the state read before goes on
     }
     m_gone = !stamp;
-    if (m_gone || *stamp == m_stamp || *stamp == m_unreadable) return m_gone ? nullptr : m_state;
+    if (m_gone) {
+      releaseLocked();
+      return nullptr;
+    }
+    if (*stamp == m_stamp || *stamp == m_unreadable) return m_state;
     try {
       m_state = m_read();
+      m_released = false;
       m_stamp = *stamp;
       m_unreadable.clear();
       log::info(m_what + " changed: read again");
@@ -71,7 +80,7 @@ class StoredState {
     return m_state;
   }
 
-  // The state read last, gone or not.
+  // The state read last, gone or not (once gone, what Release kept of it).
   std::shared_ptr<const State> last() const {
     current();
     const std::lock_guard<std::mutex> lock(m_mutex);
@@ -79,14 +88,23 @@ class StoredState {
   }
 
  private:
+  void releaseLocked() const {
+    if (!m_release || m_released) return;
+    m_state = m_release(*m_state);
+    m_released = true;
+    m_stamp.clear();  // files back under the same stamp are read again, opened anew
+  }
+
   std::string m_what;
   Stamp m_stamp_of;
   Read m_read;
+  Release m_release;
   mutable std::mutex m_mutex;  // guards the members below
   mutable std::shared_ptr<const State> m_state;
   mutable std::string m_stamp;       // of the files m_state was read from
   mutable std::string m_unreadable;  // of the last change that could not be read, not tried again; "" none
   mutable bool m_gone = false;
+  mutable bool m_released = false;  // m_state is what m_release kept
   mutable std::chrono::steady_clock::time_point m_next_look;
 };
 
