@@ -59,11 +59,15 @@ const LengthSymbols kLengthSymbols;
 static_assert(__BYTE_ORDER__ == __ORDER_LITTLE_ENDIAN__, "flush() stores the buffer's bytes as they lie");
 class BitWriter {
  public:
-  explicit BitWriter(std::vector<std::uint8_t>& out) : m_out(out) {}
+  explicit BitWriter(std::vector<std::uint8_t>& out) : m_out(&out), m_at(out.data()) {}
 
   // Room for `bytes` more whole bytes, and for flush()'s eight-byte stores.
   void reserve(std::size_t bytes) {
-    if (m_out.size() < m_at + bytes + 16) m_out.resize(std::max(m_out.size() * 2, m_at + bytes + 16));
+    const std::size_t written = std::size_t(m_at - m_out->data());
+    if (m_out->size() < written + bytes + 16) {
+      m_out->resize(std::max(m_out->size() * 2, written + bytes + 16));
+      m_at = m_out->data() + written;
+    }
   }
 
   void put(std::uint64_t value, int count) {
@@ -72,9 +76,9 @@ class BitWriter {
   }
 
   void flush() {
-    std::memcpy(&m_out[m_at], &m_bits, sizeof m_bits);
+    std::memcpy(m_at, &m_bits, sizeof m_bits);
     const int whole = m_count & ~7;
-    m_at += std::size_t(whole / 8);
+    m_at += whole / 8;
     m_bits = whole == 64 ? 0 : m_bits >> whole;
     m_count -= whole;
   }
@@ -83,12 +87,12 @@ class BitWriter {
   std::size_t finish() {
     m_count = (m_count + 7) & ~7;
     flush();
-    return m_at;
+    return std::size_t(m_at - m_out->data());
   }
 
  private:
-  std::vector<std::uint8_t>& m_out;
-  std::size_t m_at = 0;
+  std::vector<std::uint8_t>* m_out;
+  std::uint8_t* m_at;  // the next whole byte
   std::uint64_t m_bits = 0;
   int m_count = 0;
 };
@@ -242,7 +246,11 @@ std::vector<CodeLengthToken> codeLengthTokens(const std::vector<std::uint8_t>& l
   return out;
 }
 
-void writeBlock(BitWriter& out, const std::uint8_t* data, const std::vector<Stretch>& stretches, bool last) {
+void writeBlock(BitWriter& writer, const std::uint8_t* data, const std::vector<Stretch>& stretches, bool last) {
+  // A copy of its own, whose address nothing takes: the compiler keeps it in
+  // registers, where the writer's bytes, which may alias anything, would
+  // otherwise make it store and load it again at every code.
+  BitWriter out = writer;
   // Bytes are counted in four tables, a byte in each in turn: in a stretch
   // of one byte value each count would otherwise wait for the one before.
   std::array<std::array<std::uint32_t, 256>, 4> byte_counts{};
@@ -299,18 +307,27 @@ void writeBlock(BitWriter& out, const std::uint8_t* data, const std::vector<Stre
     out.put(t.extra, kExtraBits[t.symbol]);
     out.flush();
   }
+  // Each byte's code and its length in one entry: one load a byte.
+  std::array<std::uint32_t, 256> byte_code{};
+  for (std::size_t b = 0; b < 256; ++b) byte_code[b] = literals.code[b] | std::uint32_t(literals.length[b]) << 16;
+  const auto putByte = [&](std::uint8_t byte) {
+    const std::uint32_t entry = byte_code[byte];
+    out.put(entry & 0xffff, int(entry >> 16));
+  };
   for (const Stretch& stretch : stretches) {
-    const std::uint8_t* p = data + stretch.first;
+    // Locals: the writer's stores might otherwise change them, for all the compiler knows.
+    const std::uint8_t* const p = data + stretch.first;
+    const std::size_t count = stretch.count;
     std::size_t k = 0;
     // Three bytes' codes (45 bits at most) fit beside the seven a flush may leave.
-    for (; k + 3 <= stretch.count; k += 3) {
-      out.put(literals.code[p[k]], literals.length[p[k]]);
-      out.put(literals.code[p[k + 1]], literals.length[p[k + 1]]);
-      out.put(literals.code[p[k + 2]], literals.length[p[k + 2]]);
+    for (; k + 3 <= count; k += 3) {
+      putByte(p[k]);
+      putByte(p[k + 1]);
+      putByte(p[k + 2]);
       out.flush();
     }
-    for (; k < stretch.count; ++k) {
-      out.put(literals.code[p[k]], literals.length[p[k]]);
+    for (; k < count; ++k) {
+      putByte(p[k]);
       out.flush();
     }
     if (stretch.run > 0) {
@@ -323,6 +340,7 @@ void writeBlock(BitWriter& out, const std::uint8_t* data, const std::vector<Stre
   }
   out.put(literals.code[kEndOfBlock], literals.length[kEndOfBlock]);
   out.flush();
+  writer = out;
 }
 
 // Whether a run long enough to code starts at `at` (> 0): most bytes start
@@ -362,6 +380,12 @@ std::vector<std::uint8_t> zlibCompress(const std::uint8_t* data, std::size_t siz
     std::size_t first = k;
     if (k == 0 && size > 0) ++k;
     while (k < block_end) {
+      // A run from any of the next kMinRun bytes would take in the last of
+      // them and the one before it: where those differ, none starts there.
+      if (k + kMinRun <= size && data[k + kMinRun - 1] != data[k + kMinRun - 2]) {
+        k = std::min(k + kMinRun, block_end);
+        continue;
+      }
       if (startsRun(data, k, size)) {
         const std::size_t run = runAt(data, k, std::min<std::size_t>(kMaxMatch, size - k));
         stretches.push_back({first, k - first, run});
