@@ -2,6 +2,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <cstring>
 #include <vector>
 
 #include <glm/vec2.hpp>
@@ -262,27 +264,51 @@ struct FootprintSums {
   }
 };
 
-// RowSums for many texels or columns, an array per quantity.
+// RowSums for each pixel of a row of the reach, an array per quantity.
 struct SumArrays {
   std::vector<double> height, valid, data;
 
   explicit SumArrays(std::size_t count) : height(count), valid(count), data(count) {}
-  void set(std::size_t k, const RowSums& sums) {
-    height[k] = sums.height, valid[k] = sums.valid, data[k] = sums.data;
+  void clear() {
+    std::fill(height.begin(), height.end(), 0.0);
+    std::fill(valid.begin(), valid.end(), 0.0);
+    std::fill(data.begin(), data.end(), 0.0);
   }
-  // Entries [first, first + n) of these gain `share` times the n of `row`.
-  void addScaled(std::size_t first, const SumArrays& row, double share) {
-    double* __restrict h = &height[first];
-    double* __restrict v = &valid[first];
-    double* __restrict d = &data[first];
-    const double* __restrict rh = row.height.data();
-    const double* __restrict rv = row.valid.data();
-    const double* __restrict rd = row.data.data();
-    for (std::size_t c = 0; c < row.height.size(); ++c) {
-      h[c] += share * rh[c];
-      v[c] += share * rv[c];
-      d[c] += share * rd[c];
+  // Entries [0, n) become the n pixels of `strip` from index `first`: an
+  // invalid pixel holds zeros, as RowSums::addPixel adds nothing for it.
+  // Without a branch, so that the loop runs in lanes.
+  void setRow(const SourceWindow& strip, std::size_t first, std::size_t n) {
+    const float* const values = &strip.values[first];
+    const std::uint8_t* const is_valid = &strip.valid[first];
+    const std::uint8_t* const is_data = &strip.data[first];
+    double* const h = height.data();
+    double* const v = valid.data();
+    double* const d = data.data();
+    for (std::size_t k = 0; k < n; ++k) {
+      // The height's bits masked rather than chosen: an invalid pixel's
+      // height may be NaN, which no multiplication by zero clears.
+      const double value = values[k];
+      std::uint64_t bits;
+      std::memcpy(&bits, &value, sizeof bits);
+      bits &= std::uint64_t(0) - std::uint64_t(is_valid[k] != 0);
+      std::memcpy(&h[k], &bits, sizeof bits);
+      v[k] = double(is_valid[k] != 0);
+      d[k] = double((is_valid[k] & is_data[k]) != 0);
     }
+  }
+  // These gain `share` times the entries of `row`, as many as it holds.
+  void addScaled(const SumArrays& row, double share) {
+    const std::size_t n = row.height.size();
+    addScaledArray(height.data(), row.height.data(), share, n);
+    addScaledArray(valid.data(), row.valid.data(), share, n);
+    addScaledArray(data.data(), row.data.data(), share, n);
+  }
+
+ private:
+  // to[k] += share * from[k], k < n: restrict parameters, so that the
+  // loop runs in lanes without a check for overlap.
+  static void addScaledArray(double* __restrict to, const double* __restrict from, double share, std::size_t n) {
+    for (std::size_t k = 0; k < n; ++k) to[k] += share * from[k];
   }
 };
 
@@ -381,11 +407,13 @@ std::optional<Raster<float>> averageEach(GDALRasterBandH band, const LatticeTran
 
 // A separable grid's footprints (LatticeTransformer::SourcePositions::
 // separable): a column's span along x and a row's along y are the same for
-// all its texels, so each row of the DEM is summed once per column of
-// texels, and each sum is then added to the texels of every row whose span
-// reaches it, in the order averageEach adds them. Wide footprints are summed
-// pixel by pixel too: a DEM row costs the pixels it holds, about twice over,
-// however wide the texels.
+// all its texels. So each row of texels first sums, pixel by pixel, the DEM
+// rows its span reaches (a loop along the row that the compiler
+// vectorises), and each of its texels then sums those sums along its
+// column's span: the tent weights are applied once per row of texels
+// rather than once per DEM row, with no branch per pixel. Every texel sums
+// the same pixels in the same order from any window and however the strips
+// break, so its value depends only on where it is.
 std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
                                               const LatticeTransformer::SourcePositions& centres,
                                               const GridSpec& grid, const VoidRule& voids) {
@@ -409,44 +437,66 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   std::vector<SpanWeights> column_weights(columns.size()), row_weights(rows.size());
   for (std::size_t c = 0; c < columns.size(); ++c) spanWeights(columns[c], reach.col0, reach.col1, column_weights[c]);
   for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], reach.row0, reach.row1, row_weights[r]);
-  const std::size_t width = columns.size();
-  // One array per quantity, for every texel and for each column's sums along
-  // the current DEM row, so that adding a row's sums to a row of texels is a
-  // loop the compiler vectorises. A column off the raster adds zeros.
-  SumArrays sums(width * rows.size()), along_row(width);
   // For each DEM row of the reach, the rows of texels whose spans reach it, in order.
   std::vector<std::vector<std::size_t>> rows_reaching(std::size_t(reach.row1 - reach.row0 + 1));
+  std::vector<long> last_reached(rows.size(), -1);  // per row of texels: the last DEM row it sums
   for (std::size_t r = 0; r < rows.size(); ++r) {
     for (long y = std::max(rows[r].first, reach.row0); y <= std::min(rows[r].last, reach.row1); ++y) {
       rows_reaching[std::size_t(y - reach.row0)].push_back(r);
+      last_reached[r] = y;
     }
   }
+
+  const std::size_t reach_width = std::size_t(reach.col1 - reach.col0 + 1);
+  SumArrays dem_row(reach_width);
+  // The rows of texels being summed: each holds its sums per pixel of the
+  // reach, one array per quantity, and gives it back once it is complete.
+  std::vector<SumArrays> along_pixels;
+  std::vector<std::size_t> free_sums;
+  std::vector<std::size_t> sums_of_row(rows.size());
+  std::vector<bool> started(rows.size(), false);
+  // Texel row r's texels from its sums per pixel, along their columns' spans.
+  const auto finishRow = [&](std::size_t r, const SumArrays& sums) {
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      FootprintSums texel;
+      if (!reach.offAlongX(columns[c])) {
+        const SpanWeights& w = column_weights[c];
+        const std::size_t at = std::size_t(w.first - reach.col0);
+        for (std::size_t t = 0; t < w.weights.size(); ++t) {
+          texel.height += w.weights[t] * sums.height[at + t];
+          texel.valid += w.weights[t] * sums.valid[at + t];
+          texel.data += w.weights[t] * sums.data[at + t];
+        }
+      }
+      heights.at(int(c), int(r)) = meanOver(texel, columns[c], rows[r]);
+    }
+  };
   const auto add = [&](const SourceWindow& strip, long top, long bottom) {
     for (long y = top; y <= bottom; ++y) {
-      for (std::size_t c = 0; c < width; ++c) {
-        const Span& x = columns[c];
-        RowSums along;
-        if (!reach.offAlongX(x)) {
-          const long x_from = std::max(x.first, strip.col0), x_to = std::min(x.last, strip.col0 + strip.width - 1);
-          for (long at = x_from, i = long(strip.indexOf(x_from, y)); at <= x_to; ++at, ++i) {
-            along.addPixel(strip, std::size_t(i), column_weights[c].at(at));
+      const std::vector<std::size_t>& reaching = rows_reaching[std::size_t(y - reach.row0)];
+      if (reaching.empty()) continue;
+      dem_row.setRow(strip, strip.indexOf(reach.col0, y), reach_width);
+      for (const std::size_t r : reaching) {
+        if (!started[r]) {
+          started[r] = true;
+          if (free_sums.empty()) {
+            free_sums.push_back(along_pixels.size());
+            along_pixels.emplace_back(reach_width);
           }
+          sums_of_row[r] = free_sums.back();
+          free_sums.pop_back();
+          along_pixels[sums_of_row[r]].clear();
         }
-        along_row.set(c, along);
-      }
-      for (const std::size_t r : rows_reaching[std::size_t(y - reach.row0)]) {
-        sums.addScaled(r * width, along_row, row_weights[r].at(y));
+        SumArrays& sums = along_pixels[sums_of_row[r]];
+        sums.addScaled(dem_row, row_weights[r].at(y));
+        if (y == last_reached[r]) {
+          finishRow(r, sums);
+          free_sums.push_back(sums_of_row[r]);
+        }
       }
     }
   };
   if (!forEachStrip(band, reach, voids, add)) return std::nullopt;
-  for (std::size_t r = 0; r < rows.size(); ++r) {
-    for (std::size_t c = 0; c < width; ++c) {
-      const std::size_t k = r * width + c;
-      const FootprintSums texel{sums.height[k], sums.valid[k], sums.data[k]};
-      heights.data[k] = meanOver(texel, columns[c], rows[r]);
-    }
-  }
   return heights;
 }
 
