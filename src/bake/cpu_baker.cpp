@@ -113,9 +113,17 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
         value[m] = 0;
         for (int k = 0; k < 3; ++k) value[m] += triangle.corner[k][m] * start.weight[k];
       }
+      // Most runs are a vector or less long: those without a loop, whose
+      // exit would be mispredicted nine times a run.
+      const bool one_vector = end - first <= kFloatLanes;
       for (int m = 0; m < kFrameComponents; ++m) {
         float* to = component(kNx + m) + first;
         const Floats base = Floats{} + float(value[m]), per = Floats{} + triangle.per_texel[m];
+        if (one_vector) {
+          const Floats along = base + per * lane_numbers;
+          std::memcpy(to, &along, sizeof along);
+          continue;
+        }
         for (int i = 0; i < end - first; i += kFloatLanes) {
           const Floats along = base + per * (lane_numbers + float(i));
           std::memcpy(to + i, &along, sizeof along);
