@@ -321,33 +321,32 @@ class GreedyMesher {
     const glm::dvec3 per_x = (p1 * d2.y - p2 * d1.y) / det, per_y = (p2 * d1.x - p1 * d2.x) / det;
     const Floats step_x = Floats{} + float(per_x.x), step_y = Floats{} + float(per_x.y),
                  step_z = Floats{} + float(per_x.z);
-    const Floats lane_offsets = laneNumbers<Floats>();
-    const Ints lane_samples = laneNumbers<Ints>();
     Floats farthest2 = Floats{} - 1;
     Ints farthest = Ints{} - 1;
-    // The rows' spans first, then the scan: apart, each loop keeps its
-    // values in registers.
-    m_rows.clear();
-    forEachTexelSpanExact(a.lattice, b.lattice, c.lattice, m_size,
-                          [&](int j, int first, int last) { m_rows.push_back({j, first, last}); });
-    for (const auto& [j, first, last] : m_rows) {
+    forEachTexelSpanExact(a.lattice, b.lattice, c.lattice, m_size, [&](int j, int first, int last) {
       const glm::dvec3 row_start =
           a.position - m_origin + per_x * (first + 0.5 - a.at.x) + per_y * (j + 0.5 - a.at.y);
+      const Floats start_x = Floats{} + float(row_start.x), start_y = Floats{} + float(row_start.y),
+                   start_z = Floats{} + float(row_start.z);
       const std::size_t row = std::size_t(j) * std::size_t(m_size) + std::size_t(first);
-      const int count = last - first + 1;
-      for (int i = 0; i < count; i += kLanes) {
-        const Floats along = lane_offsets + float(i);
-        const Floats dx = load(m_x, row + std::size_t(i)) - (float(row_start.x) + step_x * along);
-        const Floats dy = load(m_y, row + std::size_t(i)) - (float(row_start.y) + step_y * along);
-        const Floats dz = load(m_z, row + std::size_t(i)) - (float(row_start.z) + step_z * along);
+      const Floats count = Floats{} + float(last - first + 1);
+      // Each lane's place along the row, and its sample.
+      Floats along = laneNumbers<Floats>();
+      Ints sample = (j * m_size + first) + laneNumbers<Ints>();
+      for (std::size_t i = 0; i <= std::size_t(last - first); i += kLanes) {
+        const Floats dx = load(m_x, row + i) - (start_x + step_x * along);
+        const Floats dy = load(m_y, row + i) - (start_y + step_y * along);
+        const Floats dz = load(m_z, row + i) - (start_z + step_z * along);
         // Vertices (NaN), and lanes past the span, never win.
         Floats e2 = dx * dx + dy * dy + dz * dz;
-        e2 = along < float(count) ? e2 : Floats{} - INFINITY;
+        e2 = along < count ? e2 : Floats{} - INFINITY;
         const Ints farther = e2 > farthest2;
         farthest2 = farther ? e2 : farthest2;
-        farthest = farther ? (j * m_size + first + i) + lane_samples : farthest;
+        farthest = farther ? sample : farthest;
+        along += float(kLanes);
+        sample += kLanes;
       }
-    }
+    });
     // The farthest of the lanes' farthest; of equals, the first in the scan.
     int best = 0;
     for (int lane = 1; lane < kLanes; ++lane) {
@@ -381,10 +380,6 @@ class GreedyMesher {
   std::vector<int> m_touch_mark;  // per triangle: the generation that last touched it
   std::vector<int> m_touched;
   int m_generation = 1;
-  struct RowSpan {
-    int row, first, last;
-  };
-  std::vector<RowSpan> m_rows;  // rescore's, kept to save allocations
 };
 
 }  // namespace
