@@ -213,7 +213,10 @@ struct TileMaker::Impl {
     mesh::SampleGrid samples;
     samples.tile_size = scheme.tileSize();
     samples.apron = settings.apron;
-    samples.position = Raster<glm::dvec3>(grid.width, grid.height);
+    // Its samples are filled in below, whole: a raster made at its size
+    // first would set its megabytes to zero for nothing.
+    samples.position.width = grid.width;
+    samples.position.height = grid.height;
     if (dem::isLonLatCrs(grid.crs)) {
       for (const double pole_lat : {90.0, -90.0}) {
         const double row = grid.rowsDownTo(pole_lat) - 0.5;  // in samples, centre to centre
@@ -222,8 +225,9 @@ struct TileMaker::Impl {
     }
     if (scheme.kind() == SchemeKind::kNative) {
       const std::vector<glm::dvec2> lon_lat = lonLatOfCentres(grid);
+      samples.position.data.reserve(lon_lat.size());
       for (std::size_t k = 0; k < lon_lat.size(); ++k) {
-        samples.position.data[k] = frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]);
+        samples.position.data.push_back(frame.toLocal(lon_lat[k].x, lon_lat[k].y, heights.data[k]));
       }
       return samples;
     }
