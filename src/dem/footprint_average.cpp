@@ -439,12 +439,12 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   for (std::size_t r = 0; r < rows.size(); ++r) spanWeights(rows[r], reach.row0, reach.row1, row_weights[r]);
   // For each DEM row of the reach, the rows of texels whose spans reach it, in order.
   std::vector<std::vector<std::size_t>> rows_reaching(std::size_t(reach.row1 - reach.row0 + 1));
-  std::vector<long> last_reached(rows.size(), -1);  // per row of texels: the last DEM row it sums
+  // Per row of texels, the first and the last DEM row it sums.
+  std::vector<long> first_reached(rows.size()), last_reached(rows.size());
   for (std::size_t r = 0; r < rows.size(); ++r) {
-    for (long y = std::max(rows[r].first, reach.row0); y <= std::min(rows[r].last, reach.row1); ++y) {
-      rows_reaching[std::size_t(y - reach.row0)].push_back(r);
-      last_reached[r] = y;
-    }
+    first_reached[r] = std::max(rows[r].first, reach.row0);
+    last_reached[r] = std::min(rows[r].last, reach.row1);
+    for (long y = first_reached[r]; y <= last_reached[r]; ++y) rows_reaching[std::size_t(y - reach.row0)].push_back(r);
   }
 
   const std::size_t reach_width = std::size_t(reach.col1 - reach.col0 + 1);
@@ -454,7 +454,6 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
   std::vector<SumArrays> along_pixels;
   std::vector<std::size_t> free_sums;
   std::vector<std::size_t> sums_of_row(rows.size());
-  std::vector<bool> started(rows.size(), false);
   // Texel row r's texels from its sums per pixel, along their columns' spans.
   const auto finishRow = [&](std::size_t r, const SumArrays& sums) {
     for (std::size_t c = 0; c < columns.size(); ++c) {
@@ -477,8 +476,7 @@ std::optional<Raster<float>> averageAlongAxes(GDALRasterBandH band,
       if (reaching.empty()) continue;
       dem_row.setRow(strip, strip.indexOf(reach.col0, y), reach_width);
       for (const std::size_t r : reaching) {
-        if (!started[r]) {
-          started[r] = true;
+        if (y == first_reached[r]) {
           if (free_sums.empty()) {
             free_sums.push_back(along_pixels.size());
             along_pixels.emplace_back(reach_width);
