@@ -80,7 +80,8 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
   const std::vector<TriangleFrames> frames = triangleFrames(coverage, vertexFrames(low));
   NormalMap map;
   map.size = size;
-  map.texels.resize(std::size_t(size) * std::size_t(size));
+  // Filled in order below, without setting it to zero first.
+  map.texels.reserve(std::size_t(size) * std::size_t(size));
   // A row at a time, one array per component: the interpolated frame (each
   // run of texels under one triangle is affine along the row, so a lane per
   // texel makes it) and the high-res normal; the arithmetic then takes a
@@ -155,7 +156,7 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
       const Floats inverse_length = 1 / squareRoot(x * x + y * y + z * z);
       const Floats unit_x = x * inverse_length, unit_y = y * inverse_length, unit_z = z * inverse_length;
       const std::size_t count = std::min<std::size_t>(kFloatLanes, std::size_t(size) - std::min<std::size_t>(i, size));
-      for (std::size_t k = 0; k < count; ++k) map.texels[row + i + k] = glm::vec3(unit_x[k], unit_y[k], unit_z[k]);
+      for (std::size_t k = 0; k < count; ++k) map.texels.emplace_back(unit_x[k], unit_y[k], unit_z[k]);
     }
   }
   return map;
