@@ -293,6 +293,19 @@ namespace {
 // a centre counted under two triangles gets the same frame from either.
 constexpr double kTexelOnEdge = 1e-3;
 
+// The mesh's vertices as points of the half-texel lattice, when every one
+// lies on it (the adaptive mesh's do); empty otherwise.
+std::vector<HalfTexelPoint> onHalfTexels(const TriangleMesh& mesh, int size) {
+  std::vector<HalfTexelPoint> points;
+  points.reserve(mesh.uv.size());
+  for (const glm::vec2& uv : mesh.uv) {
+    const double x2 = 2.0 * size * double(uv.x), y2 = 2.0 * size * double(uv.y);
+    if (x2 != std::floor(x2) || y2 != std::floor(y2) || std::abs(x2) > 1e9 || std::abs(y2) > 1e9) return {};
+    points.push_back({std::int64_t(x2), std::int64_t(y2)});
+  }
+  return points;
+}
+
 }  // namespace
 
 TangentFrame frameAt(const TriangleMesh& mesh, const TrianglePoint& point) {
@@ -340,7 +353,13 @@ TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
   TexelCoverage coverage;
   // A row's last lanes may reach past the last texel: they store what they load.
   coverage.owner.assign(texels + kLanes - 1, kNoTriangle);
-  std::vector<double> depth(coverage.owner.size(), -std::numeric_limits<double>::infinity());
+  // On the half-texel lattice, whether a centre is under a triangle is
+  // exact: one under two lies on their shared edge or corner, where either
+  // gives it the same frame, so the last to claim it keeps it. Elsewhere a
+  // centre goes to the triangle it lies deepest inside, by its weights.
+  const std::vector<HalfTexelPoint> lattice = onHalfTexels(mesh, size);
+  std::vector<double> depth;
+  if (lattice.empty()) depth.assign(coverage.owner.size(), -std::numeric_limits<double>::infinity());
   const Depths lane_numbers = {0, 1, 2, 3};
   for (std::size_t k = 0; k + 2 < mesh.indices.size(); k += 3) {
     const std::uint32_t v[3] = {mesh.indices[k], mesh.indices[k + 1], mesh.indices[k + 2]};
@@ -355,6 +374,13 @@ TexelCoverage texelCoverage(const TriangleMesh& mesh, int size) {
                                  glm::dvec2(a.y - b.y, b.x - a.x) / area};
     const auto index = std::uint32_t(coverage.triangles.size());
     coverage.triangles.push_back(triangle);
+    if (!lattice.empty()) {
+      forEachTexelSpanExact(lattice[v[0]], lattice[v[1]], lattice[v[2]], size, [&](int j, int first, int last) {
+        const auto row = coverage.owner.begin() + std::ptrdiff_t(j) * size;
+        std::fill(row + first, row + last + 1, index);
+      });
+      continue;
+    }
     forEachTexelSpan(a, b, c, size, kTexelOnEdge, [&](int j, int first, int last) {
       const std::size_t row = std::size_t(j) * std::size_t(size);
       for (int i = first; i <= last; i += kLanes) {
