@@ -137,9 +137,12 @@ struct TexelTriangle {
 
 // Which triangle each texel centre of a size x size tile lies under, the
 // mesh rasterised in UV space, so any low-poly mesh whose UVs cover [0, 1]
-// serves. Of the triangles whose edges come within a thousandth of a texel
-// of a centre, the one it lies deepest inside: a centre just outside a thin
-// triangle would otherwise take weights extrapolated far across it. Throws
+// serves. Where every corner lies on the half-texel lattice (the adaptive
+// mesh's do), exactly: a centre on a shared edge or corner, which either
+// triangle gives the same frame, goes to the last. Elsewhere, of the
+// triangles whose edges come within a thousandth of a texel of a centre, the
+// one it lies deepest inside: a centre just outside a thin triangle would
+// otherwise take weights extrapolated far across it. Throws
 // std::invalid_argument naming a texel no triangle covers.
 struct TexelCoverage {
   std::vector<TexelTriangle> triangles;  // the mesh's, but those of no area
