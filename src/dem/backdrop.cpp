@@ -63,13 +63,15 @@ Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
   return taps;
 }
 
+double Backdrop::alongColumn(int column, const Taps& along_y) const {
+  double sum = 0;
+  for (std::size_t j = 0; j < 4; ++j) sum += along_y.weight[j] * m_heights.at(column, along_y.cell[j]);
+  return sum;
+}
+
 float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
   double sum = 0;
-  for (std::size_t j = 0; j < 4; ++j) {
-    for (std::size_t i = 0; i < 4; ++i) {
-      sum += along_y.weight[j] * along_x.weight[i] * m_heights.at(along_x.cell[i], along_y.cell[j]);
-    }
-  }
+  for (std::size_t i = 0; i < 4; ++i) sum += along_x.weight[i] * alongColumn(along_x.cell[i], along_y);
   return float(sum);
 }
 
@@ -101,10 +103,30 @@ Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::u
   std::vector<Taps> columns, rows;
   for (int c = 0; c < grid.width; ++c) columns.push_back(tapsAtX(grid.centreX(c)));
   for (int r = 0; r < grid.height; ++r) rows.push_back(tapsAtY(grid.centreY(r)));
+  // The backdrop's columns the grid's taps reach, each mixed along a row's
+  // taps once for the whole row: heightFrom's arithmetic, a quarter of it.
+  int first_column = columns.front().cell[0], last_column = first_column;
+  for (const Taps& taps : columns) {
+    first_column = std::min(first_column, taps.cell[0]);
+    last_column = std::max(last_column, taps.cell[3]);
+  }
+  std::vector<double> mixed(std::size_t(last_column - first_column + 1));
   Raster<float> heights(grid.width, grid.height, 0.0f);
-  for (std::size_t r = 0, k = 0; r < rows.size(); ++r) {
-    for (std::size_t c = 0; c < columns.size(); ++c, ++k) {
-      if (wanted[k]) heights.data[k] = heightFrom(columns[c], rows[r]);
+  for (std::size_t r = 0, k = 0; r < rows.size(); ++r, k += columns.size()) {
+    const auto row_wanted = wanted.begin() + std::ptrdiff_t(k);
+    if (std::none_of(row_wanted, row_wanted + std::ptrdiff_t(columns.size()), [](std::uint8_t w) { return w != 0; })) {
+      continue;
+    }
+    for (int column = first_column; column <= last_column; ++column) {
+      mixed[std::size_t(column - first_column)] = alongColumn(column, rows[r]);
+    }
+    for (std::size_t c = 0; c < columns.size(); ++c) {
+      if (!wanted[k + c]) continue;
+      double sum = 0;
+      for (std::size_t i = 0; i < 4; ++i) {
+        sum += columns[c].weight[i] * mixed[std::size_t(columns[c].cell[i] - first_column)];
+      }
+      heights.data[k + c] = float(sum);
     }
   }
   return heights;

@@ -48,6 +48,9 @@ class Backdrop {
   // The taps of a tiling-CRS x (along the backdrop's columns) or y (its rows).
   Taps tapsAtX(double x) const;
   Taps tapsAtY(double y) const;
+  // Column `column` of the grid mixed along y's taps.
+  double alongColumn(int column, const Taps& along_y) const;
+  // The columns along x's taps, each mixed along y's.
   float heightFrom(const Taps& along_x, const Taps& along_y) const;
 
   GridSpec m_grid;
