@@ -103,6 +103,7 @@ Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::u
   std::vector<Taps> columns, rows;
   for (int c = 0; c < grid.width; ++c) columns.push_back(tapsAtX(grid.centreX(c)));
   for (int r = 0; r < grid.height; ++r) rows.push_back(tapsAtY(grid.centreY(r)));
+  if (columns.empty() || rows.empty()) return Raster<float>(grid.width, grid.height, 0.0f);
   // The backdrop's columns the grid's taps reach, each mixed along a row's
   // taps once for the whole row: heightFrom's arithmetic, a quarter of it.
   int first_column = columns.front().cell[0], last_column = first_column;
