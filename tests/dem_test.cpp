@@ -69,6 +69,21 @@ TEST(DilatedMask, IsOneExactlyWithinReachOfANonZeroSample) {
               << "density " << density << ", reach " << reach << ", sample (" << c << ", " << r << ")";
         }
       }
+      // Within windows: at the edges, in the middle, one sample wide.
+      for (const dem::MaskWindow& window : {dem::MaskWindow{0, 0, width, height}, dem::MaskWindow{3, 4, 60, 30},
+                                            dem::MaskWindow{30, 0, 2, height}, dem::MaskWindow{0, 20, width, 2},
+                                            dem::MaskWindow{70, 36, 1, 1}, dem::MaskWindow{10, 10, 5, 7}}) {
+        const std::vector<std::uint8_t> within = dem::dilatedMaskWithin(mask, width, height, reach, window);
+        ASSERT_EQ(within.size(), std::size_t(window.width) * std::size_t(window.height));
+        for (int r = 0; r < window.height; ++r) {
+          for (int c = 0; c < window.width; ++c) {
+            ASSERT_EQ(within[std::size_t(r * window.width + c)],
+                      dilated[std::size_t((window.y + r) * width + window.x + c)])
+                << "density " << density << ", reach " << reach << ", window at (" << window.x << ", " << window.y
+                << "), sample (" << c << ", " << r << ")";
+          }
+        }
+      }
     }
   }
 }

@@ -49,6 +49,21 @@ std::vector<float> halved(const std::vector<float>& finer, int width, int height
   return out;
 }
 
+// Adds column k of every block of `factor` pixels, for k = 0 to factor - 1,
+// to the block's sum and count: the pixels of a block in their order. A
+// factor known at compile time (kFactor > 0) lets the loads run in lanes.
+template <std::size_t kFactor>
+void addBlockColumns(const float* masked, const int* valid, double* sums, int* counts, std::size_t blocks,
+                     std::size_t factor) {
+  const std::size_t step = kFactor > 0 ? kFactor : factor;
+  for (std::size_t k = 0; k < step; ++k) {
+    for (std::size_t block = 0; block < blocks; ++block) {
+      sums[block] += double(masked[block * step + k]);
+      counts[block] += valid[block * step + k];
+    }
+  }
+}
+
 }  // namespace
 
 // Levels from half resolution on sum to a third of the file's pixels (plus
@@ -97,8 +112,11 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
     // Copies, so the compiler knows the loops' stores leave them alone.
     const VoidRule rule = voids;
     const std::size_t row_width = std::size_t(width), factor = std::size_t(f);
-    // 1 where a pixel of the row is no void.
-    std::vector<int> valid(row_width);
+    // A row's heights, 0 at voids, and 1 where a pixel is no void; as many
+    // as the blocks span (past the row's end: 0, which adds nothing).
+    const std::size_t padded_width = std::size_t(finest.width) * factor;
+    std::vector<float> masked(padded_width, 0.0f);
+    std::vector<int> valid(padded_width, 0);
     std::vector<double> sums(std::size_t(finest.width));
     std::vector<int> counts(std::size_t(finest.width));
     long long own_implausible = 0;
@@ -116,31 +134,30 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
         std::fill(counts.begin(), counts.end(), 0);
         for (int r = top; r < top + row_count; ++r) {
           const float* row = &rows[std::size_t(r) * std::size_t(width)];
-          // Classified without a branch, several pixels at a time; a void
-          // then adds 0 to its block's sum, which leaves the sum as it was.
+          // Classified without a branch, several pixels at a time.
           long long row_implausible = 0;
           for (std::size_t c = 0; c < row_width; ++c) {
             const bool is_void = rule.isVoid(row[c]);
             row_implausible += is_void & rule.isImplausible(row[c]);
             valid[c] = !is_void;
           }
+          // Heights, then 0 at the voids: a select on the conversion's
+          // result would keep the conversion out of the lanes.
+          for (std::size_t c = 0; c < row_width; ++c) masked[c] = rule.height(row[c]);
+          for (std::size_t c = 0; c < row_width; ++c) masked[c] = valid[c] ? masked[c] : 0.0f;
           own_implausible += row_implausible;
-          for (std::size_t block = 0; block < sums.size(); ++block) {
-            double sum = sums[block];
-            int count = counts[block];
-            for (std::size_t c = block * factor; c < std::min(row_width, (block + 1) * factor); ++c) {
-              const float sample_height = rule.height(row[c]);
-              sum += valid[c] ? double(sample_height) : 0.0;
-              count += valid[c];
-            }
-            sums[block] = sum;
-            counts[block] = count;
+          // Each block's pixels in the order they lie, one column of every
+          // block at a time, so that the blocks fill the lanes.
+          if (factor == 2) {
+            addBlockColumns<2>(masked.data(), valid.data(), sums.data(), counts.data(), sums.size(), 2);
+          } else {
+            addBlockColumns<0>(masked.data(), valid.data(), sums.data(), counts.data(), sums.size(), factor);
           }
         }
-        for (int c = 0; c < finest.width; ++c) {
-          finest.heights[std::size_t(block_row) * std::size_t(finest.width) + std::size_t(c)] =
-              counts[std::size_t(c)] ? float(sums[std::size_t(c)] / counts[std::size_t(c)]) : NAN;
-        }
+        float* const out = &finest.heights[std::size_t(block_row) * std::size_t(finest.width)];
+        // Means, then NaN where a block has no valid pixel.
+        for (std::size_t c = 0; c < sums.size(); ++c) out[c] = float(sums[c] / counts[c]);
+        for (std::size_t c = 0; c < sums.size(); ++c) out[c] = counts[c] ? out[c] : NAN;
       }
     }
     implausible += own_implausible;
