@@ -129,16 +129,25 @@ struct EdgePlane {
 };
 
 // 1 at the data samples next to a hole (a hole in the 3 x 3 samples
-// around): the hole's edge.
+// around): the hole's edge. Row by row, through plain pointers, so the
+// loops run in lanes: the holes of the rows above, at and below a sample,
+// then of the columns either side.
 std::vector<std::uint8_t> holeEdge(const Raster<float>& heights) {
   const std::vector<std::uint8_t> hole = holeMask(heights, 0);
-  std::vector<std::uint8_t> edge = dilatedMask(hole, heights.width, heights.height, 1);
-  // Through plain pointers and a count of its own, the loop runs in lanes
-  // (see holeMask).
-  const std::size_t count = hole.size();
-  const std::uint8_t* const is_hole = hole.data();
-  std::uint8_t* const is_edge = edge.data();
-  for (std::size_t k = 0; k < count; ++k) is_edge[k] &= std::uint8_t(is_hole[k] ^ 1);
+  const std::size_t w = std::size_t(heights.width), h = std::size_t(heights.height);
+  std::vector<std::uint8_t> edge(hole.size(), 0);
+  std::vector<std::uint8_t> column_holes(w + 2, 0);  // a 0 either side: no hole beyond the raster
+  std::uint8_t* const across = column_holes.data() + 1;
+  for (std::size_t r = 0; r < h; ++r) {
+    const std::uint8_t* const here = hole.data() + r * w;
+    const std::uint8_t* const above = r > 0 ? here - w : here;
+    const std::uint8_t* const below = r + 1 < h ? here + w : here;
+    for (std::size_t c = 0; c < w; ++c) across[c] = above[c] | here[c] | below[c];
+    std::uint8_t* const out = edge.data() + r * w;
+    for (std::size_t c = 0; c < w; ++c) {
+      out[c] = std::uint8_t((across[c - 1] | across[c] | across[c + 1]) & (here[c] ^ 1));
+    }
+  }
   return edge;
 }
 
