@@ -136,16 +136,17 @@ std::vector<std::uint8_t> holeEdge(const Raster<float>& heights) {
   const std::vector<std::uint8_t> hole = holeMask(heights, 0);
   const std::size_t w = std::size_t(heights.width), h = std::size_t(heights.height);
   std::vector<std::uint8_t> edge(hole.size(), 0);
-  std::vector<std::uint8_t> column_holes(w + 2, 0);  // a 0 either side: no hole beyond the raster
-  std::uint8_t* const across = column_holes.data() + 1;
+  // Column c's holes at entry c + 1, with a 0 either side: no hole beyond the raster.
+  std::vector<std::uint8_t> column_holes(w + 2, 0);
+  std::uint8_t* const across = column_holes.data();
   for (std::size_t r = 0; r < h; ++r) {
     const std::uint8_t* const here = hole.data() + r * w;
     const std::uint8_t* const above = r > 0 ? here - w : here;
     const std::uint8_t* const below = r + 1 < h ? here + w : here;
-    for (std::size_t c = 0; c < w; ++c) across[c] = above[c] | here[c] | below[c];
+    for (std::size_t c = 0; c < w; ++c) across[c + 1] = above[c] | here[c] | below[c];
     std::uint8_t* const out = edge.data() + r * w;
     for (std::size_t c = 0; c < w; ++c) {
-      out[c] = std::uint8_t((across[c - 1] | across[c] | across[c + 1]) & (here[c] ^ 1));
+      out[c] = std::uint8_t((across[c] | across[c + 1] | across[c + 2]) & (here[c] ^ 1));
     }
   }
   return edge;
