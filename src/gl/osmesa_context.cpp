@@ -39,7 +39,7 @@ struct OsMesaApi {
 
 // Mesa's libraries resolve their symbols among their own dependencies first
 // (RTLD_DEEPBIND), not along the executable's hundred and more: a load then
-// takes 17-18 ms instead of 31-35 ms. AddressSanitizer refuses that flag, as
+// takes 16-17 ms instead of 28-30 ms. AddressSanitizer refuses that flag, as
 // it would let the library bypass its allocator.
 #if defined(__SANITIZE_ADDRESS__)
 constexpr int kDeepBind = 0;
