@@ -1,5 +1,5 @@
 // OSMesa is loaded at run time (dlopen), as EGL is: a job baking on the CPU
-// then starts without loading Mesa and LLVM (about 20 ms, docs/performance.md,
+// then starts without loading Mesa and LLVM (about 30 ms, docs/performance.md,
 // "Start-up"), and the binary runs where OSMesa is absent.
 #include <GL/osmesa.h>
 #include <dlfcn.h>
