@@ -96,6 +96,19 @@ TEST(EncodeNormalMap, RoundsHalvesUpAndSnapsOnlyTinyComponents) {
   EXPECT_EQ(bake::encodeNormalMap(tilted, 8, Green::kDown).pixels, (std::vector<std::uint16_t>{128, 89, 249}));
 }
 
+// Texels are quantised several at a time: green down must negate y, and
+// only y, of every texel wherever it falls among them.
+TEST(EncodeNormalMap, GreenDownNegatesTheYOfEveryTexel) {
+  bake::NormalMap up{3, {}}, down{3, {}};
+  for (int k = 0; k < 9; ++k) {
+    const glm::vec3 n = glm::normalize(glm::vec3(0.1f * float(k) - 0.4f, 0.07f * float(k) - 0.3f, 1.0f));
+    up.texels.push_back({n.x, -n.y, n.z});
+    down.texels.push_back(n);
+  }
+  EXPECT_EQ(bake::encodeNormalMap(down, 8, Green::kDown).pixels, bake::encodeNormalMap(up, 8, Green::kUp).pixels);
+  EXPECT_EQ(bake::encodeNormalMap(down, 16, Green::kDown).pixels, bake::encodeNormalMap(up, 16, Green::kUp).pixels);
+}
+
 TEST_P(BakerKnownAnswers, IdenticalFlatMeshesGiveStraightUp) {
   TERRABAKE_BAKER_OR_SKIP(baker, GetParam());
   auto flat = [](double, double) { return 250.0; };
