@@ -23,32 +23,39 @@ glm::dvec2 foldedPastPole(double lon_deg, double lat_deg) {
 }
 
 // Geocentric's forward formula at every point of a graticule, row by row,
-// its trigonometry once per column and per row: visit(k, x, y, z) gets point
-// k = r * lon_deg.size() + c, (lon_deg[c], lat_deg[r]) at height
-// heights_m[k], in ECEF metres, the bits Geocentric::Forward gives.
-template <class Visit>
-void forEachOnGraticule(const std::vector<double>& lon_deg, const std::vector<double>& lat_deg,
-                        const std::vector<float>& heights_m, Visit&& visit) {
+// its trigonometry once per column and per row: point k = r *
+// lon_deg.size() + c of the result is convert(x, y, z) of (lon_deg[c],
+// lat_deg[r]) at height heights_m[k], x, y and z the ECEF metres
+// Geocentric::Forward gives, to the bit.
+template <class Convert>
+std::vector<glm::dvec3> graticulePoints(const std::vector<double>& lon_deg, const std::vector<double>& lat_deg,
+                                        const std::vector<float>& heights_m, Convert&& convert) {
   using GeographicLib::Math;
   const GeographicLib::Geocentric& earth = GeographicLib::Geocentric::WGS84();
   const double a = earth.EquatorialRadius(), f = earth.Flattening();
   const double e2 = f * (2 - f), e2m = Math::sq(1 - f);
   std::vector<double> sin_lon(lon_deg.size()), cos_lon(lon_deg.size());
   for (std::size_t c = 0; c < lon_deg.size(); ++c) Math::sincosd(lon_deg[c], sin_lon[c], cos_lon[c]);
+  // Each row is made in a buffer of its own, then appended: the result is
+  // written once, not set to zero first.
+  std::vector<glm::dvec3> points, row(lon_deg.size());
+  points.reserve(lon_deg.size() * lat_deg.size());
   for (std::size_t r = 0; r < lat_deg.size(); ++r) {
     // Past a pole the cosine turns negative, which puts the point on the
     // opposite meridian, as foldedPastPole does.
     double sin_lat = 0, cos_lat = 0;
     Math::sincosd(lat_deg[r], sin_lat, cos_lat);
     const double n = a / std::sqrt(1 - e2 * Math::sq(sin_lat));
+    const float* heights = heights_m.data() + r * lon_deg.size();
     for (std::size_t c = 0; c < lon_deg.size(); ++c) {
-      const std::size_t k = r * lon_deg.size() + c;
-      const double h = heights_m[k];
+      const double h = heights[c];
       const double z = (e2m * n + h) * sin_lat;
       const double xy = (n + h) * cos_lat;
-      visit(k, xy * cos_lon[c], xy * sin_lon[c], z);
+      row[c] = convert(xy * cos_lon[c], xy * sin_lon[c], z);
     }
+    points.insert(points.end(), row.begin(), row.end());
   }
+  return points;
 }
 
 }  // namespace
@@ -83,15 +90,13 @@ std::vector<glm::dvec3> LocalFrame::toLocalGraticule(const std::vector<double>& 
   double x0 = 0, y0 = 0, z0 = 0;
   std::vector<double> m(9);
   GeographicLib::Geocentric::WGS84().Forward(m_lat_deg, m_lon_deg, 0.0, x0, y0, z0, m);
-  std::vector<glm::dvec3> local(lon_deg.size() * lat_deg.size());
-  forEachOnGraticule(lon_deg, lat_deg, heights_m, [&](std::size_t k, double ecef_x, double ecef_y, double ecef_z) {
+  return graticulePoints(lon_deg, lat_deg, heights_m, [&](double ecef_x, double ecef_y, double ecef_z) {
     const double x = ecef_x - x0, y = ecef_y - y0, z = ecef_z - z0;
     const double east = m[0] * x + m[3] * y + m[6] * z;
     const double north = m[1] * x + m[4] * y + m[7] * z;
     const double up = m[2] * x + m[5] * y + m[8] * z;
-    local[k] = {east, up, -north};
+    return glm::dvec3(east, up, -north);
   });
-  return local;
 }
 
 glm::dvec3 LocalFrame::toGeodetic(const glm::dvec3& local) const {
@@ -125,10 +130,7 @@ glm::dvec3 geodeticToEcef(double lon_deg, double lat_deg, double height_m) {
 
 std::vector<glm::dvec3> ecefOfGraticule(const std::vector<double>& lon_deg, const std::vector<double>& lat_deg,
                                         const std::vector<float>& heights_m) {
-  std::vector<glm::dvec3> ecef(lon_deg.size() * lat_deg.size());
-  forEachOnGraticule(lon_deg, lat_deg, heights_m,
-                     [&](std::size_t k, double x, double y, double z) { ecef[k] = {x, y, z}; });
-  return ecef;
+  return graticulePoints(lon_deg, lat_deg, heights_m, [](double x, double y, double z) { return glm::dvec3(x, y, z); });
 }
 
 }  // namespace terrabake::geo
