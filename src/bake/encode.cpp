@@ -1,7 +1,6 @@
 #include "bake/encode.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
@@ -61,61 +60,47 @@ ElevationImage encodeElevation(const Raster<float>& heights, int apron, int size
 }
 
 Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green) {
-  static_assert(sizeof(glm::vec3) == 3 * sizeof(float), "texels are read as one array of components");
   const double max_value = bits == 16 ? 65535.0 : 255.0;
-  const float g = green == Green::kUp ? 1.0f : -1.0f;
+  const float green_sign = green == Green::kUp ? 1.0f : -1.0f;
   Image<std::uint16_t> image;
   image.width = image.height = map.size;
   image.channels = 3;
-  const std::size_t count = map.texels.size() * 3;
-  // Four texels (twelve components, three vectors of four lanes) a step;
-  // the last step's missing texels are padding, cut off at the end.
-  constexpr std::size_t kStep = 12;
-  image.pixels.resize(count + kStep);
-  // GCC and Clang vector extensions: each lane does the double arithmetic
-  // one value would do alone.
-  using Quad = float __attribute__((vector_size(4 * sizeof(float))));
-  using Flags = std::int32_t __attribute__((vector_size(4 * sizeof(float))));
+  image.pixels.reserve(map.texels.size() * 3 + 3);  // the quantisation's padding, below
+  image.pixels.resize(map.texels.size() * 3);
+  // The components in image order first, so that they are quantised as
+  // plain numbers, several at a time.
+  std::vector<float> components(image.pixels.size() + 3, 0.0f);
+  for (std::size_t k = 0; k < map.texels.size(); ++k) {
+    glm::vec3 n = map.texels[k];
+    // A texel whose frame is singular (a native tile of a lon/lat DEM that
+    // reaches past a pole folds onto itself) has no normal in it: it gets
+    // the frame's own, flat, rather than a NaN no integer can hold.
+    if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0, 0, 1);
+    components[3 * k + 0] = n.x;
+    components[3 * k + 1] = green_sign * n.y;
+    components[3 * k + 2] = n.z;
+  }
+  // Four at a time (GCC and Clang vector extensions), the same double
+  // arithmetic in each lane as one value alone; three components of padding
+  // keep the last four read inside, and the last four stored land in
+  // padding too, cut off at the end.
   using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
   using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
   using Whole = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
   using Samples = std::uint16_t __attribute__((vector_size(4 * sizeof(std::uint16_t))));
-  // The green sign in each lane of a step's vectors: xyzx | yzxy | zxyz.
-  const std::array<Quad, 3> sign = {Quad{1, g, 1, 1}, Quad{g, 1, 1, g}, Quad{1, 1, g, 1}};
-  const float* components = count > 0 ? &map.texels[0].x : nullptr;
-  for (std::size_t k = 0; k < count; k += kStep) {
-    std::array<float, kStep> step{};
-    std::memcpy(step.data(), components + k, std::min(kStep, count - k) * sizeof(float));
-    std::array<Quad, 3> v;
-    std::memcpy(v.data(), step.data(), sizeof v);
-    // x - x is 0 for a finite x and NaN otherwise (NaN != NaN).
-    const Quad spread = (v[0] - v[0]) + (v[1] - v[1]) + (v[2] - v[2]);
-    const Flags not_finite = spread != spread;
-    std::uint64_t halves[2];
-    std::memcpy(halves, &not_finite, sizeof halves);
-    if ((halves[0] | halves[1]) != 0) {
-      // A texel whose frame is singular (a native tile of a lon/lat DEM
-      // that reaches past a pole folds onto itself) has no normal in it: it
-      // gets the frame's own, flat, rather than a NaN no integer can hold.
-      for (std::size_t t = 0; t < kStep; t += 3) {
-        if (!std::isfinite(step[t]) || !std::isfinite(step[t + 1]) || !std::isfinite(step[t + 2])) {
-          step[t] = 0, step[t + 1] = 0, step[t + 2] = 1;
-        }
-      }
-      std::memcpy(v.data(), step.data(), sizeof v);
-    }
-    for (std::size_t q = 0; q < 3; ++q) {
-      Lanes c = __builtin_convertvector(v[q] * sign[q], Lanes);
-      const Mask small = (c > -kZeroSnap) & (c < kZeroSnap);
-      c = small ? Lanes{} : c;
-      c = c < -1.0 ? Lanes{} - 1.0 : c;  // guards |n| = 1 + epsilon
-      c = c > 1.0 ? Lanes{} + 1.0 : c;
-      // Round half up: the value is never negative, so truncating it plus
-      // a half rounds it.
-      const Lanes rounded = (c * 0.5 + 0.5) * max_value + 0.5;
-      const Samples samples = __builtin_convertvector(__builtin_convertvector(rounded, Whole), Samples);
-      std::memcpy(&image.pixels[k + 4 * q], &samples, sizeof samples);
-    }
+  const std::size_t count = image.pixels.size();
+  image.pixels.resize(count + 3);
+  for (std::size_t k = 0; k < count; k += 4) {
+    Lanes c = {components[k], components[k + 1], components[k + 2], components[k + 3]};
+    const Mask small = (c > -kZeroSnap) & (c < kZeroSnap);
+    c = small ? Lanes{} : c;
+    c = c < -1.0 ? Lanes{} - 1.0 : c;  // guards |n| = 1 + epsilon
+    c = c > 1.0 ? Lanes{} + 1.0 : c;
+    // Round half up: the value is never negative, so truncating it plus a
+    // half rounds it.
+    const Lanes q = (c * 0.5 + 0.5) * max_value + 0.5;
+    const Samples samples = __builtin_convertvector(__builtin_convertvector(q, Whole), Samples);
+    std::memcpy(&image.pixels[k], &samples, sizeof samples);
   }
   image.pixels.resize(count);
   return image;
