@@ -1,6 +1,6 @@
 #include "io/deflate.hpp"
 
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <algorithm>
 #include <array>
@@ -399,7 +399,7 @@ std::vector<std::uint8_t> zlibCompress(const std::uint8_t* data, std::size_t siz
     writeBlock(bits, data, stretches, k >= size);
   } while (k < size);
   std::size_t end = bits.finish();
-  const std::uint32_t adler = std::uint32_t(adler32_z(adler32(0, nullptr, 0), data, size));
+  const std::uint32_t adler = libdeflate_adler32(1, data, size);
   out.resize(end + 4);
   for (int b = 3; b >= 0; --b) out[end++] = std::uint8_t(adler >> (8 * b));
   return out;

@@ -1,4 +1,4 @@
-#include <zlib.h>
+#include <libdeflate.h>
 
 #include <algorithm>
 #include <cstring>
@@ -82,7 +82,7 @@ void putChunk(std::vector<std::uint8_t>& out, const char* type, const std::uint8
   const std::size_t type_at = out.size();
   out.insert(out.end(), type, type + 4);
   out.insert(out.end(), data, data + size);
-  putBigEndian(out, std::uint32_t(crc32_z(0, &out[type_at], 4 + size)));
+  putBigEndian(out, libdeflate_crc32(0, &out[type_at], 4 + size));
 }
 
 constexpr int kPaethFilter = 4;
