@@ -365,8 +365,9 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
       // read costs what the files cover: not files x grid for a mosaic, nor
       // the cells past a DEM's edge (15 % of those the benchmark pyramid's
       // tiles, edge strips and hole fills ask for). A texel's height depends
-      // only on where it is (the lattice of the reprojection is anchored at
-      // the CRS origin), not on the window.
+      // on where it is (the lattice of the reprojection is anchored at the
+      // CRS origin), not on the window, to the last bit where the DEM's CRS
+      // is the grid's and to float rounding elsewhere.
       GridSpec part = grid;
       part.origin_x = grid.origin_x + window.col0 * grid.cell_w;
       part.origin_y = grid.origin_y - window.row0 * grid.cell_h;
