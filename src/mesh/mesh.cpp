@@ -106,29 +106,8 @@ VertexFrame sampleFrame(const SampleGrid& samples, int c, int r) {
   return frameFromDifferences(differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
 }
 
-// The normals of samples (c0, r) and (c1, r), the same bits as
-// normalFromDifferences gives each, the two taken at once. `central`:
-// differenceAt would take central differences at both (centralAt):
-// skip its checks.
-void sampleNormals(const SampleGrid& samples, int c0, int c1, int r, bool central, glm::vec3& n0, glm::vec3& n1) {
-  const Raster<glm::dvec3>& p = samples.position;
-  const auto difference = [&](int c, int dc, int dr) {
-    return central ? p.at(c + dc, r + dr) - p.at(c - dc, r - dr) : differenceAt(samples, c, r, dc, dr);
-  };
-  const glm::dvec3 du[2] = {difference(c0, 1, 0), difference(c1, 1, 0)};
-  const glm::dvec3 dv[2] = {difference(c0, 0, 1), difference(c1, 0, 1)};
-  const auto lanes = [&](const glm::dvec3 (&v)[2], int axis) { return Doubles{v[0][axis], v[1][axis]}; };
-  const Doubles ux = lanes(du, 0), uy = lanes(du, 1), uz = lanes(du, 2);
-  const Doubles vx = lanes(dv, 0), vy = lanes(dv, 1), vz = lanes(dv, 2);
-  // cross(dv, du), then normalize: v / sqrt(dot(v, v)) as glm does it.
-  const Doubles x = vy * uz - uy * vz, y = vz * ux - uz * vx, z = vx * uy - ux * vy;
-  const Doubles inverse_length = 1 / squareRoot(x * x + y * y + z * z);
-  n0 = glm::vec3(glm::dvec3(x[0], y[0], z[0]) * inverse_length[0]);
-  n1 = glm::vec3(glm::dvec3(x[1], y[1], z[1]) * inverse_length[1]);
-}
-
-// Central differences, one array per component, a row of samples long
-// and padded to whole vectors of lanes.
+// Differences across each sample of a row, east (u) and south (v), one array
+// per component, padded to whole vectors of lanes.
 struct RowDifferences {
   int samples;
   std::vector<float> ux, uy, uz, vx, vy, vz;
@@ -139,24 +118,47 @@ struct RowDifferences {
     std::fill(ux.begin() + count, ux.end(), 1.0f);
     std::fill(vz.begin() + count, vz.end(), 1.0f);
   }
+  void set(int i, const glm::dvec3& u, const glm::dvec3& v) {
+    const std::size_t k = std::size_t(i);
+    ux[k] = float(u.x), uy[k] = float(u.y), uz[k] = float(u.z);
+    vx[k] = float(v.x), vy[k] = float(v.y), vz[k] = float(v.z);
+  }
 };
 
-// The normals of d.samples samples from (first_column, r) on, which with
-// their four neighbours are all the DEM's, appended to `normals`: the
-// differences in double, as the positions are, then their cross product
-// and its length in float, a lane per sample (about 1e-7 from the same in
-// double, far inside the 8- and 16-bit steps a normal is stored in).
-void centralRowNormals(const Raster<glm::dvec3>& p, int first_column, int r, RowDifferences& d,
-                       std::vector<glm::vec3>& normals) {
+// Whether differenceAt takes central differences both ways at sample (c,
+// r): it is filled in, or it and its four neighbours are the DEM's.
+bool centralAt(const Raster<std::uint8_t>& from_dem, int c, int r) {
+  const bool around = from_dem.at(c - 1, r) && from_dem.at(c + 1, r) && from_dem.at(c, r - 1) && from_dem.at(c, r + 1);
+  return !from_dem.at(c, r) || around;
+}
+
+// The differences across samples (first_column + i, r), taken in double as
+// the positions are: differenceAt's, without its checks where the row and
+// those either side are all the DEM's (central throughout).
+void rowDifferences(const SampleGrid& samples, int first_column, int r, bool all_dem, RowDifferences& d) {
+  const Raster<glm::dvec3>& p = samples.position;
+  if (!all_dem) {
+    for (int i = 0; i < d.samples; ++i) {
+      const int c = first_column + i;
+      if (centralAt(samples.from_dem, c, r)) {
+        d.set(i, p.at(c + 1, r) - p.at(c - 1, r), p.at(c, r + 1) - p.at(c, r - 1));
+      } else {
+        d.set(i, differenceAt(samples, c, r, 1, 0), differenceAt(samples, c, r, 0, 1));
+      }
+    }
+    return;
+  }
   const glm::dvec3* left = &p.at(first_column - 1, r);
   const glm::dvec3* right = &p.at(first_column + 1, r);
   const glm::dvec3* up = &p.at(first_column, r - 1);
   const glm::dvec3* down = &p.at(first_column, r + 1);
-  for (int i = 0; i < d.samples; ++i) {
-    const glm::dvec3 du = right[i] - left[i], dv = down[i] - up[i];
-    d.ux[std::size_t(i)] = float(du.x), d.uy[std::size_t(i)] = float(du.y), d.uz[std::size_t(i)] = float(du.z);
-    d.vx[std::size_t(i)] = float(dv.x), d.vy[std::size_t(i)] = float(dv.y), d.vz[std::size_t(i)] = float(dv.z);
-  }
+  for (int i = 0; i < d.samples; ++i) d.set(i, right[i] - left[i], down[i] - up[i]);
+}
+
+// The unit normals cross(dv, du) of a row's samples, appended to `normals`:
+// in float, a lane per sample (about 1e-7 from the same in double, far
+// inside the 8- and 16-bit steps a normal is stored in).
+void appendNormals(const RowDifferences& d, std::vector<glm::vec3>& normals) {
   const auto load = [](const std::vector<float>& component, std::size_t at) {
     Floats value;
     std::memcpy(&value, &component[at], sizeof value);
@@ -165,25 +167,12 @@ void centralRowNormals(const Raster<glm::dvec3>& p, int first_column, int r, Row
   for (std::size_t i = 0; i < d.ux.size(); i += kFloatLanes) {
     const Floats ux = load(d.ux, i), uy = load(d.uy, i), uz = load(d.uz, i);
     const Floats vx = load(d.vx, i), vy = load(d.vy, i), vz = load(d.vz, i);
-    // cross(dv, du), normalised.
     const Floats x = vy * uz - uy * vz, y = vz * ux - uz * vx, z = vx * uy - ux * vy;
     const Floats inverse_length = 1 / squareRoot(x * x + y * y + z * z);
     const Floats nx = x * inverse_length, ny = y * inverse_length, nz = z * inverse_length;
     const std::size_t count = std::min<std::size_t>(kFloatLanes, std::size_t(d.samples) - i);
     for (std::size_t k = 0; k < count; ++k) normals.emplace_back(nx[k], ny[k], nz[k]);
   }
-}
-
-// Whether differenceAt takes central differences both ways at samples (c0,
-// r) and (c1, r): each is filled in, or it and its four neighbours are the
-// DEM's.
-bool centralAt(const Raster<std::uint8_t>& from_dem, int c0, int c1, int r) {
-  bool central = true;
-  for (const int c : {c0, c1}) {
-    const bool around = from_dem.at(c - 1, r) && from_dem.at(c + 1, r) && from_dem.at(c, r - 1) && from_dem.at(c, r + 1);
-    central &= !from_dem.at(c, r) || around;
-  }
-  return central;
 }
 
 }  // namespace
@@ -232,19 +221,8 @@ HighResMesh buildHighResMesh(const SampleGrid& samples) {
   RowDifferences differences(s);
   for (int j = 0; j < s; ++j) {
     const std::size_t r = std::size_t(a + j);
-    if (all_dem[r - 1] && all_dem[r] && all_dem[r + 1]) {
-      centralRowNormals(p, a, a + j, differences, mesh.normal);
-      continue;
-    }
-    // Two normals at a time; an odd row's last pair is one sample twice.
-    for (int i = 0; i < s; i += 2) {
-      const int next = std::min(i + 1, s - 1);
-      const bool central = centralAt(samples.from_dem, a + i, a + next, a + j);
-      glm::vec3 first, second;
-      sampleNormals(samples, a + i, a + next, a + j, central, first, second);
-      mesh.normal.push_back(first);
-      if (next != i) mesh.normal.push_back(second);
-    }
+    rowDifferences(samples, a, a + j, all_dem[r - 1] && all_dem[r] && all_dem[r + 1], differences);
+    appendNormals(differences, mesh.normal);
   }
   return mesh;
 }
