@@ -22,7 +22,6 @@ inline constexpr int kFloatLanes = 4;
 #endif
 using Floats = float __attribute__((vector_size(sizeof(float) * kFloatLanes)));
 using Ints = std::int32_t __attribute__((vector_size(sizeof(std::int32_t) * kFloatLanes)));
-using Doubles = double __attribute__((vector_size(16)));
 
 // 0, 1, 2, ...: each lane's place.
 template <class Lanes>
@@ -40,7 +39,6 @@ Lanes squareRoot(Lanes v) {
 #endif
 #if defined(__SSE2__)
   if constexpr (sizeof v == 16 && sizeof(v[0]) == sizeof(float)) return Lanes(_mm_sqrt_ps(__m128(v)));
-  if constexpr (sizeof v == 16 && sizeof(v[0]) == sizeof(double)) return Lanes(_mm_sqrt_pd(__m128d(v)));
 #endif
   for (std::size_t k = 0; k < sizeof v / sizeof v[0]; ++k) v[k] = std::sqrt(v[k]);
   return v;
