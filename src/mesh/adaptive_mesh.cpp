@@ -138,18 +138,16 @@ class GreedyMesher {
     for (int t = 0; t < triangleCount(); ++t) rescore(t);
     while (!m_queue.empty()) {
       const Entry top = m_queue.top();
-      if (top.stamp != m_stamp[std::size_t(top.triangle)]) {
-        m_queue.pop();
-        continue;
-      }
-      if (top.error2 <= m_bound2) return std::sqrt(top.error2);
       m_queue.pop();
+      if (top.stamp != m_stamp[std::size_t(top.triangle)]) continue;
       ++m_generation;
       m_touched.clear();
       insertSample(top.triangle, m_candidate[std::size_t(top.triangle)]);
       for (int t : m_touched) rescore(t);
     }
-    return 0;
+    // Every triangle was scored since it last changed.
+    const double farthest2 = *std::max_element(m_farthest2.begin(), m_farthest2.end());
+    return std::sqrt(std::max(farthest2, 0.0));
   }
 
   TriangleMesh mesh() const {
@@ -195,6 +193,7 @@ class GreedyMesher {
     m_corner.insert(m_corner.end(), {a, b, c});
     m_opposite.insert(m_opposite.end(), {kNone, kNone, kNone});
     m_candidate.push_back(-1);
+    m_farthest2.push_back(-1);
     m_stamp.push_back(0);
     m_touch_mark.push_back(0);
     const int t = triangleCount() - 1;
@@ -307,9 +306,9 @@ class GreedyMesher {
   }
 
   // Finds the sample of triangle t farthest from its plane (in 3-D, at the
-  // same UV) and queues the triangle by that distance. In float, a lane
-  // per sample: positions relative to the tile's middle keep it to about
-  // 1e-7 of a tile, far inside any bound.
+  // same UV) and, when that is beyond the bound, queues the triangle by its
+  // distance. In float, a lane per sample: positions relative to the tile's
+  // middle keep it to about 1e-7 of a tile, far inside any bound.
   void rescore(int t) {
     const Vertex& a = m_vertices[std::size_t(m_corner[std::size_t(3 * t)])];
     const Vertex& b = m_vertices[std::size_t(m_corner[std::size_t(3 * t + 1)])];
@@ -356,7 +355,9 @@ class GreedyMesher {
     }
     ++m_stamp[std::size_t(t)];
     m_candidate[std::size_t(t)] = farthest[best];
-    if (farthest[best] >= 0) m_queue.push({double(farthest2[best]), t, m_stamp[std::size_t(t)]});
+    m_farthest2[std::size_t(t)] = farthest[best] >= 0 ? double(farthest2[best]) : -1;
+    // One within the bound stays as it is unless a neighbour's insertion changes it.
+    if (m_farthest2[std::size_t(t)] > m_bound2) m_queue.push({m_farthest2[std::size_t(t)], t, m_stamp[std::size_t(t)]});
   }
 
   static Floats load(const std::vector<float>& axis, std::size_t k) {
@@ -375,8 +376,9 @@ class GreedyMesher {
   std::vector<float> m_x, m_y, m_z;     // per sample of the tile, row-major, from m_origin; kLanes - 1 beyond;
                                         // x NaN once the sample is a vertex
   std::vector<int> m_candidate;           // per triangle: its farthest sample, -1 none
+  std::vector<double> m_farthest2;        // per triangle: that sample's squared distance, -1 none
   std::vector<int> m_stamp;               // per triangle: queue entries with another stamp are stale
-  std::priority_queue<Entry> m_queue;
+  std::priority_queue<Entry> m_queue;     // the triangles beyond the bound
   std::vector<int> m_touch_mark;  // per triangle: the generation that last touched it
   std::vector<int> m_touched;
   int m_generation = 1;
