@@ -353,11 +353,12 @@ class GreedyMesher {
         best = lane;
       }
     }
+    const double distance2 = farthest[best] >= 0 ? double(farthest2[best]) : -1;
     ++m_stamp[std::size_t(t)];
     m_candidate[std::size_t(t)] = farthest[best];
-    m_farthest2[std::size_t(t)] = farthest[best] >= 0 ? double(farthest2[best]) : -1;
+    m_farthest2[std::size_t(t)] = distance2;
     // One within the bound stays as it is unless a neighbour's insertion changes it.
-    if (m_farthest2[std::size_t(t)] > m_bound2) m_queue.push({m_farthest2[std::size_t(t)], t, m_stamp[std::size_t(t)]});
+    if (distance2 > m_bound2) m_queue.push({distance2, t, m_stamp[std::size_t(t)]});
   }
 
   static Floats load(const std::vector<float>& axis, std::size_t k) {
