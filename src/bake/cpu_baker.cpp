@@ -94,11 +94,6 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
   // Lanes past the row's end take any frame that keeps the arithmetic finite.
   for (Component c : {kNx, kTy, kBz, kVz}) std::fill_n(&in[c * stride], stride, 1.0f);
   const auto component = [&](int c) { return &in[std::size_t(c) * stride]; };
-  const auto load = [](const float* from) {
-    Floats value;
-    std::memcpy(&value, from, sizeof value);
-    return value;
-  };
   const Floats lane_numbers = laneNumbers<Floats>();
   for (int j = 0; j < size; ++j) {
     const std::size_t row = std::size_t(j) * std::size_t(size);
@@ -137,7 +132,7 @@ NormalMap CpuBaker::bake(const mesh::HighResMesh& high, const mesh::TriangleMesh
       component(kVx)[i] = v.x, component(kVy)[i] = v.y, component(kVz)[i] = v.z;
     }
     for (std::size_t i = 0; i < lanes_in_row; i += kFloatLanes) {
-      const auto lanes = [&](Component c) { return load(component(c) + i); };
+      const auto lanes = [&](Component c) { return loadFloats(component(c) + i); };
       const Floats nx = lanes(kNx), ny = lanes(kNy), nz = lanes(kNz), tx = lanes(kTx), ty = lanes(kTy),
                    tz = lanes(kTz), bx = lanes(kBx), by = lanes(kBy), bz = lanes(kBz), vx = lanes(kVx),
                    vy = lanes(kVy), vz = lanes(kVz);

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstddef>
 #include <cstdint>
+#include <cstring>
 
 #if defined(__SSE2__)
 #include <immintrin.h>
@@ -22,6 +23,13 @@ inline constexpr int kFloatLanes = 4;
 #endif
 using Floats = float __attribute__((vector_size(sizeof(float) * kFloatLanes)));
 using Ints = std::int32_t __attribute__((vector_size(sizeof(std::int32_t) * kFloatLanes)));
+
+// The kFloatLanes floats from `from` on, aligned or not.
+inline Floats loadFloats(const float* from) {
+  Floats v;
+  std::memcpy(&v, from, sizeof v);
+  return v;
+}
 
 // 0, 1, 2, ...: each lane's place.
 template <class Lanes>

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
-#include <cstring>
 #include <queue>
 #include <stdexcept>
 #include <utility>
@@ -333,9 +332,9 @@ class GreedyMesher {
       Floats along = laneNumbers<Floats>();
       Ints sample = (j * m_size + first) + laneNumbers<Ints>();
       for (std::size_t i = 0; i <= std::size_t(last - first); i += kLanes) {
-        const Floats dx = load(m_x, row + i) - (start_x + step_x * along);
-        const Floats dy = load(m_y, row + i) - (start_y + step_y * along);
-        const Floats dz = load(m_z, row + i) - (start_z + step_z * along);
+        const Floats dx = loadFloats(&m_x[row + i]) - (start_x + step_x * along);
+        const Floats dy = loadFloats(&m_y[row + i]) - (start_y + step_y * along);
+        const Floats dz = loadFloats(&m_z[row + i]) - (start_z + step_z * along);
         // Vertices (NaN), and lanes past the span, never win.
         Floats e2 = dx * dx + dy * dy + dz * dz;
         e2 = along < count ? e2 : Floats{} - INFINITY;
@@ -359,12 +358,6 @@ class GreedyMesher {
     m_farthest2[std::size_t(t)] = distance2;
     // One within the bound stays as it is unless a neighbour's insertion changes it.
     if (distance2 > m_bound2) m_queue.push({distance2, t, m_stamp[std::size_t(t)]});
-  }
-
-  static Floats load(const std::vector<float>& axis, std::size_t k) {
-    Floats v;
-    std::memcpy(&v, &axis[k], sizeof v);
-    return v;
   }
 
   const SampleGrid& m_samples;

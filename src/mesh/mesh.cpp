@@ -159,14 +159,9 @@ void rowDifferences(const SampleGrid& samples, int first_column, int r, bool all
 // in float, a lane per sample (about 1e-7 from the same in double, far
 // inside the 8- and 16-bit steps a normal is stored in).
 void appendNormals(const RowDifferences& d, std::vector<glm::vec3>& normals) {
-  const auto load = [](const std::vector<float>& component, std::size_t at) {
-    Floats value;
-    std::memcpy(&value, &component[at], sizeof value);
-    return value;
-  };
   for (std::size_t i = 0; i < d.ux.size(); i += kFloatLanes) {
-    const Floats ux = load(d.ux, i), uy = load(d.uy, i), uz = load(d.uz, i);
-    const Floats vx = load(d.vx, i), vy = load(d.vy, i), vz = load(d.vz, i);
+    const Floats ux = loadFloats(&d.ux[i]), uy = loadFloats(&d.uy[i]), uz = loadFloats(&d.uz[i]);
+    const Floats vx = loadFloats(&d.vx[i]), vy = loadFloats(&d.vy[i]), vz = loadFloats(&d.vz[i]);
     const Floats x = vy * uz - uy * vz, y = vz * ux - uz * vx, z = vx * uy - ux * vy;
     const Floats inverse_length = 1 / squareRoot(x * x + y * y + z * z);
     const Floats nx = x * inverse_length, ny = y * inverse_length, nz = z * inverse_length;
