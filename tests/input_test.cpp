@@ -489,6 +489,39 @@ TEST(Inputs, HeightsOfASecondBandAreReadAtEveryZoom) {
   expectSameTiles(dir / "out" / "first", dir / "out" / "second");
 }
 
+// The backdrop that holes are filled from is made when a tile first has
+// one, so a run of zooms as fine as the DEM's pixels whose tiles have no
+// hole makes no reduced levels (a whole read of the file), and its tiles
+// are those of a run that makes them; a tile at the DEM's edge has holes,
+// and its run makes them for the backdrop.
+TEST(Inputs, ARunOfFineZoomsWithoutHolesMakesNoReducedLevels) {
+  const fs::path dir = caseDir();
+  constexpr int kSide = 1024;
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "hills.tif", kSide, kSide, gt, hill);
+  const auto tiled = [&](const std::string& layer, const std::string& zoom, const std::string& bbox) {
+    std::vector<std::string> args = tileArgs(dir / "hills.tif", dir / "out", layer, zoom);
+    args.insert(args.end(), {"--bbox", bbox});
+    return run(args);
+  };
+  const RunResult fine = tiled("fine", "10", "10.4,45.4,10.45,45.45");
+  ASSERT_EQ(fine.exit_code, kExitOk) << describe(fine);
+  EXPECT_FALSE(contains(fine.err, "reduced levels")) << describe(fine);
+  const RunResult coarse = tiled("coarse", "5-10", "10.4,45.4,10.45,45.45");
+  ASSERT_EQ(coarse.exit_code, kExitOk) << describe(coarse);
+  EXPECT_TRUE(contains(coarse.err, "reduced levels")) << describe(coarse);
+  const auto fine_tiles = tilesOf(dir / "out" / "fine"), coarse_tiles = tilesOf(dir / "out" / "coarse");
+  ASSERT_FALSE(fine_tiles.empty());
+  for (const auto& [name, bytes] : fine_tiles) {
+    const auto other = coarse_tiles.find(name);
+    ASSERT_NE(other, coarse_tiles.end()) << name;
+    EXPECT_TRUE(bytes == other->second) << name << " differs";
+  }
+  const RunResult edge = tiled("edge", "10", "9.99,45.4,10.05,45.45");
+  ASSERT_EQ(edge.exit_code, kExitOk) << describe(edge);
+  EXPECT_TRUE(contains(edge.err, "reduced levels")) << describe(edge);
+}
+
 TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
   const fs::path dir = caseDir();
   writeHills(dir / "feet.tif");

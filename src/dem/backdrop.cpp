@@ -30,7 +30,7 @@ std::array<double, 4> cubicWeights(double t) {
 
 }  // namespace
 
-Backdrop::Backdrop(const DemSource& dem, const std::string& crs) {
+Backdrop::Backdrop(const DemSource& dem, const std::string& crs) : m_dem(dem.reader()) {
   Extent e = dem.boundsIn(crs);
   // Longitudes of a DEM across the antimeridian come back west > east: the
   // backdrop then spans every longitude. Counted 0 to 360, they are the
@@ -49,9 +49,20 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs) {
   m_grid.origin_y = e.max_y + margin;
   m_grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
   m_grid.height = int(std::ceil((e.height() + 2 * margin) / cell));
-  m_heights = dem.read(m_grid, dem.planFor(m_grid));
-  // A DEM too small to reach a backdrop cell at all still gets a level floor.
-  if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
+}
+
+void Backdrop::make() const {
+  std::call_once(m_made, [this] {
+    try {
+      m_heights = m_dem.read(m_grid, m_dem.planFor(m_grid));
+      m_dem.closeFiles();
+      // A DEM too small to reach a backdrop cell at all still gets a level floor.
+      if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
+    } catch (...) {
+      m_failure = std::current_exception();
+    }
+  });
+  if (m_failure) std::rethrow_exception(m_failure);
 }
 
 Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
@@ -76,6 +87,7 @@ float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
 }
 
 Backdrop::Range Backdrop::rangeOver(const Extent& extent) const {
+  make();
   const Taps west = tapsAtX(extent.min_x), east = tapsAtX(extent.max_x);
   const Taps north = tapsAtY(extent.max_y), south = tapsAtY(extent.min_y);
   float low = m_heights.at(west.cell[0], north.cell[0]), high = low;
@@ -97,9 +109,13 @@ Backdrop::Taps Backdrop::tapsAtY(double y) const {
   return tapsAlong((m_grid.origin_y - y) / m_grid.cell_h, m_grid.height);
 }
 
-float Backdrop::heightAt(double x, double y) const { return heightFrom(tapsAtX(x), tapsAtY(y)); }
+float Backdrop::heightAt(double x, double y) const {
+  make();
+  return heightFrom(tapsAtX(x), tapsAtY(y));
+}
 
 Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const {
+  make();
   std::vector<Taps> columns, rows;
   for (int c = 0; c < grid.width; ++c) columns.push_back(tapsAtX(grid.centreX(c)));
   for (int r = 0; r < grid.height; ++r) rows.push_back(tapsAtY(grid.centreY(r)));

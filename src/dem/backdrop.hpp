@@ -4,9 +4,14 @@
 // Samples far from any valid DEM sample (outside the DEM, inside very large
 // voids) take their height from it, and the surface a tile carries on from
 // its data fades into it: it is made once per job and is the same for every
-// tile, so neighbouring tiles still meet there.
+// tile, so neighbouring tiles still meet there. It is made when first asked
+// for a height: reading it asks for the reduced levels of a file without
+// overviews, a whole read of the file, which a run whose tiles have no hole
+// and whose zooms are all fine would make for nothing.
 #include <array>
 #include <cstdint>
+#include <exception>
+#include <mutex>
 #include <vector>
 
 #include "core/types.hpp"
@@ -16,7 +21,9 @@ namespace terrabake::dem {
 
 class Backdrop {
  public:
-  // Covers the DEM's extent in `crs` and a margin around it.
+  // Covers the DEM's extent in `crs` and a margin around it; reads it
+  // through a reader of its own. The methods below make it on their first
+  // call, on whichever thread, and throw what making it threw.
   Backdrop(const DemSource& dem, const std::string& crs);
 
   // Bicubic height at a point of the tiling CRS; beyond the backdrop, the
@@ -53,8 +60,14 @@ class Backdrop {
   // The columns along x's taps, each mixed along y's.
   float heightFrom(const Taps& along_x, const Taps& along_y) const;
 
+  // Reads and fills the heights once.
+  void make() const;
+
   GridSpec m_grid;
-  Raster<float> m_heights;
+  mutable DemSource m_dem;  // read once, by make()
+  mutable std::once_flag m_made;
+  mutable std::exception_ptr m_failure;  // what making it threw
+  mutable Raster<float> m_heights;
 };
 
 }  // namespace terrabake::dem
