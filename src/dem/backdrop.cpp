@@ -55,12 +55,12 @@ void Backdrop::make() const {
   std::call_once(m_made, [this] {
     try {
       m_heights = m_dem.read(m_grid, m_dem.planFor(m_grid));
-      m_dem.closeFiles();
       // A DEM too small to reach a backdrop cell at all still gets a level floor.
       if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
     } catch (...) {
       m_failure = std::current_exception();
     }
+    m_dem.closeFiles();  // read once: its handles are the workers' to use
   });
   if (m_failure) std::rethrow_exception(m_failure);
 }
