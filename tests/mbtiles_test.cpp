@@ -554,6 +554,62 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
   }));
 }
 
+// The server keeps an MBTiles layer's tiles in memory, and a row another
+// program rewrites in place (same size: the file's size and mtime could not
+// tell) is served anew within a second, then kept again.
+TEST(Mbtiles, ServedTilesAreKeptInMemoryUntilTheFileChanges) {
+  const fs::path tiles_dir = caseDir() / "tiles";
+  const config::TileJob job = smallJob(tiles_dir, "packed", OutputFormat::kMbtiles);
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+  const config::ServeConfig config = test::servingLayersIn(tiles_dir);
+  ASSERT_GT(config.cache_mib, 0) << "the tile cache is on";
+  const ServerThread server(config);
+
+  const Json tilejson = Json::parse(test::get(server.port(), "/packed/tilejson.json")->body);
+  const int zoom = tilejson.at("maxzoom").get<int>();
+  const Json rows = sqliteTool(mbtilesPath(job), "SELECT tile_column, tile_row FROM tiles WHERE zoom_level = " +
+                                                     std::to_string(zoom) + " LIMIT 1");
+  ASSERT_EQ(rows.size(), 1u);
+  const int column = rows[0].at("tile_column").get<int>(), row = rows[0].at("tile_row").get<int>();
+  const TileId tile{zoom, column, (1 << zoom) - 1 - row};
+  const std::string url = "/packed/" + tile.str() + ".png";
+  const std::string where = " WHERE zoom_level = " + std::to_string(zoom) + " AND tile_column = " +
+                            std::to_string(column) + " AND tile_row = " + std::to_string(row);
+
+  const auto miss = test::get(server.port(), url);
+  const auto hit = test::get(server.port(), url);
+  ASSERT_TRUE(miss && hit);
+  EXPECT_EQ(hit->status, 200);
+  EXPECT_EQ(hit->body, miss->body);
+  EXPECT_EQ(hit->get_header_value("ETag"), miss->get_header_value("ETag"));
+  Json counters = test::health(server.port());
+  EXPECT_EQ(counters["tile_cache_misses"], 1);
+  EXPECT_EQ(counters["tile_cache_hits"], 1);
+
+  std::string rewritten;
+  {
+    Database db(mbtilesPath(job));
+    db.exec("UPDATE tiles SET tile_data = randomblob(length(tile_data))" + where);
+    rewritten = db.blob("tiles", zoom, column, row).value_or("");
+  }
+  ASSERT_EQ(rewritten.size(), miss->body.size());
+  ASSERT_NE(rewritten, miss->body);
+  EXPECT_TRUE(test::waitFor([&] {
+    const auto answer = test::get(server.port(), url);
+    return answer && answer->status == 200 && answer->body == rewritten;
+  })) << "the rewritten row";
+  const auto old_tag = test::get(server.port(), url, {{"If-None-Match", miss->get_header_value("ETag")}});
+  ASSERT_TRUE(old_tag);
+  EXPECT_EQ(old_tag->status, 200) << "a client holding the old tile is not told it is current";
+  EXPECT_EQ(old_tag->body, rewritten);
+  counters = test::health(server.port());
+  const auto hits = counters["tile_cache_hits"].get<int>();
+  const auto again = test::get(server.port(), url);
+  ASSERT_TRUE(again);
+  EXPECT_EQ(again->body, rewritten);
+  EXPECT_EQ(test::health(server.port())["tile_cache_hits"], hits + 1) << "kept again";
+}
+
 // A served layer that a run extends by a zoom (--force: another job) is
 // read again: within a second its tilejson and the new zoom's tiles are
 // served, from a folder and from an MBTiles file alike.

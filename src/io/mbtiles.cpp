@@ -444,6 +444,13 @@ std::optional<std::string> MbtilesFile::tilesetDocument(const std::string& path)
   return std::string(text ? reinterpret_cast<const char*>(text) : "", std::size_t(sqlite3_column_bytes(s, 0)));
 }
 
+std::int64_t MbtilesFile::dataVersion() const {
+  Statement statement;
+  sqlite3_stmt* s = m_impl->prepared(statement, "PRAGMA data_version");
+  if (sqlite3_step(s) != SQLITE_ROW) m_impl->fail("cannot read its data version");
+  return sqlite3_column_int64(s, 0);
+}
+
 void MbtilesFile::standAlone() {
   // Leaving WAL needs the file to itself; another process holding it open
   // must not hold this one up, so no waiting here: the busy answer is fine.

@@ -108,6 +108,12 @@ class MbtilesFile {
                                std::int64_t mesh_count);
   std::optional<std::string> tilesetDocument(const std::string& path) const;
 
+  // A number that changes whenever another connection, of this process or
+  // another, commits to the file (SQLite's data_version): asking costs no
+  // read of a table, so a reader can tell cheaply that rows it read before
+  // are still the file's.
+  std::int64_t dataVersion() const;
+
   // Folds the write-ahead log into the file and goes back to a rollback
   // journal, so the file stands alone: no -wal or -shm beside it, readable
   // from a read-only folder. While another process has the file open this

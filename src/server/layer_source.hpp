@@ -29,6 +29,11 @@ struct TileAnswer {
   std::string reason;                          // otherwise: for the response and the log
 };
 
+// Numbers no two reads of an archive's state in the process share, so that a
+// tile kept from one (FileContent::generation) is never taken for one of
+// another, made later under the same name.
+std::uint64_t nextArchiveGeneration();
+
 // What an archive (MBTiles, PMTiles) gives for a tile it holds, or lacks;
 // `generation`: FileContent's.
 inline TileAnswer archivedTileAnswer(std::optional<std::string> bytes, std::uint64_t generation = 0) {

@@ -32,6 +32,7 @@ struct MbtilesLayer::Description {
   std::string tilejson;
   TileCoverage coverage;
   bool tms_rows;  // the layer's y counts from the south as the file's rows do
+  std::uint64_t generation = nextArchiveGeneration();
 };
 
 MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
@@ -39,17 +40,7 @@ MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
       m_path(path),
       m_description(
           "layer " + m_name + ": " + path,
-          [this]() -> std::optional<std::string> {
-            // Rows are written in place: the size and time tell a run that
-            // wrote more, the inode a file made anew.
-            struct stat info {};
-            if (::stat(m_path.c_str(), &info) != 0) {
-              if (errno == ENOENT) return std::nullopt;
-              throw std::runtime_error("cannot stat " + m_path);
-            }
-            return fileIdentity(info) + " " + std::to_string(info.st_size) + " " +
-                   std::to_string(info.st_mtim.tv_sec) + "." + std::to_string(info.st_mtim.tv_nsec);
-          },
+          [this] { return stamp(); },
           [this] { return describe(); },
           [this](const Description& description) {
             // Idle connections would hold the removed file open.
@@ -60,6 +51,30 @@ MbtilesLayer::MbtilesLayer(std::string name, const std::string& path)
           }) {}
 
 MbtilesLayer::~MbtilesLayer() = default;
+
+std::optional<std::string> MbtilesLayer::stamp() {
+  // The inode tells a file made anew, the data version any commit to it.
+  const auto identity = [this]() -> std::optional<std::string> {
+    struct stat info {};
+    if (::stat(m_path.c_str(), &info) == 0) return fileIdentity(info);
+    if (errno == ENOENT) return std::nullopt;
+    throw std::runtime_error("cannot stat " + m_path);
+  };
+  const std::optional<std::string> file = identity();
+  if (!file) {
+    m_watch.reset();  // so that the removed file's space is freed
+    return std::nullopt;
+  }
+  if (!m_watch || *file != m_watch_file) {
+    m_watch.reset();
+    std::unique_ptr<io::MbtilesFile> watch = io::MbtilesFile::openForReading(m_path);
+    // A file renamed into place while this one opened is watched from the next look.
+    if (identity() != file) throw std::runtime_error(m_path + " was replaced while it was opened");
+    m_watch = std::move(watch);
+    m_watch_file = *file;
+  }
+  return *file + " " + std::to_string(m_watch->dataVersion());
+}
 
 std::shared_ptr<const MbtilesLayer::Description> MbtilesLayer::describe() {
   std::unique_ptr<io::MbtilesFile> file = io::MbtilesFile::openForReading(m_path);
@@ -100,7 +115,12 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
   } catch (const std::exception& e) {
     return unreadableTileAnswer(m_name, tile, e);
   }
-  return archivedTileAnswer(std::move(bytes));
+  return archivedTileAnswer(std::move(bytes), description->generation);
+}
+
+bool MbtilesLayer::isCurrent(const TileId& /*tile*/, io::TileFormat /*format*/, const FileContent& kept) const {
+  const std::shared_ptr<const Description> description = m_description.current();
+  return description && description->generation == kept.generation;
 }
 
 std::optional<FileContent> MbtilesLayer::tilesetFile(const std::string& path) {

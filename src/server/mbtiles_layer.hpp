@@ -13,9 +13,11 @@
 
 namespace terrabake::server {
 
-// Its tiles are not kept in memory (LayerSource::tilesMayBeKept): SQLite
-// rewrites pages in place, so neither the file's size nor its coarse mtime
-// tells that a row is unchanged, and asking SQLite costs what reading the row does.
+// Its tiles may be kept in memory (TileCache): every commit to the file
+// changes its data version, which a look asks once a second at most, so a
+// kept tile is answered until a run writes into the file or makes it anew
+// and for at most a second after. (SQLite rewrites pages in place: the
+// file's size and coarse mtime would not tell.)
 class MbtilesLayer : public LayerSource {
  public:
   // Opens the file read-only. Throws InputError when it is not an MBTiles
@@ -30,6 +32,8 @@ class MbtilesLayer : public LayerSource {
   std::string tileJson(const std::string& layer_url) const override;
   TileAnswer tile(const TileId& tile, io::TileFormat format, const Later& later) override;
   std::optional<FileContent> tilesetFile(const std::string& path) override;
+  bool tilesMayBeKept() const override { return true; }
+  bool isCurrent(const TileId& tile, io::TileFormat format, const FileContent& kept) const override;
   // The file was removed (its idle connections are then closed, so that its
   // space is freed; a tile read at that moment closes its own after it).
   bool isGone() const override { return !m_description.current(); }
@@ -37,6 +41,9 @@ class MbtilesLayer : public LayerSource {
  private:
   struct Description;  // the file's tilejson, and which file that is
 
+  // Which file the path names and its data version, asked through m_watch;
+  // nullopt once the file is gone.
+  std::optional<std::string> stamp();
   std::shared_ptr<const Description> describe();
 
   // A connection is used by one thread at a time: each request borrows an
@@ -51,6 +58,10 @@ class MbtilesLayer : public LayerSource {
   std::vector<std::unique_ptr<io::MbtilesFile>> m_idle;
   std::string m_idle_file;  // the file the idle connections read
   bool m_removed = false;   // the file is gone: connections given back are closed
+  // The connection that asks the data version (only stamp() uses it, under
+  // m_description's lock), and which file it reads.
+  std::unique_ptr<io::MbtilesFile> m_watch;
+  std::string m_watch_file;
   StoredState<Description> m_description;  // after the connections: reading it gives one back
 };
 

@@ -1,6 +1,5 @@
 #include "server/pmtiles_layer.hpp"
 
-#include <atomic>
 #include <cstdint>
 #include <filesystem>
 #include <stdexcept>
@@ -36,14 +35,6 @@ std::map<io::TileFormat, std::unique_ptr<io::PmtilesReader>> openArchives(const 
   return readers;
 }
 
-// Numbers no two openings of archives in the process share, so that a tile
-// kept from one is never taken for one of another, made later under the
-// same name.
-std::uint64_t nextGeneration() {
-  static std::atomic<std::uint64_t> next{1};
-  return next++;
-}
-
 }  // namespace
 
 struct PmtilesLayer::Archives {
@@ -55,7 +46,7 @@ struct PmtilesLayer::Archives {
   std::string elevation_tilejson;  // empty: no elevation archive
 
   explicit Archives(const std::string& path)
-      : generation(nextGeneration()),
+      : generation(nextArchiveGeneration()),
         readers(openArchives(path)),
         tilejson(tileJsonOf(*readers.at(io::TileFormat::kPng))),
         coverage(coverageOf(io::readTileJson(tilejson))) {
