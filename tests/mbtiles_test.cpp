@@ -556,7 +556,8 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
 
 // The server keeps an MBTiles layer's tiles in memory, and a row another
 // program rewrites in place (same size: the file's size and mtime could not
-// tell) is served anew within a second, then kept again.
+// tell) is served anew within a second, then kept again; so is the row of a
+// file renamed into place.
 TEST(Mbtiles, ServedTilesAreKeptInMemoryUntilTheFileChanges) {
   const fs::path tiles_dir = caseDir() / "tiles";
   const config::TileJob job = smallJob(tiles_dir, "packed", OutputFormat::kMbtiles);
@@ -608,6 +609,21 @@ TEST(Mbtiles, ServedTilesAreKeptInMemoryUntilTheFileChanges) {
   ASSERT_TRUE(again);
   EXPECT_EQ(again->body, rewritten);
   EXPECT_EQ(test::health(server.port())["tile_cache_hits"], hits + 1) << "kept again";
+
+  const fs::path copy = mbtilesPath(job).string() + ".new";
+  std::string replaced;
+  {
+    Database(mbtilesPath(job)).exec("VACUUM INTO '" + copy.string() + "'");
+    Database db(copy);
+    db.exec("UPDATE tiles SET tile_data = randomblob(length(tile_data))" + where);
+    replaced = db.blob("tiles", zoom, column, row).value_or("");
+  }
+  ASSERT_NE(replaced, rewritten);
+  fs::rename(copy, mbtilesPath(job));
+  EXPECT_TRUE(test::waitFor([&] {
+    const auto answer = test::get(server.port(), url);
+    return answer && answer->status == 200 && answer->body == replaced;
+  })) << "the row of the file renamed into place";
 }
 
 // A served layer that a run extends by a zoom (--force: another job) is
