@@ -21,7 +21,8 @@ template <class State>
 class StoredState {
  public:
   // What identifies the files' version now (an ETag, an inode and a
-  // time), nullopt when they are gone; throws when it cannot be told.
+  // time, an inode and SQLite's data version), nullopt when they are gone;
+  // throws when it cannot be told.
   using Stamp = std::function<std::optional<std::string>()>;
   // The state of the files as they are now; throws when they cannot be read.
   using Read = std::function<std::shared_ptr<const State>()>;
@@ -30,8 +31,9 @@ class StoredState {
   // runs. Empty: the state is kept as it is.
   using Release = std::function<std::shared_ptr<const State>(const State&)>;
 
-  // How long a change may go unnoticed: a look costs a stat or two, made by
-  // whichever request comes first once this has passed since the last.
+  // How long a change may go unnoticed: a look costs a stat or two (and for
+  // an MBTiles file a query of its data version), made by whichever request
+  // comes first once this has passed since the last.
   static constexpr std::chrono::seconds kLookInterval{1};
 
   // Reads the files now; throws as `read` does. `what` names them in the log.
