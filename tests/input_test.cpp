@@ -714,13 +714,25 @@ TEST(Inputs, ImageBandsAreWarnedAboutAndComplexBandsRefused) {
   EXPECT_TRUE(contains(complex.err, "complex")) << describe(complex);
 }
 
-TEST(Inputs, GeographicDemBeyondThePolesIsRefused) {
+TEST(Inputs, DemsPlacedOffTheEarthAreRefusedSayingWhere) {
   const fs::path dir = caseDir();
   const double gt[6] = {10, 0.1, 0, 95, 0, -0.1};
   writeDem(dir / "beyond.tif", 50, 50, gt, hill);
   const RunResult r = run(tileArgs(dir / "beyond.tif", dir / "out", "beyond"));
   EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
   EXPECT_TRUE(contains(r.err, "beyond -90..90")) << describe(r);
+
+  // Metres a million kilometres out in a UTM zone: PROJ gives no reason, so the message shows the extent.
+  const double far_gt[6] = {1e9, 30, 0, 1e9, 0, -30};
+  writeDem(dir / "far.tif", 50, 50, far_gt, hill, 32632);
+  for (const std::vector<std::string>& args :
+       {tileArgs(dir / "far.tif", dir / "out", "far"), std::vector<std::string>{"info", (dir / "far.tif").string()}}) {
+    const RunResult far = run(args);
+    EXPECT_EQ(far.exit_code, kExitInput) << describe(far);
+    EXPECT_TRUE(contains(far.err, "far.tif' (x 1000000000 to 1000001500, y 999998500 to 1000000000 in its CRS)"))
+        << describe(far);
+    EXPECT_TRUE(contains(far.err, "check its geotransform and CRS")) << describe(far);
+  }
 }
 
 // A 50 x 50 hill placed by `gt` in the CRS `crs` names (as

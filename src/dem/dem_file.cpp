@@ -424,10 +424,17 @@ Extent FileMeta::boundsIn(const std::string& crs) const {
   std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_srs, &target));
   Extent out;
   constexpr int kDensifyPoints = 21;
+  CPLErrorReset();
   if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
                                   kDensifyPoints)) {
-    throw InputError("dem: cannot transform the extent of '" + shortened(m_info.path) + "' to the tiling CRS (" +
-                     lastGdalError() + ")");
+    // PROJ often gives no reason: a geotransform far outside the CRS's area
+    // (metres for a geographic CRS, say) is the usual one.
+    char extent[160];
+    std::snprintf(extent, sizeof extent, "x %.10g to %.10g, y %.10g to %.10g", west, east, south, north);
+    const char* reason = CPLGetLastErrorMsg();
+    throw InputError("dem: cannot transform the extent of '" + shortened(m_info.path) + "' (" + extent +
+                     " in its CRS) to the tiling CRS" + (*reason ? " (" + oneLine(reason) + ")" : std::string()) +
+                     "; check its geotransform and CRS");
   }
   return m_bounds.emplace(crs, out).first->second;
 }
