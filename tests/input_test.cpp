@@ -225,7 +225,7 @@ TEST(Inputs, WorldDemTilesAHundredMetreBoxAtZoom16Quickly) {
 
 // A box across the antimeridian (west above east) makes the tiles of both
 // sides, the bytes a box on each side makes, and its tilejson bounds run
-// west > east as a DEM across it does.
+// west > east as a DEM across it does; the log says how the box was read.
 TEST(Inputs, ABoxAcrossTheAntimeridianMakesTheTilesOfBothSides) {
   const fs::path dir = caseDir();
   const auto runBox = [&](const std::string& layer, const std::string& box) {
@@ -233,6 +233,10 @@ TEST(Inputs, ABoxAcrossTheAntimeridianMakesTheTilesOfBothSides) {
     args.insert(args.end(), {"--bbox", box});
     const RunResult r = run(args);
     EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+    EXPECT_EQ(contains(r.err, "the box runs across the antimeridian: lon 179.8 to 180, lat -0.2 to 0.2 and "
+                              "lon -180 to -179.8, lat -0.2 to 0.2"),
+              layer == "across")
+        << describe(r);
     return tilesOf(dir / "out" / layer);
   };
   const auto across = runBox("across", "179.8,-0.2,-179.8,0.2");

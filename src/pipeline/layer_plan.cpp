@@ -45,6 +45,11 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
   const std::vector<Extent> box_pieces =
       box.min_x < box.max_x ? std::vector<Extent>{box}
                             : std::vector<Extent>{{box.min_x, box.min_y, 180, box.max_y}, {-180, box.min_y, box.max_x, box.max_y}};
+  if (box_pieces.size() > 1) {
+    // Said, since a box with west and east swapped by mistake reads so too.
+    log::info("tiling.bbox: west above east, so the box runs across the antimeridian: " +
+              lonLatText(box_pieces[0]) + " and " + lonLatText(box_pieces[1]));
+  }
   std::vector<Extent> inside;
   for (const Extent& piece : cover) {
     for (const Extent& box_piece : box_pieces) {
