@@ -77,20 +77,15 @@ std::optional<std::string> MbtilesLayer::stamp() {
 }
 
 std::shared_ptr<const MbtilesLayer::Description> MbtilesLayer::describe() {
-  std::unique_ptr<io::MbtilesFile> file = io::MbtilesFile::openForReading(m_path);
-  // The file just opened, but for a new one renamed into place in between,
-  // which the next look reads again.
-  struct stat info {};
-  if (::stat(m_path.c_str(), &info) != 0) throw std::runtime_error("cannot stat " + m_path);
-  const std::string tilejson = tileJsonText(*file);
+  // Read through the connection stamp() has just opened or asked, on the
+  // file whose stamp the description is kept under.
+  if (!m_watch) throw std::runtime_error("cannot open " + m_path + ": no such file");
+  const std::string tilejson = tileJsonText(*m_watch);
   const auto read = io::readTileJson(tilejson);
   auto description =
-      std::make_shared<const Description>(Description{fileIdentity(info), tilejson, coverageOf(read), read.tms_rows});
-  {
-    const std::lock_guard<std::mutex> lock(m_mutex);
-    m_removed = false;
-  }
-  giveBack(description->file, std::move(file));
+      std::make_shared<const Description>(Description{m_watch_file, tilejson, coverageOf(read), read.tms_rows});
+  const std::lock_guard<std::mutex> lock(m_mutex);
+  m_removed = false;
   return description;
 }
 

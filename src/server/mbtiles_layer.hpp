@@ -44,6 +44,8 @@ class MbtilesLayer : public LayerSource {
   // Which file the path names and its data version, asked through m_watch;
   // nullopt once the file is gone.
   std::optional<std::string> stamp();
+  // The file's description, read through m_watch: called after stamp(), as
+  // StoredState reads after a stamp.
   std::shared_ptr<const Description> describe();
 
   // A connection is used by one thread at a time: each request borrows an
@@ -58,11 +60,12 @@ class MbtilesLayer : public LayerSource {
   std::vector<std::unique_ptr<io::MbtilesFile>> m_idle;
   std::string m_idle_file;  // the file the idle connections read
   bool m_removed = false;   // the file is gone: connections given back are closed
-  // The connection that asks the data version (only stamp() uses it, under
-  // m_description's lock), and which file it reads.
+  // The connection that asks the data version and reads the description
+  // (stamp() and describe() use it, under m_description's lock), and which
+  // file it reads.
   std::unique_ptr<io::MbtilesFile> m_watch;
   std::string m_watch_file;
-  StoredState<Description> m_description;  // after the connections: reading it gives one back
+  StoredState<Description> m_description;  // after m_watch: made, it stamps and reads through it
 };
 
 }  // namespace terrabake::server

@@ -24,7 +24,8 @@ class StoredState {
   // time, an inode and SQLite's data version), nullopt when they are gone;
   // throws when it cannot be told.
   using Stamp = std::function<std::optional<std::string>()>;
-  // The state of the files as they are now; throws when they cannot be read.
+  // The state of the files as they are now, called right after a stamp;
+  // throws when they cannot be read.
   using Read = std::function<std::shared_ptr<const State>()>;
   // What to keep of a state once its files are gone: all but what holds
   // them open, so that a removed file's space is freed while the server
