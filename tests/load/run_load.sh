@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # Load test on loopback: requests per second and latency of the tiles of a
 # layer on disk from `terrabake serve` with its tile cache (http.cache_mib at
-# its default) and without it (0), as files and as one MBTiles file, against
-# nginx serving the same files, taking turns in one run; then the latency of
-# tiles baked on demand. Prints a table; fails on any request error.
+# its default) and without it (0), as files, as one MBTiles file and as
+# PMTiles archives, against nginx serving the same files, taking turns in one
+# run; then the latency of tiles baked on demand. Prints a table; fails on any
+# request error.
 #
 #   tests/load/run_load.sh [build_dir] [seconds_per_run] [rounds]
 #
@@ -56,8 +57,10 @@ start_terrabake() {
 
 echo "run_load.sh: making the sample layer..." >&2
 "$terrabake" tile --config "$repo/config/sample.yaml" --out "$work/tiles" >/dev/null 2>&1
-# The same layer as $work/mbtiles/sample.mbtiles: its tiles have the same URLs.
-"$terrabake" tile --config "$repo/config/sample.yaml" --out "$work/mbtiles" --format mbtiles >/dev/null 2>&1
+# The same layer as $work/mbtiles/sample.mbtiles and as $work/pmtiles/sample*.pmtiles: its tiles have the same URLs.
+for format in mbtiles pmtiles; do
+  "$terrabake" tile --config "$repo/config/sample.yaml" --out "$work/$format" --format "$format" >/dev/null 2>&1
+done
 (cd "$work/tiles" && find sample -name '*.png' -o -name '*.glb' | sed 's|^|/|' | sort) >"$work/paths.txt"
 export TILE_LIST=$work/paths.txt
 
@@ -65,6 +68,8 @@ cached_port=$(start_terrabake --tiles "$work/tiles")
 uncached_port=$(start_terrabake --tiles "$work/tiles" --cache-mib 0)
 mbtiles_cached_port=$(start_terrabake --tiles "$work/mbtiles")
 mbtiles_uncached_port=$(start_terrabake --tiles "$work/mbtiles" --cache-mib 0)
+pmtiles_cached_port=$(start_terrabake --tiles "$work/pmtiles")
+pmtiles_uncached_port=$(start_terrabake --tiles "$work/pmtiles" --cache-mib 0)
 
 nginx_port=$(free_port)
 mkdir -p "$work/nginx"
@@ -102,7 +107,8 @@ run_wrk() {
 # Turns: each server once per round, so drift on a shared machine hits all alike.
 for round in $(seq "$rounds"); do
   for server in cached:$cached_port uncached:$uncached_port mbtiles_cached:$mbtiles_cached_port \
-    mbtiles_uncached:$mbtiles_uncached_port nginx:$nginx_port; do
+    mbtiles_uncached:$mbtiles_uncached_port pmtiles_cached:$pmtiles_cached_port \
+    pmtiles_uncached:$pmtiles_uncached_port nginx:$nginx_port; do
     echo "run_load.sh: round $round, ${server%%:*}..." >&2
     echo "${server%%:*} $(run_wrk "${server#*:}")" >>"$work/results.txt"
   done
@@ -128,6 +134,7 @@ import sys
 
 NAMES = {"cached": "terrabake, files, cache on", "uncached": "terrabake, files, cache off",
          "mbtiles_cached": "terrabake, MBTiles, cache on", "mbtiles_uncached": "terrabake, MBTiles, cache off",
+         "pmtiles_cached": "terrabake, PMTiles, cache on", "pmtiles_uncached": "terrabake, PMTiles, cache off",
          "nginx": "nginx, files"}
 runs = {name: [] for name in NAMES}
 for line in open(sys.argv[1]):
@@ -141,7 +148,9 @@ for name, label in NAMES.items():
     for r in runs[name]:
         print(f"{label:<32}{r['rps']:>12.0f}{r['p50_ms']:>10.2f}{r['p99_ms']:>10.2f}{int(r['errors']):>8}")
 mean = {name: statistics.mean(r["rps"] for r in rs) for name, rs in runs.items()}
-for name in ("cached", "uncached", "mbtiles_cached", "mbtiles_uncached"):
+for name in NAMES:
+    if name == "nginx":
+        continue
     print(f"{NAMES[name]} / nginx: {mean[name] / mean['nginx']:.2f}x the requests per second (means of the runs)")
 p99 = times_ms[min(len(times_ms) - 1, int(len(times_ms) * 0.99))]
 print(f"on-demand tiles (baked per request, one at a time): {len(times_ms)} tiles, "
