@@ -10,13 +10,18 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cstddef>
 #include <exception>
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <sstream>
 #include <string>
 #include <string_view>
+#include <thread>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -31,6 +36,7 @@
 #include "server/response_head.hpp"
 #include "server/route.hpp"
 #include "server/served_folder.hpp"
+#include "server/stored_state.hpp"
 #include "server/tile_cache.hpp"
 #include "test_helpers.hpp"
 
@@ -562,6 +568,37 @@ TEST(TileCache, AKeptTileThatIsNoLongerCurrentIsDropped) {
   EXPECT_EQ(cache.counters().bytes, 0u);
   EXPECT_EQ(cache.counters().misses, 1u);
   EXPECT_FALSE(cache.find("a", kAlwaysCurrent));
+}
+
+// A state read again at every look while its files go on changing (a run
+// writing into a served MBTiles file) says so once in the log, not once a
+// look; after a look that finds no change, the next change is said again.
+TEST(StoredState, ARunOfChangesIsLoggedOnce) {
+  int version = 1;
+  int reads = 0;
+  const server::StoredState<int> state(
+      "layer x", [&] { return std::optional<std::string>(std::to_string(version)); },
+      [&] { return std::make_shared<const int>(++reads); });
+  const auto lookAfterInterval = [&](int new_version) {
+    std::this_thread::sleep_for(server::StoredState<int>::kLookInterval + std::chrono::milliseconds(50));
+    version = new_version;
+    testing::internal::CaptureStderr();
+    const int read = *state.current();
+    return std::make_pair(read, testing::internal::GetCapturedStderr());
+  };
+  const std::string said = "layer x changed: read again";
+  auto [read, log] = lookAfterInterval(2);
+  EXPECT_EQ(read, 2);
+  EXPECT_NE(log.find(said), std::string::npos) << log;
+  std::tie(read, log) = lookAfterInterval(3);
+  EXPECT_EQ(read, 3) << "read again";
+  EXPECT_EQ(log, "") << "the run of changes goes on";
+  std::tie(read, log) = lookAfterInterval(3);
+  EXPECT_EQ(read, 3);
+  EXPECT_EQ(log, "");
+  std::tie(read, log) = lookAfterInterval(4);
+  EXPECT_EQ(read, 4);
+  EXPECT_NE(log.find(said), std::string::npos) << "a new run of changes: " << log;
 }
 
 }  // namespace

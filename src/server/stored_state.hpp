@@ -64,13 +64,23 @@ class StoredState {
       releaseLocked();
       return nullptr;
     }
-    if (*stamp == m_stamp || *stamp == m_unreadable) return m_state;
+    if (*stamp == m_stamp || *stamp == m_unreadable) {
+      m_changing = false;
+      return m_state;
+    }
     try {
       m_state = m_read();
       m_released = false;
       m_stamp = *stamp;
       m_unreadable.clear();
-      log::info(m_what + " changed: read again");
+      // Once for a run of changes, look after look (a run writing into a
+      // served MBTiles file commits between any two): -v logs each.
+      if (m_changing) {
+        log::debug(m_what + " changed again: read again");
+      } else {
+        log::info(m_what + " changed: read again (while it goes on changing, -v logs each read)");
+      }
+      m_changing = true;
     } catch (const std::exception& e) {
       // Once for a run of changes none of which can be read (a run still
       // writing the file).
@@ -108,6 +118,7 @@ class StoredState {
   mutable std::string m_unreadable;  // of the last change that could not be read, not tried again; "" none
   mutable bool m_gone = false;
   mutable bool m_released = false;  // m_state is what m_release kept
+  mutable bool m_changing = false;  // the last look read a change
   mutable std::chrono::steady_clock::time_point m_next_look;
 };
 
