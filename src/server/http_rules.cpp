@@ -7,7 +7,8 @@
 #include <iterator>
 #include <string_view>
 
-#include "core/fnv1a.hpp"
+#include <xxhash.h>
+
 #include "core/text.hpp"
 
 namespace terrabake::server {
@@ -64,7 +65,7 @@ std::string contentTypeFor(const std::string& file_name) {
 }
 
 std::string contentEtag(const std::string& bytes) {
-  const std::uint64_t hash = fnv1a(bytes.data(), bytes.size());
+  const std::uint64_t hash = XXH3_64bits(bytes.data(), bytes.size());
   std::string text = "\"";
   appendHex(text, hash, 16);
   text += '-';
