@@ -20,9 +20,12 @@ std::string tileJsonText(const io::MbtilesFile& file) {
   return std::move(*json);
 }
 
-// The file's device and inode: which file the path names now.
-std::string fileIdentity(const struct stat& info) {
-  return std::to_string(info.st_dev) + ":" + std::to_string(info.st_ino);
+// The device and inode of the file `path` names now; nullopt when none does.
+std::optional<std::string> fileIdentity(const std::string& path) {
+  struct stat info {};
+  if (::stat(path.c_str(), &info) == 0) return std::to_string(info.st_dev) + ":" + std::to_string(info.st_ino);
+  if (errno == ENOENT) return std::nullopt;
+  throw std::runtime_error("cannot stat " + path);
 }
 
 }  // namespace
@@ -54,13 +57,7 @@ MbtilesLayer::~MbtilesLayer() = default;
 
 std::optional<std::string> MbtilesLayer::stamp() {
   // The inode tells a file made anew, the data version any commit to it.
-  const auto identity = [this]() -> std::optional<std::string> {
-    struct stat info {};
-    if (::stat(m_path.c_str(), &info) == 0) return fileIdentity(info);
-    if (errno == ENOENT) return std::nullopt;
-    throw std::runtime_error("cannot stat " + m_path);
-  };
-  const std::optional<std::string> file = identity();
+  const std::optional<std::string> file = fileIdentity(m_path);
   if (!file) {
     m_watch.reset();  // so that the removed file's space is freed
     return std::nullopt;
@@ -69,7 +66,7 @@ std::optional<std::string> MbtilesLayer::stamp() {
     m_watch.reset();
     std::unique_ptr<io::MbtilesFile> watch = io::MbtilesFile::openForReading(m_path);
     // A file renamed into place while this one opened is watched from the next look.
-    if (identity() != file) throw std::runtime_error(m_path + " was replaced while it was opened");
+    if (fileIdentity(m_path) != file) throw std::runtime_error(m_path + " was replaced while it was opened");
     m_watch = std::move(watch);
     m_watch_file = *file;
   }
