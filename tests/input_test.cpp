@@ -844,6 +844,24 @@ TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
   }
 }
 
+// A lon/lat DEM from 80 degrees north to the pole, in Web Mercator, whose map
+// stops at 85.05: auto's zoom is judged at the middle of the part on the
+// map. Its 0.05-degree pixels are 1,650 m on the ground at the DEM's centre;
+// at 82.9 degrees, halfway up that part in Mercator, zoom 3's texels are
+// 2,420 m and zoom 4's 1,210 m, so auto is 3. (Judged over the DEM's whole
+// extent, which runs to infinity in Mercator, it once came out as 0.)
+TEST(Inputs, ADemReachingThePoleGetsTheAutoZoomOfItsPartOnTheMap) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {10, 0.05, 0, 90, 0, -0.05};
+  writeDem(dir / "arctic.tif", kHillPixels, kHillPixels, gt, hill);
+  const RunResult info = run({"info", (dir / "arctic.tif").string()});
+  EXPECT_TRUE(contains(info.out, "webmercator  3-3, 1 tiles")) << describe(info);
+  const RunResult r = run(tileArgs(dir / "arctic.tif", dir / "out", "arctic", "auto"));
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(fs::exists(dir / "out" / "arctic" / "3" / "4" / "0.png")) << describe(r);
+  EXPECT_FALSE(fs::exists(dir / "out" / "arctic" / "4")) << describe(r);
+}
+
 // Tiles of one raster given as a list (SRTM's 1-degree files, sharing their
 // edge rows and columns as those do) make the bytes of the one file they
 // were cut from: a kernel near a seam reads the next file's samples, not an

@@ -46,7 +46,17 @@ std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource&
   // One piece: the DEM's extent transformed straight into the scheme's CRS
   // (the native scheme's grid is the DEM's own, counted as the DEM counts).
   Extent area = dem.boundsIn(scheme.crs());
-  if (scheme.kind() != SchemeKind::kNative && dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
+  if (scheme.kind() == SchemeKind::kNative) return {area};
+  if (dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
+  // Within the scheme's latitudes: a DEM reaching nearer a pole than Web
+  // Mercator's 85.05 degrees runs far past its map (to infinity at the
+  // pole), which would put the area's centre, where auto's zoom and the
+  // error bounds are judged, off the map.
+  const double max_lat = scheme.maxLatDeg();
+  if (const auto map = scheme.fromLonLat({-180, -max_lat, 180, max_lat})) {
+    area.min_y = std::max(area.min_y, map->min_y);
+    area.max_y = std::min(area.max_y, map->max_y);
+  }
   return {area};
 }
 
