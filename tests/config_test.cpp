@@ -590,5 +590,28 @@ TEST(ConfigOverrides, RejectedValueLeavesTheJobAsItWas) {
   EXPECT_EQ(job.max_zoom, 6);
 }
 
+// A refusal to write into another job's layer names what differs, each key
+// once whichever fingerprint holds it, and stays one readable line.
+TEST(LayerFingerprint, DifferencesNameTheKeysThatDiffer) {
+  TileJob job;
+  applyOverride(job, "tiling.zoom", {"5-6"}, "--zoom");
+  const std::string recorded = layerFingerprint(job);
+  EXPECT_EQ(fingerprintDifferences(recorded, recorded), "");
+  TileJob other = job;
+  applyOverride(other, "output.bits", {"16"}, "--bits");
+  applyOverride(other, "bake.workers", {"3"}, "--workers");  // no part of a layer's fingerprint
+  EXPECT_EQ(fingerprintDifferences(recorded, layerFingerprint(other)), "output.bits: 8 there, 16 here");
+  for (const auto& [key, value] : std::vector<std::pair<std::string, std::string>>{
+           {"output.green", "down"}, {"output.alpha", "true"}, {"tiling.zoom", "7"}}) {
+    applyOverride(other, key, {value}, "--" + key);
+  }
+  EXPECT_EQ(fingerprintDifferences(recorded, layerFingerprint(other)),
+            "output.bits: 8 there, 16 here; output.green: up there, down here; output.alpha: false there, true "
+            "here; and 1 more");
+  // A record of another version, with a key this one lacks and without one it has.
+  EXPECT_EQ(fingerprintDifferences("tiling.zoom: 5-6\nold.key: 1\n", "tiling.zoom: 5-6\nnew.key: 2\n"),
+            "new.key: none there, 2 here; old.key: 1 there, none here");
+}
+
 }  // namespace
 }  // namespace terrabake::config

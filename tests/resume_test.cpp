@@ -325,7 +325,7 @@ TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   args.insert(args.end(), {"--bits", "16", "--resume"});
   test::ChildProcess refused(args);
   EXPECT_EQ(refused.wait(kRunLimit), 2);
-  EXPECT_NE(refused.err().find("different job"), std::string::npos) << refused.err();
+  EXPECT_NE(refused.err().find("different job (output.bits: 8 there, 16 here)"), std::string::npos) << refused.err();
   args.push_back("--force");
   test::ChildProcess forced(args);
   EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();

@@ -1,5 +1,10 @@
 #include "config/tile_job.hpp"
 
+#include <algorithm>
+#include <sstream>
+#include <utility>
+#include <vector>
+
 #include "config/key_table.hpp"
 #include "core/types.hpp"
 
@@ -133,6 +138,53 @@ TileJob parseTileJob(const std::string& yaml_text, const std::string& yaml_path)
 }
 
 std::string layerFingerprint(const TileJob& job) { return table().describe(job, {"output.dir", "bake.workers"}); }
+
+namespace {
+
+// A refusal names this many differences: a record of quite another job
+// differs in most keys, and one line should stay readable.
+constexpr std::size_t kMaxNamedDifferences = 3;
+
+// A fingerprint's "key: value" lines as (key, value), in their order.
+std::vector<std::pair<std::string, std::string>> fingerprintLines(const std::string& fingerprint) {
+  std::vector<std::pair<std::string, std::string>> lines;
+  std::istringstream in(fingerprint);
+  for (std::string line; std::getline(in, line);) {
+    const std::size_t colon = line.find(": ");
+    if (colon != std::string::npos) lines.emplace_back(line.substr(0, colon), line.substr(colon + 2));
+  }
+  return lines;
+}
+
+}  // namespace
+
+std::string fingerprintDifferences(const std::string& recorded, const std::string& wanted) {
+  const auto there = fingerprintLines(recorded), here = fingerprintLines(wanted);
+  const auto valueIn = [](const auto& lines, const std::string& key) -> std::string {
+    for (const auto& [k, v] : lines) {
+      if (k == key) return v;
+    }
+    return "none";
+  };
+  std::vector<std::string> differences;
+  const auto compare = [&](const std::string& key) {
+    const std::string a = valueIn(there, key), b = valueIn(here, key);
+    const std::string difference = key + ": " + a + " there, " + b + " here";
+    if (a != b && std::find(differences.begin(), differences.end(), difference) == differences.end()) {
+      differences.push_back(difference);
+    }
+  };
+  for (const auto& line : here) compare(line.first);
+  for (const auto& line : there) compare(line.first);
+  std::string text;
+  for (std::size_t k = 0; k < std::min(differences.size(), kMaxNamedDifferences); ++k) {
+    text += (k ? "; " : "") + differences[k];
+  }
+  if (differences.size() > kMaxNamedDifferences) {
+    text += "; and " + std::to_string(differences.size() - kMaxNamedDifferences) + " more";
+  }
+  return text;
+}
 
 void applyOverride(TileJob& job, const std::string& key, const std::vector<std::string>& values,
                    const std::string& origin) {

@@ -66,6 +66,12 @@ void applyOverride(TileJob& job, const std::string& key, const std::vector<std::
 // tile's bytes.
 std::string layerFingerprint(const TileJob& job);
 
+// What tells two fingerprints apart, for the refusal: "key: A there, B here"
+// per key whose value differs ("none" where one has no such key), joined by
+// "; ", the first three and a count of the rest. Empty when they hold the
+// same keys and values.
+std::string fingerprintDifferences(const std::string& recorded, const std::string& wanted);
+
 // Checks the settings as a whole (required keys present, zoom order, ...).
 // Throws UsageError "<origin>: <key>: <problem>".
 void validate(const TileJob& job, const std::string& origin);

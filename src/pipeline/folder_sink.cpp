@@ -108,8 +108,9 @@ class FolderSink : public TileSink {
                        "', which no terrabake job made; use another output.layer, or --force to write into it");
     }
     // Recorded already maybe, by a run that started at the same moment.
-    if (io::recordJob(m_dir, fingerprint) == fingerprint) return !found;
-    if (!force) refuseDifferentJob(m_dir);
+    const std::string recorded = io::recordJob(m_dir, fingerprint);
+    if (recorded == fingerprint) return !found;
+    if (!force) refuseDifferentJob(m_dir, recorded, fingerprint);
     io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
     return false;

@@ -45,7 +45,7 @@ class MbtilesSink : public TileSink {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
     if (recorded.empty() || recorded == fingerprint) return true;
-    if (!force) refuseDifferentJob(m_file->path());
+    if (!force) refuseDifferentJob(m_file->path(), recorded, fingerprint);
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
     return false;
   }

@@ -11,8 +11,10 @@
 
 namespace terrabake::pipeline {
 
-// The claim() error for a layer another job made.
-[[noreturn]] void refuseDifferentJob(const std::string& location);
+// The claim() error for a layer another job made: the fingerprint it
+// recorded and this job's, whose differences it names.
+[[noreturn]] void refuseDifferentJob(const std::string& location, const std::string& recorded,
+                                     const std::string& fingerprint);
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation,
                                          const std::atomic<bool>* stop);

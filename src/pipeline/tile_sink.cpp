@@ -1,13 +1,16 @@
 #include "pipeline/tile_sink.hpp"
 
+#include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
 
-void refuseDifferentJob(const std::string& location) {
-  throw UsageError("output: layer '" + location +
-                   "' was made by a different job; use another output.layer, or --force to overwrite it");
+void refuseDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint) {
+  const std::string differences = config::fingerprintDifferences(recorded, fingerprint);
+  throw UsageError("output: layer '" + location + "' was made by a different job" +
+                   (differences.empty() ? "" : " (" + differences + ")") +
+                   "; use another output.layer, or --force to overwrite it");
 }
 
 std::unique_ptr<TileSink> openSink(const LayerPlan& plan, const std::atomic<bool>* stop) {

@@ -5,6 +5,7 @@
 #include <mutex>
 #include <vector>
 
+#include "config/tile_job.hpp"
 #include "core/error.hpp"
 #include "core/log.hpp"
 #include "io/layer_layout.hpp"
@@ -37,9 +38,12 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
     throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() + "' holds '" + *found +
                      "', which no terrabake job made; give this job another output.layer, or move the folder away");
   }
-  if (io::recordJob(settings.folder.string(), settings.job_record) != settings.job_record) {
+  const std::string recorded = io::recordJob(settings.folder.string(), settings.job_record);
+  if (recorded != settings.job_record) {
+    const std::string differences = config::fingerprintDifferences(recorded, settings.job_record);
     throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
-                     "' was made by a different job (" + io::kJobFile +
+                     "' was made by a different job (its " + io::kJobFile +
+                     (differences.empty() ? "" : ": " + differences) +
                      "); give this job another output.layer, or move the folder away");
   }
   writeWhenMissing(settings.folder / io::kTileJsonFile, settings.tilejson);
