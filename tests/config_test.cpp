@@ -353,12 +353,12 @@ TEST(ConfigErrors, MissingRequiredKeysFoundByValidate) {
   const std::string no_zoom = writeYaml("no_zoom.yaml", "dem: a.tif\n");
   const TileJob without_zoom = loadTileJob(no_zoom);
   EXPECT_EQ(usageMessage([&] { validate(without_zoom, no_zoom); }),
-            no_zoom + ": tiling.zoom: required, not set");
+            no_zoom + ": tiling.zoom: required, not set: give it in the job file or with --zoom");
 
   const std::string no_dem = writeYaml("no_dem.yaml", "tiling:\n  zoom: 3\n");
   const TileJob without_dem = loadTileJob(no_dem);
   EXPECT_EQ(usageMessage([&] { validate(without_dem, no_dem); }),
-            no_dem + ": dem: required, not set");
+            no_dem + ": dem: required, not set: give it in the job file or with --dem");
 }
 
 TEST(ConfigErrors, ValidateChecksValuesSetInCode) {

@@ -224,7 +224,11 @@ class KeyTable {
 
   void validate(const S& settings, const std::string& origin) const {
     for (const Key<S>& key : m_keys) {
-      if (!key.field.is_set(settings)) fail(origin, key.name, "required, not set");
+      if (!key.field.is_set(settings)) {
+        fail(origin, key.name,
+             key.flag.empty() ? "required, not set"
+                              : "required, not set: give it in the job file or with " + std::string(key.flag));
+      }
       const std::string bad = key.field.problem(settings);
       if (!bad.empty()) fail(origin, key.name, bad);
     }
