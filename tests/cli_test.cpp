@@ -222,6 +222,18 @@ TEST(Cli, TextFileAsDemNamesTheFile) {
   EXPECT_EQ(filesUnder(out), std::set<std::string>{});
 }
 
+TEST(Cli, AnEmptyDemFileIsNamedAsEmpty) {
+  const fs::path dir = caseDir();
+  const fs::path dem = dir / "N46E010.hgt";
+  writeText(dem, "");
+  const fs::path out = dir / "out";
+  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
+                                    "--backend", "cpu"});
+  expectOneLineError(r, kExitInput);
+  EXPECT_TRUE(contains(r.err, dem.string() + "' is empty (0 bytes)")) << describe(r);
+  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+}
+
 TEST(Cli, DemWithoutCrsNamesTheFileAndCrs) {
   const fs::path dir = caseDir();
   const fs::path dem = dir / "no_crs.tif";

@@ -249,7 +249,14 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   DatasetPtr dataset(GDALDataset::FromHandle(GDALOpenEx(
       path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY | GDAL_OF_VERBOSE_ERROR, nullptr, nullptr, nullptr)));
   if (!dataset && !is_file) throw InputError("dem: cannot open " + name + ": no such file");
-  if (!dataset) throw InputError("dem: " + name + " is not a raster GDAL can read (" + lastGdalError() + ")");
+  if (!dataset) {
+    // A download that failed often leaves a file of no bytes, which GDAL
+    // calls an unknown format.
+    VSIStatBufL status;
+    const bool empty = VSIStatL(path.c_str(), &status) == 0 && S_ISREG(status.st_mode) && status.st_size == 0;
+    throw InputError("dem: " + name +
+                     (empty ? " is empty (0 bytes)" : " is not a raster GDAL can read (" + lastGdalError() + ")"));
+  }
   GDALDataset& ds = *dataset;
   const int band_count = ds.GetRasterCount();
   if (band_count < 1) {
