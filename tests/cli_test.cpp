@@ -199,52 +199,40 @@ std::string shellCommand(const std::string& environment, const std::vector<std::
   return command + " " + redirect;
 }
 
-TEST(Cli, MissingDemNamesThePath) {
-  const fs::path dir = caseDir();
-  const fs::path dem = dir / "no_such_dem.tif";
-  const fs::path out = dir / "out";
-  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
-                                    "--backend", "cpu"});
+// A job of `dem` that must stop before it writes anything, with one line
+// that names the DEM and exit code 3; returns its run.
+RunResult refusedDemRun(const fs::path& dem, const std::vector<std::string>& more_args = {}) {
+  const fs::path out = dem.parent_path() / "out";
+  std::vector<std::string> args = {"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
+                                   "--backend", "cpu"};
+  args.insert(args.end(), more_args.begin(), more_args.end());
+  const RunResult r = runTerrabake(args);
   expectOneLineError(r, kExitInput);
   EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
   EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+  return r;
 }
 
+TEST(Cli, MissingDemNamesThePath) { refusedDemRun(caseDir() / "no_such_dem.tif"); }
+
 TEST(Cli, TextFileAsDemNamesTheFile) {
-  const fs::path dir = caseDir();
-  const fs::path dem = dir / "notes.txt";
+  const fs::path dem = caseDir() / "notes.txt";
   writeText(dem, "these are notes, not heights\n1 2 3\n");
-  const fs::path out = dir / "out";
-  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
-                                    "--backend", "cpu"});
-  expectOneLineError(r, kExitInput);
-  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
-  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
+  refusedDemRun(dem);
 }
 
 TEST(Cli, AnEmptyDemFileIsNamedAsEmpty) {
-  const fs::path dir = caseDir();
-  const fs::path dem = dir / "N46E010.hgt";
+  const fs::path dem = caseDir() / "N46E010.hgt";
   writeText(dem, "");
-  const fs::path out = dir / "out";
-  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--zoom", "0", "--out", out.string(),
-                                    "--backend", "cpu"});
-  expectOneLineError(r, kExitInput);
+  const RunResult r = refusedDemRun(dem);
   EXPECT_TRUE(contains(r.err, dem.string() + "' is empty (0 bytes)")) << describe(r);
-  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
 }
 
 TEST(Cli, DemWithoutCrsNamesTheFileAndCrs) {
-  const fs::path dir = caseDir();
-  const fs::path dem = dir / "no_crs.tif";
+  const fs::path dem = caseDir() / "no_crs.tif";
   writeDem(dem, false);
-  const fs::path out = dir / "out";
-  const RunResult r = runTerrabake({"tile", "--dem", dem.string(), "--scheme", "native", "--zoom", "0",
-                                    "--tile-size", "32", "--out", out.string(), "--backend", "cpu"});
-  expectOneLineError(r, kExitInput);
-  EXPECT_TRUE(contains(r.err, dem.string())) << describe(r);
+  const RunResult r = refusedDemRun(dem, {"--scheme", "native", "--tile-size", "32"});
   EXPECT_TRUE(contains(r.err, "CRS")) << describe(r);
-  EXPECT_EQ(filesUnder(out), std::set<std::string>{});
 }
 
 TEST(Cli, MisspeltConfigKeyNamesFileLineAndKey) {
