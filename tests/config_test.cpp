@@ -613,5 +613,42 @@ TEST(LayerFingerprint, DifferencesNameTheKeysThatDiffer) {
             "new.key: none there, 2 here; old.key: 1 there, none here");
 }
 
+// A tile's bytes depend on neither the zooms nor the box of its job, so a
+// job with more of either grows a layer; fewer, or any other setting, is
+// another job.
+TEST(LayerFingerprint, AJobWithMoreZoomsOrALargerBoxGrowsTheLayer) {
+  const auto fingerprintOf = [](const std::vector<std::pair<std::string, std::string>>& keys) {
+    TileJob job;
+    for (const auto& [key, value] : keys) applyOverride(job, key, {value}, "--" + key);
+    return layerFingerprint(job);
+  };
+  const std::string layer = fingerprintOf({{"tiling.zoom", "10-12"}, {"tiling.bbox", "9,45,10,46"}});
+  for (const std::vector<std::pair<std::string, std::string>>& grown : {
+           std::vector<std::pair<std::string, std::string>>{{"tiling.zoom", "10-12"}, {"tiling.bbox", "9,45,10,46"}},
+           {{"tiling.zoom", "8-14"}, {"tiling.bbox", "9,45,10,46"}},
+           {{"tiling.zoom", "10-12"}, {"tiling.bbox", "8.5,44,10,46.5"}},
+           {{"tiling.zoom", "10-13"}, {"tiling.bbox", "none"}}}) {
+    EXPECT_TRUE(growsLayer(layer, fingerprintOf(grown))) << fingerprintOf(grown);
+  }
+  for (const std::vector<std::pair<std::string, std::string>>& other : {
+           std::vector<std::pair<std::string, std::string>>{{"tiling.zoom", "11-12"}, {"tiling.bbox", "9,45,10,46"}},
+           {{"tiling.zoom", "10-auto"}, {"tiling.bbox", "9,45,10,46"}},
+           {{"tiling.zoom", "10-12"}, {"tiling.bbox", "9.5,45,10,46"}},
+           {{"tiling.zoom", "10-12"}, {"tiling.bbox", "9,45,-170,46"}},
+           {{"tiling.zoom", "8-14"}, {"tiling.bbox", "9,45,10,46"}, {"output.bits", "16"}}}) {
+    EXPECT_FALSE(growsLayer(layer, fingerprintOf(other))) << fingerprintOf(other);
+  }
+  // auto's zoom is the DEM's: a range to auto grows only into one to auto.
+  const std::string to_auto = fingerprintOf({{"tiling.zoom", "9-auto"}});
+  EXPECT_TRUE(growsLayer(to_auto, fingerprintOf({{"tiling.zoom", "0-auto"}})));
+  EXPECT_FALSE(growsLayer(to_auto, fingerprintOf({{"tiling.zoom", "9-24"}})));
+  // A box across the antimeridian holds only itself.
+  const std::string across = fingerprintOf({{"tiling.zoom", "5"}, {"tiling.bbox", "170,-10,-170,10"}});
+  EXPECT_TRUE(growsLayer(across, fingerprintOf({{"tiling.zoom", "4-6"}, {"tiling.bbox", "170,-10,-170,10"}})));
+  EXPECT_FALSE(growsLayer(across, fingerprintOf({{"tiling.zoom", "5"}, {"tiling.bbox", "160,-10,-160,10"}})));
+  EXPECT_TRUE(growsLayer(across, fingerprintOf({{"tiling.zoom", "5"}})));
+  EXPECT_FALSE(growsLayer("", layer));
+}
+
 }  // namespace
 }  // namespace terrabake::config

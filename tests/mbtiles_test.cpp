@@ -404,6 +404,30 @@ TEST(Mbtiles, ADifferentJobNeedsForce) {
   EXPECT_EQ(job_row[0].at("value"), config::layerFingerprint(other));
 }
 
+// A job with more zooms grows an MBTiles layer: its tiles are kept (--resume
+// skips them), and the job row and the tilejson become the grown job's.
+TEST(Mbtiles, AJobWithMoreZoomsGrowsTheLayer) {
+  const fs::path dir = caseDir();
+  config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
+  job.min_zoom = job.max_zoom;
+  const pipeline::RunSummary first = pipeline::runTileJob(job);
+  ASSERT_GT(first.written, 0);
+  config::TileJob grown = smallJob(dir, "layer", OutputFormat::kMbtiles);
+  ASSERT_LT(grown.min_zoom, job.min_zoom);
+  pipeline::RunOptions resume;
+  resume.resume = true;
+  const pipeline::RunSummary more = pipeline::runTileJob(grown, resume);
+  EXPECT_EQ(more.skipped, first.written);
+  EXPECT_GT(more.written, 0);
+  const fs::path file = mbtilesPath(job);
+  const Json rows = sqliteTool(file, "SELECT name, value FROM metadata WHERE name IN ('terrabake_job', 'minzoom')");
+  ASSERT_EQ(rows.size(), 2u);
+  for (const Json& row : rows) {
+    EXPECT_EQ(row.at("value"), row.at("name") == "minzoom" ? std::to_string(grown.min_zoom)
+                                                            : config::layerFingerprint(grown));
+  }
+}
+
 // A file at <dir>/<layer>.mbtiles that terrabake did not write is refused
 // as a usage error (the layer needs another name), named, and left as it was.
 TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {

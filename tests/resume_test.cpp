@@ -358,6 +358,38 @@ TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {
   EXPECT_EQ(forced.wait(kRunLimit), 0) << forced.err();
 }
 
+// A job with more zooms grows the layer a job of fewer made: --resume keeps
+// its tiles and makes the rest, and the layer becomes the one the grown job
+// makes in one run, tilejson and job record included. A job of fewer zooms
+// than the layer's is another job.
+TEST(Resume, AJobWithMoreZoomsGrowsTheLayerKeepingItsTiles) {
+  const fs::path whole_dir = freshDir("grown_whole"), grown_dir = freshDir("grown");
+  test::ChildProcess whole(jobArgs(whole_dir));
+  ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
+  std::vector<std::string> args = jobArgs(grown_dir);
+  args[4] = "13";  // --zoom 13 only
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const int first_tiles = summaryCount(first.out(), "wrote");
+  ASSERT_GT(first_tiles, 0) << first.out();
+
+  args = jobArgs(grown_dir);
+  args.push_back("--resume");
+  test::ChildProcess grown(args);
+  ASSERT_EQ(grown.wait(kRunLimit), 0) << grown.err();
+  EXPECT_NE((grown.out() + grown.err()).find("grows (tiling.zoom: 13-13 there, 11-14 here)"), std::string::npos)
+      << grown.err();
+  EXPECT_EQ(summaryCount(grown.out(), "skipped"), first_tiles) << grown.out();
+  EXPECT_EQ(summaryCount(grown.out(), "wrote") + first_tiles, summaryCount(whole.out(), "wrote")) << grown.out();
+  EXPECT_TRUE(test::snapshot(grown_dir / "layer") == test::snapshot(whole_dir / "layer"));
+
+  args[4] = "12-14";
+  test::ChildProcess fewer(args);
+  EXPECT_EQ(fewer.wait(kRunLimit), 2) << fewer.err();
+  EXPECT_NE(fewer.err().find("different job (tiling.zoom: 11-14 there, 12-14 here)"), std::string::npos)
+      << fewer.err();
+}
+
 // Two different jobs started at the same moment into one new layer, each
 // with every write of the job record slowed down (slow_job_record.cpp) so
 // that their claims overlap: the claim is atomic, so exactly one of them gets

@@ -134,6 +134,32 @@ TEST(ServeCli, AnOnDemandLayerRecordsItsJobForTileToResume) {
   EXPECT_NE(resumed.out().find("(1 skipped"), std::string::npos) << resumed.out();
 }
 
+// An on-demand job with more zooms than the batch run that made its folder
+// grows the layer, as `terrabake tile` would: the folder's record and
+// tilejson become its job's, and the batch run's tiles are served as they are.
+TEST(ServeCli, AnOnDemandJobWithMoreZoomsGrowsTheLayerItsFolderHolds) {
+  const Case c = makeCase();
+  test::ChildProcess batch({"tile", "--config", c.live_job.string(), "--out", c.tiles.string(), "--zoom", "12"});
+  ASSERT_EQ(batch.wait(std::chrono::minutes(2)), 0) << batch.err();
+  const auto batch_tiles = test::snapshot(c.tiles / "live" / "12");
+  ASSERT_FALSE(batch_tiles.empty());
+  const fs::path config = c.dir / "serve.yaml";
+  writeText(config, "layers: [live.yaml]\n");
+  {
+    test::ChildProcess process(serveArgs({"--config", config.string(), "--tiles", c.tiles.string(), "--port", "0"}));
+    const std::string line = process.firstLine(kWaitLimit);
+    ASSERT_GT(portIn(line, c.tiles), 0) << "stdout: " << line << "\nstderr: " << process.err();
+    std::chrono::milliseconds took{};
+    EXPECT_EQ(stopWith(process, SIGTERM, &took), 0) << process.err();
+    EXPECT_NE(process.err().find("grows (tiling.zoom: 12-12 there, 11-13 here)"), std::string::npos)
+        << process.err();
+  }
+  EXPECT_NE(readBytes(c.tiles / "live" / "terrabake-job.txt").find("tiling.zoom: 11-13\n"), std::string::npos);
+  EXPECT_NE(readBytes(c.tiles / "live" / "tilejson.json").find("\"minzoom\": 11,"), std::string::npos)
+      << readBytes(c.tiles / "live" / "tilejson.json");
+  EXPECT_TRUE(test::snapshot(c.tiles / "live" / "12") == batch_tiles);
+}
+
 // Baking one job's tiles into a layer another job made would mix the two.
 TEST(ServeCli, AnOnDemandLayerInAFolderOfAnotherJobIsRefused) {
   const Case c = makeCase();

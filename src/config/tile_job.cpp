@@ -1,6 +1,8 @@
 #include "config/tile_job.hpp"
 
 #include <algorithm>
+#include <exception>
+#include <optional>
 #include <sstream>
 #include <utility>
 #include <vector>
@@ -156,7 +158,73 @@ std::vector<std::pair<std::string, std::string>> fingerprintLines(const std::str
   return lines;
 }
 
+struct ZoomText {
+  int min_zoom = 0;
+  std::string max_zoom;  // a number or "auto"
+};
+
+// "8-12" or "8-auto", as zoomField() writes it.
+std::optional<ZoomText> parsedZoomText(const std::string& text) {
+  const std::size_t dash = text.find('-');
+  if (dash == std::string::npos || dash == 0) return std::nullopt;
+  ZoomText zoom;
+  try {
+    zoom.min_zoom = std::stoi(text.substr(0, dash));
+  } catch (const std::exception&) {
+    return std::nullopt;
+  }
+  zoom.max_zoom = text.substr(dash + 1);
+  return zoom;
+}
+
+bool zoomsHold(const std::string& outer, const std::string& inner) {
+  const std::optional<ZoomText> a = parsedZoomText(outer), b = parsedZoomText(inner);
+  if (!a || !b || a->min_zoom > b->min_zoom) return false;
+  if (a->max_zoom == b->max_zoom) return true;
+  if (a->max_zoom == "auto" || b->max_zoom == "auto") return false;  // auto's zoom depends on the DEM
+  try {
+    return std::stoi(a->max_zoom) >= std::stoi(b->max_zoom);
+  } catch (const std::exception&) {
+    return false;
+  }
+}
+
+// "none" or "[west, south, east, north]", as boxText() writes it; a box
+// across the antimeridian (west above east) holds only itself.
+bool boxesHold(const std::string& outer, const std::string& inner) {
+  if (outer == inner || outer == "none") return true;
+  if (inner == "none") return false;
+  const auto corners = [](const std::string& text) {
+    std::vector<double> values;
+    std::istringstream in(text.substr(1));
+    for (double v; in >> v;) {
+      values.push_back(v);
+      in.ignore(2, ' ');
+    }
+    return values;
+  };
+  const std::vector<double> a = corners(outer), b = corners(inner);
+  if (a.size() != 4 || b.size() != 4 || a[0] > a[2] || b[0] > b[2]) return false;
+  return a[0] <= b[0] && a[1] <= b[1] && a[2] >= b[2] && a[3] >= b[3];
+}
+
 }  // namespace
+
+bool growsLayer(const std::string& recorded, const std::string& wanted) {
+  const auto there = fingerprintLines(recorded), here = fingerprintLines(wanted);
+  if (there.size() != here.size() || there.empty()) return false;
+  for (std::size_t k = 0; k < here.size(); ++k) {
+    const auto& [key, value] = here[k];
+    const auto& [recorded_key, recorded_value] = there[k];
+    if (key != recorded_key) return false;
+    if (key == "tiling.zoom" ? !zoomsHold(value, recorded_value)
+        : key == "tiling.bbox" ? !boxesHold(value, recorded_value)
+                               : value != recorded_value) {
+      return false;
+    }
+  }
+  return true;
+}
 
 std::string fingerprintDifferences(const std::string& recorded, const std::string& wanted) {
   const auto there = fingerprintLines(recorded), here = fingerprintLines(wanted);

@@ -72,6 +72,13 @@ std::string layerFingerprint(const TileJob& job);
 // same keys and values.
 std::string fingerprintDifferences(const std::string& recorded, const std::string& wanted);
 
+// Whether a layer whose job is `recorded` grows into `wanted`'s: the same
+// settings but for tiling.zoom and tiling.bbox, which take in the recorded
+// ones (a wider zoom range with the same auto or number at its deep end; a
+// box holding the recorded one, or none). A tile's bytes depend on neither,
+// so the tiles the layer holds are the grown job's too.
+bool growsLayer(const std::string& recorded, const std::string& wanted);
+
 // Checks the settings as a whole (required keys present, zoom order, ...).
 // Throws UsageError "<origin>: <key>: <problem>".
 void validate(const TileJob& job, const std::string& origin);

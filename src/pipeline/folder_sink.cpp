@@ -110,10 +110,10 @@ class FolderSink : public TileSink {
     // Recorded already maybe, by a run that started at the same moment.
     const std::string recorded = io::recordJob(m_dir, fingerprint);
     if (recorded == fingerprint) return !found;
-    if (!force) refuseDifferentJob(m_dir, recorded, fingerprint);
+    const bool ours = claimFromDifferentJob(m_dir, recorded, fingerprint, force);
     io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
-    return false;
+    return ours;
   }
 
   // The folder, made by this run, holds the record alone (hidden files are

@@ -45,9 +45,9 @@ class MbtilesSink : public TileSink {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
     if (recorded.empty() || recorded == fingerprint) return true;
-    if (!force) refuseDifferentJob(m_file->path(), recorded, fingerprint);
+    const bool ours = claimFromDifferentJob(m_file->path(), recorded, fingerprint, force);
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
-    return false;
+    return ours;
   }
 
   // A tile's rows are committed together; every one is looked for, so that

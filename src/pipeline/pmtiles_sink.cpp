@@ -88,7 +88,7 @@ class PmtilesSink : public TileSink {
   // before the run ends, so every archive the run would replace is checked
   // here, the companions as well as the normal maps': a file no terrabake job
   // made is refused, `force` or not, and an archive of another job is
-  // replaced only with `force`.
+  // replaced only with `force` or by a job that grows it.
   bool claim(const std::string& fingerprint, bool force) override {
     m_fingerprint = fingerprint;
     takeTurn();
@@ -101,7 +101,7 @@ class PmtilesSink : public TileSink {
         throw UsageError("output: '" + archive +
                          "' is no PMTiles archive a terrabake job made; use another output.layer");
       }
-      if (*recorded != fingerprint && !force) refuseDifferentJob(archive, *recorded, fingerprint);
+      if (*recorded != fingerprint) claimFromDifferentJob(archive, *recorded, fingerprint, force);
     }
     return true;  // nothing is kept from an old archive: each run writes its own
   }

@@ -2,12 +2,19 @@
 
 #include "config/tile_job.hpp"
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
 
-void refuseDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint) {
+bool claimFromDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint,
+                           bool force) {
   const std::string differences = config::fingerprintDifferences(recorded, fingerprint);
+  if (config::growsLayer(recorded, fingerprint)) {
+    log::info("output: layer '" + location + "' grows (" + differences + "); the tiles it holds are this job's too");
+    return true;
+  }
+  if (force) return false;
   throw UsageError("output: layer '" + location + "' was made by a different job" +
                    (differences.empty() ? "" : " (" + differences + ")") +
                    "; use another output.layer, or --force to overwrite it");

@@ -19,14 +19,12 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void writeWhenMissing(const fs::path& path, const std::string& text) {
-  if (!fs::exists(path)) io::writeTextFileAtomically(path.string(), text);
-}
-
 // Creates the layer folder, its job record, tilejson.json and elevation.json
 // when missing; returns the folder. The record lets `terrabake tile --resume`
 // carry the layer on; a folder another job or another tool made is refused,
-// as a batch run refuses it, rather than filled with tiles of two jobs.
+// as a batch run refuses it, rather than filled with tiles of two jobs. A
+// folder of a job this one grows (config::growsLayer) is taken, and its
+// record and tilejsons become this job's.
 fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
   std::error_code ec;
   fs::create_directories(settings.folder, ec);
@@ -39,15 +37,25 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
                      "', which no terrabake job made; give this job another output.layer, or move the folder away");
   }
   const std::string recorded = io::recordJob(settings.folder.string(), settings.job_record);
-  if (recorded != settings.job_record) {
+  // Another job's files are replaced; this job's are written when missing.
+  const bool another_job = recorded != settings.job_record;
+  const auto write = [another_job](const fs::path& path, const std::string& text) {
+    if (another_job || !fs::exists(path)) io::writeTextFileAtomically(path.string(), text);
+  };
+  if (another_job) {
     const std::string differences = config::fingerprintDifferences(recorded, settings.job_record);
-    throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
-                     "' was made by a different job (its " + io::kJobFile +
-                     (differences.empty() ? "" : ": " + differences) +
-                     "); give this job another output.layer, or move the folder away");
+    if (!config::growsLayer(recorded, settings.job_record)) {
+      throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
+                       "' was made by a different job (its " + io::kJobFile +
+                       (differences.empty() ? "" : ": " + differences) +
+                       "); give this job another output.layer, or move the folder away");
+    }
+    log::info("layer " + settings.name + ": folder '" + settings.folder.string() + "' grows (" + differences +
+              "); the tiles it holds are this job's too");
+    write(settings.folder / io::kJobFile, settings.job_record);
   }
-  writeWhenMissing(settings.folder / io::kTileJsonFile, settings.tilejson);
-  if (settings.elevation) writeWhenMissing(settings.folder / io::kElevationTileJsonFile, settings.elevation_tilejson);
+  write(settings.folder / io::kTileJsonFile, settings.tilejson);
+  if (settings.elevation) write(settings.folder / io::kElevationTileJsonFile, settings.elevation_tilejson);
   return settings.folder;
 }
 
