@@ -74,9 +74,10 @@ std::string fingerprintDifferences(const std::string& recorded, const std::strin
 
 // Whether a layer whose job is `recorded` grows into `wanted`'s: the same
 // settings but for tiling.zoom and tiling.bbox, which take in the recorded
-// ones (a wider zoom range with the same auto or number at its deep end; a
-// box holding the recorded one, or none). A tile's bytes depend on neither,
-// so the tiles the layer holds are the grown job's too.
+// ones (zooms holding the recorded zooms, a deep end of auto only after
+// auto, whose zoom is the DEM's; a box holding the recorded box, or none).
+// A tile's bytes depend on neither, so the tiles the layer holds are the
+// grown job's too.
 bool growsLayer(const std::string& recorded, const std::string& wanted);
 
 // Checks the settings as a whole (required keys present, zoom order, ...).
