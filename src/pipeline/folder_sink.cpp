@@ -110,7 +110,7 @@ class FolderSink : public TileSink {
     // Recorded already maybe, by a run that started at the same moment.
     const std::string recorded = io::recordJob(m_dir, fingerprint);
     if (recorded == fingerprint) return !found;
-    const bool ours = claimFromDifferentJob(m_dir, recorded, fingerprint, force);
+    const bool ours = claimFromDifferentJob(m_dir, recorded, fingerprint, force, true);
     io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
                             std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
     return ours;

@@ -45,7 +45,7 @@ class MbtilesSink : public TileSink {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
     if (recorded.empty() || recorded == fingerprint) return true;
-    const bool ours = claimFromDifferentJob(m_file->path(), recorded, fingerprint, force);
+    const bool ours = claimFromDifferentJob(m_file->path(), recorded, fingerprint, force, true);
     m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
     return ours;
   }

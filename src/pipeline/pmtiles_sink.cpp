@@ -101,7 +101,7 @@ class PmtilesSink : public TileSink {
         throw UsageError("output: '" + archive +
                          "' is no PMTiles archive a terrabake job made; use another output.layer");
       }
-      if (*recorded != fingerprint) claimFromDifferentJob(archive, *recorded, fingerprint, force);
+      if (*recorded != fingerprint) claimFromDifferentJob(archive, *recorded, fingerprint, force, false);
     }
     return true;  // nothing is kept from an old archive: each run writes its own
   }

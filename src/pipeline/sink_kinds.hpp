@@ -13,10 +13,12 @@ namespace terrabake::pipeline {
 
 // claim() of a layer that another job, whose fingerprint is `recorded`,
 // made: taken when this job grows it (config::growsLayer), which the log
-// says, or with `force`; refused otherwise, naming what differs. Returns
-// whether the tiles the layer holds are this job's (they are when it grows).
+// says (and that --resume keeps the layer's tiles, where the layer is
+// `resumable`), or with `force`; refused otherwise, naming what differs.
+// Returns whether the tiles the layer holds are this job's (they are when it
+// grows).
 bool claimFromDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint,
-                           bool force);
+                           bool force, bool resumable);
 
 std::unique_ptr<TileSink> openFolderSink(const std::string& layer_dir, bool high_res_mesh, bool elevation,
                                          const std::atomic<bool>* stop);

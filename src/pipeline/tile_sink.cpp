@@ -8,10 +8,11 @@
 namespace terrabake::pipeline {
 
 bool claimFromDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint,
-                           bool force) {
+                           bool force, bool resumable) {
   const std::string differences = config::fingerprintDifferences(recorded, fingerprint);
   if (config::growsLayer(recorded, fingerprint)) {
-    log::info("output: layer '" + location + "' grows (" + differences + "); the tiles it holds are this job's too");
+    log::info("output: layer '" + location + "' grows (" + differences + "); the tiles it holds are this job's too" +
+              (resumable ? ", and --resume skips them" : ""));
     return true;
   }
   if (force) return false;
