@@ -84,6 +84,12 @@ config::TileJob smallJob(const fs::path& out, const std::string& layer, OutputFo
 
 fs::path mbtilesPath(const config::TileJob& job) { return fs::path(job.output_dir) / (job.layer + ".mbtiles"); }
 
+pipeline::RunSummary resumedRun(const config::TileJob& job) {
+  pipeline::RunOptions resume;
+  resume.resume = true;
+  return pipeline::runTileJob(job, resume);
+}
+
 // The tiles of a folder layer, from its .png files.
 std::vector<TileId> folderTiles(const fs::path& layer) {
   std::vector<TileId> tiles;
@@ -310,9 +316,7 @@ TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
   ASSERT_EQ(first.failed, 0);
   ASSERT_GT(first.written, 1);
 
-  pipeline::RunOptions resume;
-  resume.resume = true;
-  const pipeline::RunSummary again = pipeline::runTileJob(job, resume);
+  const pipeline::RunSummary again = resumedRun(job);
   EXPECT_EQ(again.skipped, first.written);
   EXPECT_EQ(again.written, 0);
 
@@ -324,7 +328,7 @@ TEST(Mbtiles, ResumeSkipsTheTilesInTheFile) {
                                  std::to_string(top_row)),
                     (1 << 13) - 1 - top_row};
   deleteTile(file, tile, true);
-  const pipeline::RunSummary repair = pipeline::runTileJob(job, resume);
+  const pipeline::RunSummary repair = resumedRun(job);
   EXPECT_EQ(repair.written, 1);
   EXPECT_EQ(repair.skipped, first.written - 1);
   EXPECT_EQ(db.count("SELECT count(*) FROM meshes"), first.written);
@@ -414,9 +418,7 @@ TEST(Mbtiles, AJobWithMoreZoomsGrowsTheLayer) {
   ASSERT_GT(first.written, 0);
   config::TileJob grown = smallJob(dir, "layer", OutputFormat::kMbtiles);
   ASSERT_LT(grown.min_zoom, job.min_zoom);
-  pipeline::RunOptions resume;
-  resume.resume = true;
-  const pipeline::RunSummary more = pipeline::runTileJob(grown, resume);
+  const pipeline::RunSummary more = resumedRun(grown);
   EXPECT_EQ(more.skipped, first.written);
   EXPECT_GT(more.written, 0);
   const fs::path file = mbtilesPath(job);
