@@ -846,7 +846,7 @@ TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
 
 // A lon/lat DEM from 80 degrees north to the pole, in Web Mercator, whose map
 // stops at 85.05: auto's zoom is judged at the middle of the part on the
-// map. Its 0.05-degree pixels are 1,650 m on the ground at the DEM's centre;
+// map, and a box of the part beyond it is refused saying so. Its 0.05-degree pixels are 1,650 m on the ground at the DEM's centre;
 // at 82.9 degrees, halfway up that part in Mercator, zoom 3's texels are
 // 2,420 m and zoom 4's 1,210 m, so auto is 3. (Judged over the DEM's whole
 // extent, which runs to infinity in Mercator, it once came out as 0.)
@@ -860,6 +860,15 @@ TEST(Inputs, ADemReachingThePoleGetsTheAutoZoomOfItsPartOnTheMap) {
   EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
   EXPECT_TRUE(fs::exists(dir / "out" / "arctic" / "3" / "4" / "0.png")) << describe(r);
   EXPECT_FALSE(fs::exists(dir / "out" / "arctic" / "4")) << describe(r);
+  // A box of the DEM beyond that map is named as such.
+  std::vector<std::string> args = tileArgs(dir / "arctic.tif", dir / "out", "box", "3");
+  args.insert(args.end(), {"--bbox", "10,86,20,89"});
+  const RunResult box = run(args);
+  EXPECT_EQ(box.exit_code, kExitNothingMade) << describe(box);
+  EXPECT_TRUE(contains(box.err, "does not overlap the part of '" + (dir / "arctic.tif").string() +
+                                    "' that webmercator tiles reach (lon 10 to 20, lat 80 to 85.051129; use "
+                                    "--scheme geodetic or native for the rest)"))
+      << describe(box);
 }
 
 // Tiles of one raster given as a list (SRTM's 1-degree files, sharing their

@@ -57,10 +57,23 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
     }
   }
   if (inside.empty()) {
-    Extent all = cover.front();
-    for (const Extent& piece : cover) all = all.united(piece);
-    throw NothingToMake("tiling.bbox: " + lonLatText(box) + " does not overlap '" + shortened(dem.info().path) +
-                        "' (" + lonLatText(all) + "): nothing to make");
+    const auto united = [](const std::vector<Extent>& pieces) {
+      Extent all = pieces.front();
+      for (const Extent& piece : pieces) all = all.united(piece);
+      return all;
+    };
+    // The box may overlap the DEM beyond the scheme's latitudes.
+    const std::vector<Extent> whole = lonLatPieces(bounds, 90);
+    bool beyond_map = false;
+    for (const Extent& piece : whole) {
+      for (const Extent& box_piece : box_pieces) beyond_map = beyond_map || box_piece.intersects(piece);
+    }
+    const std::string name = "'" + shortened(dem.info().path) + "'";
+    throw NothingToMake("tiling.bbox: " + lonLatText(box) + " does not overlap " +
+                        (beyond_map ? "the part of " + name + " that " + scheme.name() + " tiles reach (" +
+                                          lonLatText(united(cover)) + "; use --scheme geodetic or native for the rest)"
+                                    : name + " (" + lonLatText(united(whole)) + ")") +
+                        ": nothing to make");
   }
   return inside;
 }
