@@ -20,6 +20,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <set>
 #include <sstream>
 #include <string>
 #include <vector>
@@ -984,6 +985,46 @@ TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
   const RunResult info = run({"info", (dir / "across.tif").string()});
   EXPECT_EQ(info.exit_code, kExitOk) << describe(info);
   EXPECT_TRUE(contains(info.out, "webmercator  7-10, 14 tiles: z7 2, z8 4, z9 4, z10 4")) << describe(info);
+}
+
+// The names of a layer's tiles.
+std::set<std::string> tileNamesOf(const fs::path& layer) {
+  std::set<std::string> names;
+  for (const auto& [name, bytes] : tilesOf(layer)) names.insert(name);
+  return names;
+}
+
+// Files far apart, listed in one job, plan the tiles round each: the job
+// makes the tiles each file's own job makes, and plans none between them
+// (the box over both once planned 1.5 million tiles at zoom 12 to write 30).
+TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "alps.tif");
+  const double fiji[6] = {178.0, kHillPixelDeg, 0, -17.0, 0, -kHillPixelDeg};
+  writeDem(dir / "fiji.tif", kHillPixels, kHillPixels, fiji, hill);
+  std::set<std::string> apart;
+  for (const std::string name : {"alps", "fiji"}) {
+    const RunResult alone = run(tileArgs(dir / (name + ".tif"), dir / "out", name));
+    ASSERT_EQ(alone.exit_code, kExitOk) << describe(alone);
+    for (const std::string& tile : tileNamesOf(dir / "out" / name)) apart.insert(tile);
+  }
+  std::vector<std::string> args = tileArgs(dir / "alps.tif", dir / "out", "both");
+  args.insert(args.end(), {"--dem", (dir / "fiji.tif").string()});
+  const RunResult both = run(args);
+  ASSERT_EQ(both.exit_code, kExitOk) << describe(both);
+  EXPECT_TRUE(contains(both.err, "zoom 12: " + std::to_string(apart.size() / 2) + " tiles")) << describe(both);
+  EXPECT_TRUE(contains(both.out, "(0 skipped, 0 empty, 0 failed)")) << describe(both);
+  EXPECT_EQ(tileNamesOf(dir / "out" / "both"), apart);
+  // `info` counts them so too: one tile at zoom 0, then each file's own (the
+  // box over both has 94,842 tiles at zoom 10).
+  const RunResult info = run({"info", (dir / "alps.tif").string(), (dir / "fiji.tif").string()});
+  EXPECT_TRUE(contains(info.out, "webmercator  0-10, 24 tiles: z0 1, z1 2, z2 2,")) << describe(info);
+
+  // A box between them holds no file: nothing to make, said at once.
+  args.insert(args.end(), {"--bbox", "60,0,61,1"});
+  const RunResult between = run(args);
+  EXPECT_EQ(between.exit_code, kExitNothingMade) << describe(between);
+  EXPECT_TRUE(contains(between.err, "tiling.bbox: lon 60 to 61, lat 0 to 1 lies between the files of")) << describe(between);
 }
 
 // World DEMs registered on pixel centres (ETOPO's and GMTED's grids) run

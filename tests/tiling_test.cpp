@@ -1,8 +1,12 @@
-// Tiling schemes against docs/CONTRACT.md §2, and texel grids against §3.
+// Tiling schemes against docs/CONTRACT.md §2, texel grids against §3, and
+// the tile ranges a job plans over its areas.
 #include <gtest/gtest.h>
 
+#include <set>
 #include <stdexcept>
+#include <vector>
 
+#include "core/extent_groups.hpp"
 #include "tiling/scheme.hpp"
 
 namespace terrabake {
@@ -121,6 +125,55 @@ TEST(Schemes, RangesCountAndIndexTheTilesWithoutListingThem) {
   const tiling::TileRange world = s->rangeCovering({-2.1e7, -2.1e7, 2.1e7, 2.1e7}, 24);
   EXPECT_EQ(world.count(), std::uint64_t(1) << 48);
   EXPECT_EQ(s->tileAt(world, world.count() - 1), (TileId{24, (1 << 24) - 1, (1 << 24) - 1}));
+}
+
+TEST(ExtentGroups, BoxesThatMeetMergeAndFarApartOnesStayApart) {
+  // A row of three touching boxes, one far away, and one that only the
+  // first group's box reaches (no member of the group does).
+  const std::vector<Extent> boxes = {{2, 0, 3, 1}, {100, 100, 101, 101}, {0, 0, 1, 1}, {1, 0, 2, 1}, {2.5, 1.5, 4, 3}};
+  const std::vector<Extent> merged = mergeMeeting(boxes);
+  ASSERT_EQ(merged.size(), 3u);
+  // North first: the far box, then the row (corner to corner with the last box).
+  EXPECT_EQ(merged[0].min_x, 100);
+  EXPECT_EQ(merged[1].min_x, 2.5);
+  EXPECT_EQ(merged[2].min_x, 0);
+  EXPECT_EQ(merged[2].max_x, 3);
+  // Growing a group's box until it meets another merges them in a later round.
+  // (an L of a tall and a wide box, and a box in the corner between their arms).
+  const std::vector<Extent> reached = mergeMeeting({{2, 2, 2.5, 2.5}, {0, 0, 1, 3}, {0.5, 0, 3, 0.5}});
+  ASSERT_EQ(reached.size(), 1u);
+  EXPECT_EQ(reached[0].max_x, 3);
+  EXPECT_EQ(reached[0].max_y, 3);
+  EXPECT_EQ(mergeMeeting({}).size(), 0u);
+}
+
+TEST(Schemes, RangesOverSeveralAreasHoldEachTileOnce) {
+  const auto s = tiling::makeScheme(SchemeKind::kWebMercator, 256);
+  const Extent alps = *s->fromLonLat({9.8, 46.36, 10.2, 46.64});
+  const Extent overlapping = *s->fromLonLat({10.1, 46.3, 10.5, 46.5});
+  const Extent fiji = *s->fromLonLat({178.0, -17.2, 178.2, -17.0});
+  for (int z = 0; z <= 14; ++z) {
+    std::set<TileId> wanted;
+    for (const Extent& area : {alps, overlapping, fiji}) {
+      for (const TileId& tile : s->tilesCovering(area, z)) wanted.insert(tile);
+    }
+    const std::vector<tiling::TileRange> ranges = s->rangesCovering({alps, overlapping, fiji}, z);
+    std::set<TileId> listed;
+    std::uint64_t count = 0;
+    for (const tiling::TileRange& range : ranges) {
+      count += range.count();
+      for (std::uint64_t i = 0; i < range.count(); ++i) listed.insert(s->tileAt(range, i));
+    }
+    EXPECT_EQ(listed.size(), count) << "a tile listed twice at zoom " << z;
+    for (const TileId& tile : wanted) EXPECT_EQ(listed.count(tile), 1u) << tile.str();
+    // Far apart at deep zooms: the Alps' two areas as one range, Fiji's
+    // apart, and nothing between them.
+    if (z >= 6) {
+      ASSERT_EQ(ranges.size(), 2u) << z;
+      EXPECT_EQ(count, s->rangeCovering(alps.united(overlapping), z).count() + s->rangeCovering(fiji, z).count()) << z;
+    }
+  }
+  EXPECT_EQ(s->rangesCovering({alps, fiji}, 0).size(), 1u);
 }
 
 TEST(Schemes, NativeNeedsTheDemGrid) {

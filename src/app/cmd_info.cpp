@@ -50,11 +50,13 @@ void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   }
   const int max_zoom = pipeline::autoMaxZoom(scheme, areas.front(), dem);
   const int min_zoom = pipeline::oneTileZoom(scheme, areas.front(), max_zoom);
+  // Counted as a job plans them: round each file or group of files that meet.
+  const std::vector<Extent> file_areas = pipeline::fileAreas(scheme, dem);
   std::vector<std::string> counts;
   std::size_t total = 0;
   for (int z = min_zoom; z <= max_zoom; ++z) {
     std::size_t tiles = 0;
-    for (const Extent& area : areas) tiles += std::size_t(scheme.rangeCovering(area, z).count());
+    for (const tiling::TileRange& range : scheme.rangesCovering(file_areas, z)) tiles += std::size_t(range.count());
     total += tiles;
     counts.push_back("z" + std::to_string(z) + " " + std::to_string(tiles));
   }

@@ -269,6 +269,12 @@ Extent DemSource::boundsIn(const std::string& crs) const {
   return all;
 }
 
+std::size_t DemSource::fileCount() const { return m_shared->files.size(); }
+
+Extent DemSource::fileBoundsIn(std::size_t file, const std::string& crs) const {
+  return m_shared->files.at(file)->boundsIn(crs);
+}
+
 ReadPlan DemSource::planFor(const GridSpec& representative) const {
   ReadPlan plan;
   // One transformation per distinct file CRS: a glob of tiles shares one.

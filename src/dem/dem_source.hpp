@@ -89,6 +89,9 @@ class DemSource {
 
   // The union of the files' extents in another CRS.
   Extent boundsIn(const std::string& crs) const;
+  // How many files the DEM is made of, and one file's extent in another CRS.
+  std::size_t fileCount() const;
+  Extent fileBoundsIn(std::size_t file, const std::string& crs) const;
 
   // The read plan for grids of the cell size `representative` has.
   ReadPlan planFor(const GridSpec& representative) const;

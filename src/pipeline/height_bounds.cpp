@@ -6,6 +6,8 @@
 #include <limits>
 #include <vector>
 
+#include "core/extent_groups.hpp"
+
 namespace terrabake::pipeline {
 namespace {
 
@@ -38,20 +40,22 @@ void keepFineDetail(const Raster<float>& fine, int k, double scale, Raster<float
   }
 }
 
-// The plan's areas, each as far as the DEM reaches under its tiles: a
+// The plan's areas, each as far as the DEM's files reach under its tiles: a
 // tiling.bbox cuts an area, but the tiles along its edge read the DEM past
 // it, up to a tile of the shallowest zoom further.
 std::vector<Extent> areasUnderTiles(const LayerPlan& plan) {
-  std::vector<Extent> areas = plan.areas;
-  if (areas.size() != 1) return areas;  // across the antimeridian: the plan's own sides
-  const Extent& area = areas.front();
-  const tiling::TileRange range = plan.scheme->rangeCovering(area, plan.min_zoom);
-  const Extent tile = plan.scheme->tileExtent(plan.scheme->tileAt(range, 0));
-  const Extent grown{area.min_x - tile.width(), area.min_y - tile.height(), area.max_x + tile.width(),
-                     area.max_y + tile.height()};
-  // Without a bbox the area is the DEM's, and this gives it back.
-  areas.front() = plan.dem_area.intersection(grown);
-  return areas;
+  std::vector<Extent> areas;
+  for (const Extent& area : plan.areas) {
+    const tiling::TileRange range = plan.scheme->rangeCovering(area, plan.min_zoom);
+    const Extent tile = plan.scheme->tileExtent(plan.scheme->tileAt(range, 0));
+    const Extent grown{area.min_x - tile.width(), area.min_y - tile.height(), area.max_x + tile.width(),
+                       area.max_y + tile.height()};
+    // Without a bbox the areas are the files', and this gives them back.
+    for (const Extent& files : plan.file_areas) {
+      if (files.intersects(grown)) areas.push_back(files.intersection(grown));
+    }
+  }
+  return mergeMeeting(areas);
 }
 
 }  // namespace
@@ -101,18 +105,28 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
 }
 
 std::optional<HeightRange> HeightBounds::over(const Extent& extent) const {
+  std::optional<HeightRange> range;
   for (const Area& area : m_areas) {
-    std::optional<HeightRange> range = area.over(extent);
-    if (!range) continue;
-    if (range->holes) {
-      const dem::Backdrop::Range backdrop = m_backdrop->rangeOver(extent);
-      const double a = backdrop.low * m_scale, b = backdrop.high * m_scale;
-      range->low_m = std::min({range->low_m, a, b});
-      range->high_m = std::max({range->high_m, a, b});
+    const std::optional<HeightRange> part = area.over(extent);
+    if (!part) continue;
+    if (!range) {
+      range = part;
+      continue;
     }
-    return range;
+    // An extent over several areas: whatever any of them holds.
+    range->low_m = std::min(range->low_m, part->low_m);
+    range->high_m = std::max(range->high_m, part->high_m);
+    range->step_m = std::max(range->step_m, part->step_m);
+    range->holes = range->holes || part->holes;
+    range->cell = std::min(range->cell, part->cell);
   }
-  return std::nullopt;
+  if (range && range->holes) {
+    const dem::Backdrop::Range backdrop = m_backdrop->rangeOver(extent);
+    const double a = backdrop.low * m_scale, b = backdrop.high * m_scale;
+    range->low_m = std::min({range->low_m, a, b});
+    range->high_m = std::max({range->high_m, a, b});
+  }
+  return range;
 }
 
 std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const {

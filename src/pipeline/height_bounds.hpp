@@ -37,12 +37,13 @@ class HeightBounds {
   static constexpr int kFinePerCell = 4;
 
   // Reads the plan's DEM over each of its areas (two across the
-  // antimeridian). Throws InputError when it cannot be read.
+  // antimeridian, one per group of files far apart). Throws InputError when
+  // it cannot be read.
   explicit HeightBounds(const LayerPlan& plan);
 
   // The heights of the terrain within `extent` (the scheme's CRS), from the
-  // cells it touches and one more around them, in the first area where one
-  // of those cells holds a DEM sample; nullopt when none does, so the tile
+  // cells it touches and one more around them, in every area where one of
+  // those cells holds a DEM sample; nullopt when none does, so the tile
   // there has none either. Where the extent has holes (or reaches past the
   // area), the backdrop's heights anywhere in it count too.
   std::optional<HeightRange> over(const Extent& extent) const;

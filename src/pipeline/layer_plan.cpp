@@ -7,6 +7,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/extent_groups.hpp"
 #include "core/log.hpp"
 #include "dem/crs_transform.hpp"
 #include "io/layer_layout.hpp"
@@ -76,6 +77,23 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
                         ": nothing to make");
   }
   return inside;
+}
+
+// The parts of `areas` (the DEM's files) within `box_areas` (tiling.bbox's
+// pieces). Throws NothingToMake when the box lies between the files.
+std::vector<Extent> within(const std::vector<Extent>& areas, const std::vector<Extent>& box_areas,
+                           const config::TileJob& job, const dem::DemSource& dem) {
+  std::vector<Extent> parts;
+  for (const Extent& area : areas) {
+    for (const Extent& box : box_areas) {
+      if (box.intersects(area)) parts.push_back(area.intersection(box));
+    }
+  }
+  if (parts.empty()) {
+    throw NothingToMake("tiling.bbox: " + lonLatText({job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]}) +
+                        " lies between the files of '" + shortened(dem.info().path) + "': nothing to make");
+  }
+  return mergeMeeting(parts);
 }
 
 // The job's zooms with "auto" resolved, checked against the scheme.
@@ -205,19 +223,24 @@ LayerPlan planLayer(const config::TileJob& job) {
   const bool across = plan.scheme->kind() != SchemeKind::kNative && (dem_areas.size() > 1 || lon_lat.size() > 1);
   const Extent dem_area = dem_areas.front();
   plan.dem_area = dem_area;
+  plan.file_areas = fileAreas(*plan.scheme, *dem);
   std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
     plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);
   }
-  if (across) {
-    for (const Extent& piece : lon_lat) plan.areas.push_back(*plan.scheme->fromLonLat(piece));
-    plan.area = plan.areas.front();
+  if (job.bbox.empty()) {
+    plan.areas = plan.file_areas;
   } else {
-    plan.area = job.bbox.empty()
-                    ? dem_area
-                    : dem_area.intersection(dem::transformExtent(lon_lat.front(), kLonLat, plan.scheme->crs()));
-    plan.areas = {plan.area};
+    std::vector<Extent> box_areas;
+    if (across) {
+      for (const Extent& piece : lon_lat) box_areas.push_back(*plan.scheme->fromLonLat(piece));
+    } else {
+      box_areas.push_back(dem::transformExtent(lon_lat.front(), kLonLat, plan.scheme->crs()));
+    }
+    plan.areas = within(plan.file_areas, box_areas, job, *dem);
   }
+  plan.area = plan.areas.front();
+  for (const Extent& area : plan.areas) plan.area = plan.area.united(area);
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
     // Judged at a tile in the middle of the DEM, the same for the whole zoom
     // whatever the bbox, so a bbox run writes the bytes a whole run does.
@@ -244,9 +267,7 @@ LayerPlan planLayer(const config::TileJob& job) {
 
 TileList::TileList(const LayerPlan& plan) : m_scheme(plan.scheme) {
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
-    for (const Extent& area : plan.areas) {
-      const tiling::TileRange range = plan.scheme->rangeCovering(area, z);
-      if (range.count() == 0) continue;
+    for (const tiling::TileRange& range : plan.scheme->rangesCovering(plan.areas, z)) {
       m_ranges.push_back(range);
       m_starts.push_back(m_size);
       m_size += range.count();

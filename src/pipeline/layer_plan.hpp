@@ -50,11 +50,16 @@ struct LayerPlan {
   std::shared_ptr<const tiling::Scheme> scheme;
   int min_zoom = 0;  // the job's zooms, "auto" resolved
   int max_zoom = 0;
-  Extent area;  // what the run covers in the scheme's CRS: the DEM's extent, within tiling.bbox
-  Extent dem_area;  // the DEM's extent in the scheme's CRS, which tiles along a bbox's edge read past it
-  // The same as one or more boxes: two for a DEM across the antimeridian,
-  // one each side, so the run makes only the tiles it covers.
+  Extent dem_area;  // the DEM's extent in the scheme's CRS: zooms and error bounds are judged at its centre
+  // Where the DEM's files lie in the scheme's CRS, merged where they meet
+  // (fileAreas): one box for a mosaic, a box each side of the antimeridian,
+  // one per file or group of neighbours for files far apart. Tiles along a
+  // bbox's edge read them past it.
+  std::vector<Extent> file_areas;
+  // What the run covers: file_areas within tiling.bbox, so it makes only
+  // the tiles they reach; and the box that holds them all.
   std::vector<Extent> areas;
+  Extent area;
   std::map<int, dem::ReadPlan> read_plans;  // per zoom of the job
   std::shared_ptr<const dem::Backdrop> backdrop;
   TileSettings settings;
@@ -78,8 +83,8 @@ struct LayerPlan {
 // MBTiles output (UsageError).
 LayerPlan planLayer(const config::TileJob& job);
 
-// The tiles of a job, zoom by zoom in the order runs make them, counted and
-// indexed without listing them (a world at zoom 16 is 4 billion tiles).
+// The tiles of a job, each once, zoom by zoom in the order runs make them,
+// counted and indexed without listing them (a world at zoom 16 is 4 billion tiles).
 class TileList {
  public:
   explicit TileList(const LayerPlan& plan);

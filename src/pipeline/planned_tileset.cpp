@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <optional>
-#include <set>
 #include <string>
 
 #include <glm/trigonometric.hpp>
@@ -139,11 +138,9 @@ std::vector<io::TilesetDocument> planTileset(const LayerPlan& plan) {
   }
   const HeightBounds bounds(plan);
   const dem::ToLonLat to_lon_lat(plan.scheme->crs());
-  std::set<TileId> listed;  // the areas either side of the antimeridian may share a tile
   std::vector<io::TilesetTile> tiles;
   for (std::uint64_t i = 0; i < list.size(); ++i) {
     const TileId tile = list.at(i);
-    if (!listed.insert(tile).second) continue;
     if (std::optional<io::GlbPlacement> placement = placementOf(plan, bounds, to_lon_lat, tile)) {
       tiles.push_back({tile, *placement});
     }

@@ -2,10 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <string>
 #include <vector>
 
 #include <glm/geometric.hpp>
 
+#include "core/extent_groups.hpp"
 #include "dem/crs_transform.hpp"
 #include "geo/local_frame.hpp"
 
@@ -32,8 +35,11 @@ std::vector<Extent> lonLatPieces(const Extent& box, double max_lat_deg) {
   return {{e.min_x, e.min_y, 180, e.max_y}, {-180, e.min_y, e.max_x - 360, e.max_y}};
 }
 
-std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
-  const std::vector<Extent> lon_lat_pieces = lonLatPieces(dem.boundsIn("EPSG:4326"), scheme.maxLatDeg());
+namespace {
+
+// demAreas of a part of the DEM (all of it, or one file), given its bounds in a CRS.
+std::vector<Extent> areasOf(const tiling::Scheme& scheme, const std::function<Extent(const std::string&)>& bounds_in) {
+  const std::vector<Extent> lon_lat_pieces = lonLatPieces(bounds_in("EPSG:4326"), scheme.maxLatDeg());
   if (lon_lat_pieces.empty()) return {};
   std::vector<Extent> pieces;
   for (const Extent& piece : lon_lat_pieces) {
@@ -45,7 +51,7 @@ std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource&
   if (pieces.size() > 1 || (whole_globe && !pieces.empty())) return pieces;
   // One piece: the DEM's extent transformed straight into the scheme's CRS
   // (the native scheme's grid is the DEM's own, counted as the DEM counts).
-  Extent area = dem.boundsIn(scheme.crs());
+  Extent area = bounds_in(scheme.crs());
   if (scheme.kind() == SchemeKind::kNative) return {area};
   if (dem::isLonLatCrs(scheme.crs())) area = dem::turnedIntoRange(area);
   // Within the scheme's latitudes: a DEM reaching nearer a pole than Web
@@ -58,6 +64,22 @@ std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource&
     area.max_y = std::min(area.max_y, map->max_y);
   }
   return {area};
+}
+
+}  // namespace
+
+std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
+  return areasOf(scheme, [&](const std::string& crs) { return dem.boundsIn(crs); });
+}
+
+std::vector<Extent> fileAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
+  std::vector<Extent> areas;
+  for (std::size_t file = 0; file < dem.fileCount(); ++file) {
+    for (const Extent& area : areasOf(scheme, [&](const std::string& crs) { return dem.fileBoundsIn(file, crs); })) {
+      areas.push_back(area);
+    }
+  }
+  return mergeMeeting(areas);
 }
 
 double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w, double cell_h) {

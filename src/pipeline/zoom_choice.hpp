@@ -1,5 +1,6 @@
 #pragma once
-// Which zooms suit a DEM: `tiling.zoom: auto` and `terrabake info` both ask.
+// Which zooms suit a DEM, and where it lies in a scheme's CRS: `tiling.zoom:
+// auto`, the job's plan and `terrabake info` all ask.
 #include <string>
 #include <vector>
 
@@ -28,6 +29,11 @@ std::vector<Extent> lonLatPieces(const Extent& box, double max_lat_deg);
 // across the antimeridian the pieces either side (the first, east of it,
 // judges the zooms); none when it lies beyond the scheme's latitudes.
 std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem);
+
+// The same for each of the DEM's files, merged where they meet: one area
+// for a mosaic, and one for each file or group of neighbours of a list of
+// files far apart, so that the tiles between them are not planned.
+std::vector<Extent> fileAreas(const tiling::Scheme& scheme, const dem::DemSource& dem);
 
 // The deepest zoom whose texels, at the centre of `area` (the DEM in the
 // scheme's CRS), are no smaller than the DEM's pixels; 0 when even zoom 0's

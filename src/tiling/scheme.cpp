@@ -4,6 +4,8 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/extent_groups.hpp"
+
 namespace terrabake::tiling {
 
 std::unique_ptr<Scheme> makeWebMercator(int tile_size);
@@ -42,6 +44,21 @@ TileRange Scheme::rangeCovering(const Extent& area, int zoom) const {
   range.r0 = index(std::floor((g.north - area.max_y) / g.tile_h), g.rows - 1);
   range.r1 = index(std::ceil((g.north - area.min_y) / g.tile_h) - 1, g.rows - 1);
   return range;
+}
+
+std::vector<TileRange> Scheme::rangesCovering(const std::vector<Extent>& areas, int zoom) const {
+  // As boxes of tile indices that meet where ranges share a tile, with y
+  // the negated row so that north-first is mergeMeeting's order.
+  std::vector<Extent> boxes;
+  for (const Extent& area : areas) {
+    const TileRange range = rangeCovering(area, zoom);
+    if (range.count() > 0) boxes.push_back({double(range.x0), -double(range.r1), double(range.x1), -double(range.r0)});
+  }
+  std::vector<TileRange> ranges;
+  for (const Extent& box : mergeMeeting(boxes)) {
+    ranges.push_back({zoom, int(box.min_x), int(box.max_x), int(-box.max_y), int(-box.min_y)});
+  }
+  return ranges;
 }
 
 TileId Scheme::tileAt(const TileRange& range, std::uint64_t index) const {

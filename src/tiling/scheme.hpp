@@ -64,6 +64,10 @@ class Scheme {
   std::vector<TileId> tilesCovering(const Extent& area, int zoom) const;
   // The same tiles as a range: counted and indexed without listing them.
   TileRange rangeCovering(const Extent& area, int zoom) const;
+  // The tiles at `zoom` that overlap any of `areas`, each once: ranges that
+  // share no tile, north to south, each holding the tiles of one or more
+  // areas' ranges (and those between them). Empty ranges are left out.
+  std::vector<TileRange> rangesCovering(const std::vector<Extent>& areas, int zoom) const;
   // Tile `index` (< range.count()) of the range, in tilesCovering's order.
   TileId tileAt(const TileRange& range, std::uint64_t index) const;
   // Whether `tile` is one of tilesCovering(area, tile.z), without listing the zoom.
