@@ -4,6 +4,7 @@
 // instead of blocking the run.
 #include <fcntl.h>
 #include <poll.h>
+#include <sched.h>
 #include <spawn.h>
 #include <sys/resource.h>
 #include <sys/wait.h>
@@ -46,6 +47,9 @@ struct ChildLimits {
   // reserves terabytes of address space at start: such a run checks what
   // the child does and how fast, and the plain build its memory bound.
   rlim_t address_space = 0;
+  // The child runs on the first this many of the CPUs it would run on
+  // (its affinity), as under taskset.
+  int cpus = 0;
 };
 
 class ChildProcess {
@@ -70,7 +74,7 @@ class ChildProcess {
     for (auto& word : words) argv.push_back(word.data());
     argv.push_back(nullptr);
     int error = 0;
-    if (limits.open_files == 0 && limits.address_space == 0) {
+    if (limits.open_files == 0 && limits.address_space == 0 && limits.cpus == 0) {
       error = ::posix_spawn(&m_pid, TERRABAKE_EXE, &actions, nullptr, argv.data(), environ);
     } else {
       // posix_spawn cannot set limits: fork, and only async-signal-safe calls before exec.
@@ -83,6 +87,13 @@ class ChildProcess {
         };
         limit(RLIMIT_NOFILE, limits.open_files);
         if (!kAddressSanitizer) limit(RLIMIT_AS, limits.address_space);
+        cpu_set_t cpus;
+        if (limits.cpus > 0 && ::sched_getaffinity(0, sizeof cpus, &cpus) == 0) {
+          for (int cpu = 0, kept = 0; cpu < CPU_SETSIZE; ++cpu) {
+            if (CPU_ISSET(cpu, &cpus) && ++kept > limits.cpus) CPU_CLR(cpu, &cpus);
+          }
+          if (::sched_setaffinity(0, sizeof cpus, &cpus) != 0) ::_exit(126);
+        }
         const int null_fd = ::open("/dev/null", O_RDONLY);
         if (null_fd < 0 || ::dup2(null_fd, STDIN_FILENO) < 0 || ::dup2(out_pipe[1], STDOUT_FILENO) < 0 ||
             ::dup2(err_pipe[1], STDERR_FILENO) < 0) {

@@ -70,8 +70,8 @@ std::string describe(const RunResult& r) {
 }
 
 // Runs terrabake with `args` to its end (or the time limit).
-RunResult runTerrabake(const std::vector<std::string>& args) {
-  test::ChildProcess child(args);
+RunResult runTerrabake(const std::vector<std::string>& args, const test::ChildLimits& limits = {}) {
+  test::ChildProcess child(args, limits);
   RunResult result;
   result.exit_code = child.wait(kRunTimeLimit);
   result.timed_out = child.timedOut();
@@ -488,6 +488,26 @@ std::variant<OtherUser, std::string> otherUser(const std::string& name) {
     return std::string("the executable or the DEM is out of another user's reach");
   }
   return user;
+}
+
+// "One per core" counts the CPUs the process may run on (taskset, a
+// container's cpuset), not the machine's, and the log says why.
+TEST(Cli, WorkersFollowTheCpusTheRunMayUse) {
+  if (::sysconf(_SC_NPROCESSORS_ONLN) < 2) GTEST_SKIP() << "one CPU: nothing to limit";
+  const fs::path dir = caseDir(), dem = dir / "dem.tif";
+  writeDem(dem, true);
+  test::ChildLimits one_cpu;
+  one_cpu.cpus = 1;
+  const RunResult r = runTerrabake(smallRunArgs(dem, dir / "out"), one_cpu);
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.err, "bake.workers: 1, one per CPU this process may use (its CPU affinity allows 1 of the "))
+      << describe(r);
+  // Given, the workers are the job's.
+  std::vector<std::string> args = smallRunArgs(dem, dir / "given");
+  args.insert(args.end(), {"--workers", "2"});
+  const RunResult given = runTerrabake(args, one_cpu);
+  ASSERT_EQ(given.exit_code, kExitOk) << describe(given);
+  EXPECT_FALSE(contains(given.err, "bake.workers:")) << describe(given);
 }
 
 // Under a limit on processes (ulimit -u, a container's pids limit) the

@@ -125,7 +125,7 @@ const kt::KeyTable<TileJob>& table() {
       {"bake.backend", "--backend", "string",
        "how normals are baked: auto (terrabake picks), osmesa or egl (GL), cpu (no GL)",
        choice(&TileJob::backend)},
-      {"bake.workers", "--workers", "integer", "tiles baked in parallel, 0 = one per core, 0..256",
+      {"bake.workers", "--workers", "integer", "tiles baked in parallel, 0 = one per core the process may use, 0..256",
        number(&TileJob::workers, 0, 256)},
   });
   return kTable;

@@ -39,7 +39,7 @@ struct TileJob {
   int low_poly_grid = 17;                         // low_poly.grid: vertices a side
   Skirts skirts = Skirts::kAuto;                  // low_poly.skirts
   Backend backend = Backend::kAuto;               // bake.backend
-  int workers = 0;                                // bake.workers: 0 = one per core
+  int workers = 0;                                // bake.workers: 0 = one per usable core
 };
 
 // Reads a YAML file. Relative paths in it resolve against the file's folder.

@@ -10,6 +10,7 @@
 
 #include "core/error.hpp"
 #include "core/threads.hpp"
+#include "core/usable_cores.hpp"
 #include "dem/gdal_util.hpp"
 
 namespace terrabake::dem {
@@ -171,7 +172,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
     }
   };
   const int thread_count =
-      std::clamp(int(std::thread::hardware_concurrency()), 1, std::min(kMaxBuildThreads, band_count));
+      std::clamp(usableCores().count, 1, std::min(kMaxBuildThreads, band_count));
   // Helpers the system refuses (its limit on processes) leave the work to
   // those that started and this thread.
   std::string refused;

@@ -4,10 +4,10 @@
 #include <memory>
 #include <mutex>
 #include <stdexcept>
-#include <thread>
 
 #include "bake/cpu_baker.hpp"
 #include "core/log.hpp"
+#include "core/usable_cores.hpp"
 #include "gl/gl_baker.hpp"
 #include "gl/gpu_bake_service.hpp"
 
@@ -65,8 +65,7 @@ std::unique_ptr<bake::Baker> createBaker(Backend backend) {
 // 5.2-5.4 s with one llvmpipe thread and 5.4-5.6 s with 2, the same bytes
 // (12.4-14.2 s against 13.0-14.7 s with 2 when llvmpipe's bake was slower).
 bool fitSoftwareRasteriserTo(int workers) {
-  const unsigned cores = std::thread::hardware_concurrency();
-  if (cores == 0 || unsigned(workers) < cores || std::getenv("LP_NUM_THREADS")) return false;
+  if (workers < usableCores().count || std::getenv("LP_NUM_THREADS")) return false;
   return ::setenv("LP_NUM_THREADS", "0", 0) == 0;
 }
 

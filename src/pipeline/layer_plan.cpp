@@ -2,13 +2,13 @@
 
 #include <algorithm>
 #include <cstdio>
-#include <thread>
 #include <tuple>
 #include <utility>
 
 #include "core/error.hpp"
 #include "core/extent_groups.hpp"
 #include "core/log.hpp"
+#include "core/usable_cores.hpp"
 #include "dem/crs_transform.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
@@ -251,7 +251,11 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.backdrop = std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs());
   dem->closeFiles();  // the workers open their own
   plan.backend = job.backend;
-  plan.workers = job.workers > 0 ? job.workers : int(std::max(1u, std::thread::hardware_concurrency()));
+  plan.workers = job.workers > 0 ? job.workers : usableCores().count;
+  if (job.workers == 0 && !usableCores().limited_by.empty()) {
+    log::info("bake.workers: " + std::to_string(plan.workers) + ", one per CPU this process may use (" +
+              usableCores().limited_by + ")");
+  }
   plan.layer_name = job.layer;
   plan.format = job.format;
   plan.location = io::layerLocation(job.output_dir, job.layer, job.format);

@@ -64,7 +64,7 @@ struct LayerPlan {
   std::shared_ptr<const dem::Backdrop> backdrop;
   TileSettings settings;
   Backend backend{};
-  int workers = 1;  // bake threads: bake.workers, or one per core
+  int workers = 1;  // bake threads: bake.workers, or one per usable core (core/usable_cores.hpp)
 
   // Where the layer is stored and what it records.
   std::string layer_name;

@@ -30,6 +30,7 @@
 #include "core/log.hpp"
 #include "core/open_files.hpp"
 #include "core/threads.hpp"
+#include "core/usable_cores.hpp"
 #include "server/http_rules.hpp"
 #include "server/request_handler.hpp"
 #include "server/response_head.hpp"
@@ -458,7 +459,7 @@ Listener::Listener(const config::ServeConfig& config, std::vector<std::unique_pt
                    LayerSet::LookForNew look_for_new)
     : handler(config, std::move(layers), std::move(look_for_new)),
       bind(config.bind),
-      threads(config.threads > 0 ? config.threads : int(std::max(1u, std::thread::hardware_concurrency()))),
+      threads(config.threads > 0 ? config.threads : usableCores().count),
       read_timeout(config.read_timeout_s),
       idle_timeout(config.idle_timeout_s),
       max_header_bytes(std::uint32_t(config.max_header_bytes)),
