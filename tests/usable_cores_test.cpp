@@ -5,6 +5,8 @@
 
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <optional>
 #include <string>
 
 #include "core/usable_cores.hpp"
@@ -15,51 +17,47 @@ namespace {
 
 namespace fs = std::filesystem;
 
-void write(const fs::path& path, const std::string& text) {
-  fs::create_directories(path.parent_path());
-  std::ofstream(path) << text;
+// What cgroupCpuQuota reads from a tree of `files` (path: text) for a
+// process whose /proc/self/cgroup says `own`.
+std::optional<double> quotaOf(const std::map<std::string, std::string>& files, const std::string& own) {
+  const fs::path root = test::caseDir();
+  for (const auto& [path, text] : files) {
+    fs::create_directories((root / path).parent_path());
+    std::ofstream(root / path) << text;
+  }
+  return cgroupCpuQuota(root.string(), own);
 }
 
 TEST(CgroupQuota, TheSmallestQuotaOfTheCgroupAndThoseAboveItCounts) {
-  const fs::path root = test::caseDir();
-  write(root / "kubepods/pod1/app/cpu.max", "max 100000\n");
-  write(root / "kubepods/pod1/cpu.max", "150000 100000\n");
-  write(root / "kubepods/cpu.max", "800000 100000\n");
-  const std::optional<double> quota = cgroupCpuQuota(root.string(), "0::/kubepods/pod1/app\n");
-  ASSERT_TRUE(quota);
-  EXPECT_DOUBLE_EQ(*quota, 1.5);
+  EXPECT_EQ(quotaOf({{"kubepods/pod1/app/cpu.max", "max 100000\n"},
+                     {"kubepods/pod1/cpu.max", "150000 100000\n"},
+                     {"kubepods/cpu.max", "800000 100000\n"}},
+                    "0::/kubepods/pod1/app\n"),
+            1.5);
 }
 
 TEST(CgroupQuota, AContainerSeesItsOwnCgroupAtTheRoot) {
   // /proc/self/cgroup names the host's path, which the container's mount lacks.
-  const fs::path root = test::caseDir();
-  write(root / "cpu.max", "200000 100000\n");
-  const std::optional<double> quota = cgroupCpuQuota(root.string(), "0::/system.slice/docker-abc.scope\n");
-  ASSERT_TRUE(quota);
-  EXPECT_DOUBLE_EQ(*quota, 2);
+  EXPECT_EQ(quotaOf({{"cpu.max", "200000 100000\n"}}, "0::/system.slice/docker-abc.scope\n"), 2.0);
 }
 
 TEST(CgroupQuota, CgroupV1ReadsTheCfsQuotaOverItsPeriod) {
-  const fs::path root = test::caseDir();
-  write(root / "cpu,cpuacct/docker/abc/cpu.cfs_quota_us", "-1\n");
-  write(root / "cpu,cpuacct/docker/abc/cpu.cfs_period_us", "100000\n");
-  write(root / "cpu,cpuacct/docker/cpu.cfs_quota_us", "400000\n");
-  write(root / "cpu,cpuacct/docker/cpu.cfs_period_us", "100000\n");
-  const std::string own = "12:memory:/docker/abc\n3:cpu,cpuacct:/docker/abc\n1:name=systemd:/docker/abc\n";
-  const std::optional<double> quota = cgroupCpuQuota(root.string(), own);
-  ASSERT_TRUE(quota);
-  EXPECT_DOUBLE_EQ(*quota, 4);
+  EXPECT_EQ(quotaOf({{"cpu,cpuacct/docker/abc/cpu.cfs_quota_us", "-1\n"},
+                     {"cpu,cpuacct/docker/abc/cpu.cfs_period_us", "100000\n"},
+                     {"cpu,cpuacct/docker/cpu.cfs_quota_us", "400000\n"},
+                     {"cpu,cpuacct/docker/cpu.cfs_period_us", "100000\n"}},
+                    "12:memory:/docker/abc\n3:cpu,cpuacct:/docker/abc\n1:name=systemd:/docker/abc\n"),
+            4.0);
 }
 
 TEST(CgroupQuota, NoLimitOrUnreadableFilesGiveNone) {
-  const fs::path root = test::caseDir();
-  write(root / "cpu.max", "max 100000\n");
-  write(root / "a/cpu.max", "garbage\n");
-  write(root / "cpu/cpu.cfs_quota_us", "-1\n");
-  write(root / "cpu/cpu.cfs_period_us", "100000\n");
-  EXPECT_FALSE(cgroupCpuQuota(root.string(), "0::/a\n1:cpu:/\n"));
-  EXPECT_FALSE(cgroupCpuQuota(root.string(), "not a cgroup line\n"));
-  EXPECT_FALSE(cgroupCpuQuota((root / "missing").string(), "0::/\n"));
+  const std::map<std::string, std::string> unlimited = {{"cpu.max", "max 100000\n"},
+                                                        {"a/cpu.max", "garbage\n"},
+                                                        {"cpu/cpu.cfs_quota_us", "-1\n"},
+                                                        {"cpu/cpu.cfs_period_us", "100000\n"}};
+  EXPECT_EQ(quotaOf(unlimited, "0::/a\n1:cpu:/\n"), std::nullopt);
+  EXPECT_EQ(quotaOf(unlimited, "not a cgroup line\n"), std::nullopt);
+  EXPECT_EQ(quotaOf({}, "0::/\n"), std::nullopt);
 }
 
 TEST(UsableCores, AtLeastOneAndNoMoreThanTheMachineHas) {
