@@ -1027,6 +1027,54 @@ TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   EXPECT_TRUE(contains(between.err, "tiling.bbox: lon 60 to 61, lat 0 to 1 lies between the files of")) << describe(between);
 }
 
+// A file listed with others far away makes the bytes of its own job: its
+// reads and auto's zoom are judged in the middle of its own area, its
+// backdrop covers its own area, and files that are tiles of one raster are
+// read as one mosaic within their group. Judged in the middle of the box
+// over all, every Alpine tile of the sample listed with a DEM at Fiji
+// differed from its own run's, by up to 27 levels.
+TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
+  const fs::path dir = caseDir();
+  // The Alpine hills in two halves, tiles of one raster; Fiji's pixels are
+  // finer, so that auto chooses a deeper zoom there.
+  const int half = kHillPixels / 2;
+  const double west_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  const double east_gt[6] = {kHillWest + half * kHillPixelDeg, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "west.tif", half, kHillPixels, west_gt, hill);
+  writeDem(dir / "east.tif", half, kHillPixels, east_gt, [&](int c, int r) { return hill(c + half, r); });
+  const double fiji_gt[6] = {178.0, kHillPixelDeg / 2, 0, -17.0, 0, -kHillPixelDeg / 2};
+  writeDem(dir / "fiji.tif", 300, 300, fiji_gt, hill);
+  const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
+    std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "10-auto");
+    for (std::size_t i = 1; i < names.size(); ++i) args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+    return r;
+  };
+  const RunResult alps = job("alps", {"west", "east"});
+  const RunResult fiji = job("fiji", {"fiji"});
+  EXPECT_FALSE(contains(alps.err, "zoom 11:")) << describe(alps);
+  EXPECT_TRUE(contains(fiji.err, "zoom 11:")) << describe(fiji);
+  // max_error_texels is judged in the first file's group: each group listed first.
+  const RunResult alps_first = job("alps_first", {"west", "east", "fiji"});
+  const RunResult fiji_first = job("fiji_first", {"fiji", "west", "east"});
+  for (const auto& [layer, alone] : std::map<std::string, std::string>{{"alps_first", "alps"}, {"fiji_first", "fiji"}}) {
+    SCOPED_TRACE(layer);
+    const auto listed = tilesOf(dir / "out" / layer);
+    const auto own = tilesOf(dir / "out" / alone);
+    ASSERT_FALSE(own.empty());
+    for (const auto& [name, bytes] : own) {
+      const auto it = listed.find(name);
+      ASSERT_NE(it, listed.end()) << name;
+      EXPECT_TRUE(it->second == bytes) << name << " differs from its own job's";
+    }
+  }
+  // Auto's zoom suits every group: Fiji's, the deeper.
+  EXPECT_TRUE(contains(alps_first.err, "zoom 11:")) << describe(alps_first);
+  const RunResult info = run({"info", (dir / "west.tif").string(), (dir / "east.tif").string(), (dir / "fiji.tif").string()});
+  EXPECT_TRUE(contains(info.out, "webmercator  0-11,")) << describe(info);
+}
+
 // World DEMs registered on pixel centres (ETOPO's and GMTED's grids) run
 // half a pixel past -180 and 180: they are the whole globe, in every scheme,
 // not a sliver east of the antimeridian (once one tile column in the

@@ -48,10 +48,11 @@ void printScheme(const tiling::Scheme& scheme, const dem::DemSource& dem) {
     std::printf("  %-13snone: the DEM lies beyond the latitudes its tiles reach\n", scheme.name().c_str());
     return;
   }
-  const int max_zoom = pipeline::autoMaxZoom(scheme, areas.front(), dem);
-  const int min_zoom = pipeline::oneTileZoom(scheme, areas.front(), max_zoom);
   // Counted as a job plans them: round each file or group of files that meet.
-  const std::vector<Extent> file_areas = pipeline::fileAreas(scheme, dem);
+  const std::vector<pipeline::FileGroup> groups = pipeline::fileGroups(scheme, dem);
+  const std::vector<Extent> file_areas = pipeline::groupAreas(groups);
+  const int max_zoom = pipeline::autoMaxZoom(scheme, groups, dem);
+  const int min_zoom = pipeline::oneTileZoom(scheme, areas.front(), max_zoom);
   std::vector<std::string> counts;
   std::size_t total = 0;
   for (int z = min_zoom; z <= max_zoom; ++z) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <optional>
 
 #include "dem/crs_transform.hpp"
 #include "dem/fill_holes.hpp"
@@ -30,39 +31,94 @@ std::array<double, 4> cubicWeights(double t) {
 
 }  // namespace
 
-Backdrop::Backdrop(const DemSource& dem, const std::string& crs) : m_dem(dem.reader()) {
-  Extent e = dem.boundsIn(crs);
-  // Longitudes of a DEM across the antimeridian come back west > east: the
-  // backdrop then spans every longitude. Counted 0 to 360, they are the
-  // places the tiles name from -180.
-  if (e.min_x > e.max_x) {
-    e.min_x = -180, e.max_x = 180;
-  } else if (isLonLatCrs(crs)) {
-    e = turnedIntoRange(e);
+namespace {
+
+// How far (x, y) lies from `box`: 0 within it.
+double distanceTo(const Extent& box, double x, double y) {
+  return std::hypot(std::max({box.min_x - x, 0.0, x - box.max_x}), std::max({box.min_y - y, 0.0, y - box.max_y}));
+}
+
+}  // namespace
+
+Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vector<std::vector<std::size_t>>& groups)
+    : m_part_of_file(dem.fileCount(), 0), m_dem(dem.reader()) {
+  for (const std::vector<std::size_t>& files : groups) {
+    Extent e = dem.fileBoundsIn(files.front(), crs);
+    for (const std::size_t file : files) {
+      e = e.united(dem.fileBoundsIn(file, crs));
+      m_part_of_file[file] = m_parts.size();
+    }
+    // Longitudes of a DEM across the antimeridian come back west > east: the
+    // backdrop then spans every longitude. Counted 0 to 360, they are the
+    // places the tiles name from -180.
+    if (e.min_x > e.max_x) {
+      e.min_x = -180, e.max_x = 180;
+    } else if (isLonLatCrs(crs)) {
+      e = turnedIntoRange(e);
+    }
+    const double margin = kMargin * std::max(e.width(), e.height());
+    const double span = std::max(e.width(), e.height()) + 2 * margin;
+    const double cell = span / kCells;
+    Part& part = m_parts.emplace_back();
+    part.bounds = e;
+    part.grid.crs = crs;
+    part.grid.cell_w = part.grid.cell_h = cell;
+    part.grid.origin_x = e.min_x - margin;
+    part.grid.origin_y = e.max_y + margin;
+    part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
+    part.grid.height = int(std::ceil((e.height() + 2 * margin) / cell));
   }
-  const double margin = kMargin * std::max(e.width(), e.height());
-  const double span = std::max(e.width(), e.height()) + 2 * margin;
-  const double cell = span / kCells;
-  m_grid.crs = crs;
-  m_grid.cell_w = m_grid.cell_h = cell;
-  m_grid.origin_x = e.min_x - margin;
-  m_grid.origin_y = e.max_y + margin;
-  m_grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
-  m_grid.height = int(std::ceil((e.height() + 2 * margin) / cell));
 }
 
 void Backdrop::make() const {
   std::call_once(m_made, [this] {
     try {
-      m_heights = m_dem.read(m_grid, m_dem.planFor(m_grid));
-      // A DEM too small to reach a backdrop cell at all still gets a level floor.
-      if (!fillHoles(m_heights)) std::fill(m_heights.data.begin(), m_heights.data.end(), 0.0f);
+      // Each file's reads judged on its own group's grid, as a job of that
+      // group alone judges them; a grid reads only the files it reaches.
+      const ReadPlan plan = m_dem.planFor([this](std::size_t file) -> const GridSpec& {
+        return m_parts[m_part_of_file[file]].grid;
+      });
+      for (Part& part : m_parts) {
+        part.surface = m_dem.read(part.grid, plan);
+        // A DEM too small to reach a backdrop cell at all still gets a level floor.
+        if (!fillHoles(part.surface)) std::fill(part.surface.data.begin(), part.surface.data.end(), 0.0f);
+      }
     } catch (...) {
       m_failure = std::current_exception();
     }
     m_dem.closeFiles();  // read once: its handles are the workers' to use
   });
   if (m_failure) std::rethrow_exception(m_failure);
+}
+
+std::size_t Backdrop::nearestPart(double x, double y) const {
+  std::size_t nearest = 0;
+  for (std::size_t p = 1; p < m_parts.size(); ++p) {
+    if (distanceTo(m_parts[p].bounds, x, y) < distanceTo(m_parts[nearest].bounds, x, y)) nearest = p;
+  }
+  return nearest;
+}
+
+std::vector<std::size_t> Backdrop::partsNear(const Extent& extent) const {
+  // A part is nearest to some point of the extent only if its closest
+  // approach is no farther than the farthest any other part gets from it
+  // (the distance to a box is convex: at most its value at a corner).
+  const auto farthest = [&](const Extent& bounds) {
+    return std::max({distanceTo(bounds, extent.min_x, extent.min_y), distanceTo(bounds, extent.min_x, extent.max_y),
+                     distanceTo(bounds, extent.max_x, extent.min_y), distanceTo(bounds, extent.max_x, extent.max_y)});
+  };
+  const auto closest = [&](const Extent& bounds) {
+    const double dx = std::max({bounds.min_x - extent.max_x, 0.0, extent.min_x - bounds.max_x});
+    const double dy = std::max({bounds.min_y - extent.max_y, 0.0, extent.min_y - bounds.max_y});
+    return std::hypot(dx, dy);
+  };
+  double bound = farthest(m_parts.front().bounds);
+  for (const Part& part : m_parts) bound = std::min(bound, farthest(part.bounds));
+  std::vector<std::size_t> near;
+  for (std::size_t p = 0; p < m_parts.size(); ++p) {
+    if (closest(m_parts[p].bounds) <= bound) near.push_back(p);
+  }
+  return near;
 }
 
 Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
@@ -74,13 +130,13 @@ Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
   return taps;
 }
 
-double Backdrop::alongColumn(int column, const Taps& along_y) const {
+double Backdrop::Part::alongColumn(int column, const Taps& along_y) const {
   double sum = 0;
-  for (std::size_t j = 0; j < 4; ++j) sum += along_y.weight[j] * m_heights.at(column, along_y.cell[j]);
+  for (std::size_t j = 0; j < 4; ++j) sum += along_y.weight[j] * surface.at(column, along_y.cell[j]);
   return sum;
 }
 
-float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
+float Backdrop::Part::heightFrom(const Taps& along_x, const Taps& along_y) const {
   double sum = 0;
   for (std::size_t i = 0; i < 4; ++i) sum += along_x.weight[i] * alongColumn(along_x.cell[i], along_y);
   return float(sum);
@@ -88,38 +144,70 @@ float Backdrop::heightFrom(const Taps& along_x, const Taps& along_y) const {
 
 Backdrop::Range Backdrop::rangeOver(const Extent& extent) const {
   make();
+  std::optional<Range> range;
+  for (const std::size_t p : partsNear(extent)) {
+    const Range part = m_parts[p].rangeOver(extent);
+    range = range ? Range{std::min(range->low, part.low), std::max(range->high, part.high)} : part;
+  }
+  return *range;
+}
+
+Backdrop::Range Backdrop::Part::rangeOver(const Extent& extent) const {
   const Taps west = tapsAtX(extent.min_x), east = tapsAtX(extent.max_x);
   const Taps north = tapsAtY(extent.max_y), south = tapsAtY(extent.min_y);
-  float low = m_heights.at(west.cell[0], north.cell[0]), high = low;
+  float low = surface.at(west.cell[0], north.cell[0]), high = low;
   for (int r = north.cell[0]; r <= south.cell[3]; ++r) {
     for (int c = west.cell[0]; c <= east.cell[3]; ++c) {
-      low = std::min(low, m_heights.at(c, r));
-      high = std::max(high, m_heights.at(c, r));
+      low = std::min(low, surface.at(c, r));
+      high = std::max(high, surface.at(c, r));
     }
   }
   const float overshoot = float(kCubicOvershootShare * (high - low));
   return {low - overshoot, high + overshoot};
 }
 
-Backdrop::Taps Backdrop::tapsAtX(double x) const {
-  return tapsAlong((x - m_grid.origin_x) / m_grid.cell_w, m_grid.width);
+Backdrop::Taps Backdrop::Part::tapsAtX(double x) const {
+  return tapsAlong((x - grid.origin_x) / grid.cell_w, grid.width);
 }
 
-Backdrop::Taps Backdrop::tapsAtY(double y) const {
-  return tapsAlong((m_grid.origin_y - y) / m_grid.cell_h, m_grid.height);
+Backdrop::Taps Backdrop::Part::tapsAtY(double y) const {
+  return tapsAlong((grid.origin_y - y) / grid.cell_h, grid.height);
 }
 
 float Backdrop::heightAt(double x, double y) const {
   make();
-  return heightFrom(tapsAtX(x), tapsAtY(y));
+  const Part& part = m_parts[nearestPart(x, y)];
+  return part.heightFrom(part.tapsAtX(x), part.tapsAtY(y));
 }
 
 Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const {
   make();
+  const Extent extent{grid.centreX(0), grid.centreY(grid.height - 1), grid.centreX(grid.width - 1), grid.centreY(0)};
+  const std::vector<std::size_t> near = partsNear(extent);
+  if (near.size() == 1) return m_parts[near.front()].heightsAt(grid, wanted);
+  // Cells nearest to different parts: each part fills its own.
+  Raster<float> heights(grid.width, grid.height, 0.0f);
+  for (const std::size_t p : near) {
+    std::vector<std::uint8_t> own(wanted.size(), 0);
+    for (int r = 0; r < grid.height; ++r) {
+      for (int c = 0; c < grid.width; ++c) {
+        const std::size_t k = std::size_t(r) * std::size_t(grid.width) + std::size_t(c);
+        own[k] = wanted[k] && nearestPart(grid.centreX(c), grid.centreY(r)) == p;
+      }
+    }
+    const Raster<float> part = m_parts[p].heightsAt(grid, own);
+    for (std::size_t k = 0; k < own.size(); ++k) {
+      if (own[k]) heights.data[k] = part.data[k];
+    }
+  }
+  return heights;
+}
+
+Raster<float> Backdrop::Part::heightsAt(const GridSpec& target, const std::vector<std::uint8_t>& wanted) const {
   std::vector<Taps> columns, rows;
-  for (int c = 0; c < grid.width; ++c) columns.push_back(tapsAtX(grid.centreX(c)));
-  for (int r = 0; r < grid.height; ++r) rows.push_back(tapsAtY(grid.centreY(r)));
-  if (columns.empty() || rows.empty()) return Raster<float>(grid.width, grid.height, 0.0f);
+  for (int c = 0; c < target.width; ++c) columns.push_back(tapsAtX(target.centreX(c)));
+  for (int r = 0; r < target.height; ++r) rows.push_back(tapsAtY(target.centreY(r)));
+  if (columns.empty() || rows.empty()) return Raster<float>(target.width, target.height, 0.0f);
   // The backdrop's columns the grid's taps reach, each mixed along a row's
   // taps once for the whole row: heightFrom's arithmetic, a quarter of it.
   int first_column = columns.front().cell[0], last_column = first_column;
@@ -128,7 +216,7 @@ Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::u
     last_column = std::max(last_column, taps.cell[3]);
   }
   std::vector<double> mixed(std::size_t(last_column - first_column + 1));
-  Raster<float> heights(grid.width, grid.height, 0.0f);
+  Raster<float> heights(target.width, target.height, 0.0f);
   for (std::size_t r = 0, k = 0; r < rows.size(); ++r, k += columns.size()) {
     const auto row_wanted = wanted.begin() + std::ptrdiff_t(k);
     if (std::none_of(row_wanted, row_wanted + std::ptrdiff_t(columns.size()), [](std::uint8_t w) { return w != 0; })) {

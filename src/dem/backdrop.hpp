@@ -1,6 +1,7 @@
 #pragma once
 // A coarse, hole-free version of the whole DEM in the tiling CRS, its holes
-// and the margin around it filled by a membrane over the data (fillHoles).
+// and the margin around it filled by a membrane over the data (fillHoles),
+// one for each group of files far apart.
 // Samples far from any valid DEM sample (outside the DEM, inside very large
 // voids) take their height from it, and the surface a tile carries on from
 // its data fades into it: it is made once per job and is the same for every
@@ -12,6 +13,7 @@
 #include <cstdint>
 #include <exception>
 #include <mutex>
+#include <string>
 #include <vector>
 
 #include "core/types.hpp"
@@ -21,10 +23,14 @@ namespace terrabake::dem {
 
 class Backdrop {
  public:
-  // Covers the DEM's extent in `crs` and a margin around it; reads it
-  // through a reader of its own. The methods below make it on their first
-  // call, on whichever thread, and throw what making it threw.
-  Backdrop(const DemSource& dem, const std::string& crs);
+  // One coarse surface for each group of the DEM's files (indices in the
+  // order given; files far apart are in groups of their own), covering the
+  // group's extent in `crs` and a margin around it: a point takes its height
+  // from the group whose extent lies nearest, so a group's tiles get what a
+  // job of its files alone gets. Reads through a reader of its own. The
+  // methods below make it on their first call, on whichever thread, and
+  // throw what making it threw.
+  Backdrop(const DemSource& dem, const std::string& crs, const std::vector<std::vector<std::size_t>>& groups);
 
   // Bicubic height at a point of the tiling CRS; beyond the backdrop, the
   // height at its nearest edge.
@@ -50,24 +56,36 @@ class Backdrop {
     std::array<double, 4> weight;
     std::array<int, 4> cell;
   };
+  // One group's surface.
+  struct Part {
+    Extent bounds;  // of the group's files, in the tiling CRS
+    GridSpec grid;  // over them and the margin
+    Raster<float> surface;  // its heights, holes filled
+    // The taps of a tiling-CRS x (along the grid's columns) or y (its rows).
+    Taps tapsAtX(double x) const;
+    Taps tapsAtY(double y) const;
+    // Column `column` of the grid mixed along y's taps.
+    double alongColumn(int column, const Taps& along_y) const;
+    // The columns along x's taps, each mixed along y's.
+    float heightFrom(const Taps& along_x, const Taps& along_y) const;
+    Raster<float> heightsAt(const GridSpec& target, const std::vector<std::uint8_t>& wanted) const;
+    Range rangeOver(const Extent& extent) const;
+  };
   // `cell`: the position in cells from the grid's first edge along the axis.
   static Taps tapsAlong(double cell, int cells);
-  // The taps of a tiling-CRS x (along the backdrop's columns) or y (its rows).
-  Taps tapsAtX(double x) const;
-  Taps tapsAtY(double y) const;
-  // Column `column` of the grid mixed along y's taps.
-  double alongColumn(int column, const Taps& along_y) const;
-  // The columns along x's taps, each mixed along y's.
-  float heightFrom(const Taps& along_x, const Taps& along_y) const;
+
+  // The parts nearest to some point of `extent`; one for most extents.
+  std::vector<std::size_t> partsNear(const Extent& extent) const;
+  std::size_t nearestPart(double x, double y) const;
 
   // Reads and fills the heights once.
   void make() const;
 
-  GridSpec m_grid;
+  mutable std::vector<Part> m_parts;
+  std::vector<std::size_t> m_part_of_file;  // by file index: the part that judges its reads
   mutable DemSource m_dem;  // read once, by make()
   mutable std::once_flag m_made;
   mutable std::exception_ptr m_failure;  // what making it threw
-  mutable Raster<float> m_heights;
 };
 
 }  // namespace terrabake::dem

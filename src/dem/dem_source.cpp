@@ -13,6 +13,7 @@
 #include <utility>
 
 #include "core/error.hpp"
+#include "core/extent_groups.hpp"
 #include "dem/crs_transform.hpp"
 #include "dem/dem_file.hpp"
 #include "dem/gdal_util.hpp"
@@ -179,20 +180,56 @@ std::string mosaicOf(const std::vector<std::shared_ptr<const FileMeta>>& files, 
   return path;
 }
 
+// The files in groups that meet no file outside their own, by their lon/lat
+// boxes (every longitude for one across the antimeridian): each group's
+// files in the order given, the groups in the order of their first file.
+// Files of different groups share no place, so each group may be read as
+// one raster without changing which file shows where.
+std::vector<std::vector<std::size_t>> groupsThatMeet(const std::vector<std::shared_ptr<const FileMeta>>& files) {
+  std::vector<Extent> boxes;
+  for (const auto& file : files) {
+    Extent box = file->boundsIn("EPSG:4326");
+    if (box.min_x > box.max_x) {
+      box.min_x = -180, box.max_x = 180;
+    } else {
+      box = turnedIntoRange(box);
+      if (box.max_x > 180) box.min_x = -180, box.max_x = 180;
+    }
+    boxes.push_back(box);
+  }
+  const std::vector<Extent> merged = mergeMeeting(boxes);
+  std::vector<std::vector<std::size_t>> groups;
+  std::map<std::size_t, std::size_t> group_of_box;  // merged box -> index in groups
+  for (std::size_t file = 0; file < files.size(); ++file) {
+    const Extent& b = boxes[file];
+    // Each box lies in exactly one merged box.
+    std::size_t m = 0;
+    while (!(merged[m].min_x <= b.min_x && b.max_x <= merged[m].max_x && merged[m].min_y <= b.min_y &&
+             b.max_y <= merged[m].max_y)) {
+      ++m;
+    }
+    const auto [it, added] = group_of_box.emplace(m, groups.size());
+    if (added) groups.emplace_back();
+    groups[it->second].push_back(file);
+  }
+  return groups;
+}
+
 }  // namespace
 
 struct DemSource::Shared {
   std::vector<std::shared_ptr<const FileMeta>> files;  // as given
   // What reads read: the files, or one mosaic of them (tilesOfOneRaster).
   std::vector<std::shared_ptr<const FileMeta>> read_files;
-  std::string mosaic_path;  // in memory, removed with the source
+  std::vector<std::size_t> read_file_first;  // the index in `files` of each read file's first
+  std::vector<std::string> mosaic_paths;     // in memory, removed with the source
   DemInfo info;
 
   Shared() = default;
   Shared(const Shared&) = delete;
   Shared& operator=(const Shared&) = delete;
   ~Shared() {
-    if (!mosaic_path.empty()) VSIUnlink(mosaic_path.c_str());
+    for (const std::string& path : mosaic_paths) VSIUnlink(path.c_str());
   }
 };
 
@@ -214,21 +251,39 @@ DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& op
   auto shared = std::make_shared<Shared>();
   for (const std::string& path : expanded) shared->files.push_back(std::make_shared<const FileMeta>(path, options));
   shared->info = shared->files.front()->info();
-  shared->read_files = shared->files;
-  if (shared->files.size() > 1) {
+  if (shared->files.size() == 1) {
+    shared->read_files = shared->files;
+    shared->read_file_first = {0};
+  } else {
     for (std::size_t i = 1; i < shared->files.size(); ++i) shared->info.path += ", " + shared->files[i]->info().path;
     shared->info.grid = mergedGrid(shared->files);
-    if (tilesOfOneRaster(shared->files)) {
-      shared->mosaic_path = mosaicOf(shared->files, options.band);
-      DemOptions mosaic_options = options;
-      mosaic_options.band = 1;
-      try {
-        if (!shared->mosaic_path.empty()) {
-          shared->read_files = {
-              std::make_shared<const FileMeta>(shared->mosaic_path, mosaic_options, shared->info.path)};
+    // Each group of files that meet is read as one mosaic when they are tiles
+    // of one raster, else file by file.
+    for (const std::vector<std::size_t>& group : groupsThatMeet(shared->files)) {
+      std::vector<std::shared_ptr<const FileMeta>> members;
+      std::string names;
+      for (const std::size_t file : group) {
+        members.push_back(shared->files[file]);
+        names += (names.empty() ? "" : ", ") + shared->files[file]->info().path;
+      }
+      if (tilesOfOneRaster(members)) {
+        const std::string path = mosaicOf(members, options.band);
+        DemOptions mosaic_options = options;
+        mosaic_options.band = 1;
+        try {
+          if (!path.empty()) {
+            shared->mosaic_paths.push_back(path);
+            shared->read_files.push_back(std::make_shared<const FileMeta>(path, mosaic_options, names));
+            shared->read_file_first.push_back(group.front());
+            continue;
+          }
+        } catch (const InputError&) {
+          // Too large for one raster: each file is read on its own.
         }
-      } catch (const InputError&) {
-        // Too large for one raster: each file is read on its own.
+      }
+      for (const std::size_t file : group) {
+        shared->read_files.push_back(shared->files[file]);
+        shared->read_file_first.push_back(file);
       }
     }
   }
@@ -275,14 +330,28 @@ Extent DemSource::fileBoundsIn(std::size_t file, const std::string& crs) const {
   return m_shared->files.at(file)->boundsIn(crs);
 }
 
+GridSpec DemSource::gridOf(const std::vector<std::size_t>& files) const {
+  std::vector<std::shared_ptr<const FileMeta>> metas;
+  for (const std::size_t file : files) metas.push_back(m_shared->files.at(file));
+  return mergedGrid(metas);
+}
+
 ReadPlan DemSource::planFor(const GridSpec& representative) const {
+  return planFor([&](std::size_t) -> const GridSpec& { return representative; });
+}
+
+ReadPlan DemSource::planFor(const std::function<const GridSpec&(std::size_t file)>& representative_of) const {
   ReadPlan plan;
-  // One transformation per distinct file CRS: a glob of tiles shares one.
-  const OGRSpatialReference source = spatialReference(representative.crs);
-  std::map<std::string, std::unique_ptr<OGRCoordinateTransformation>> transforms;
-  for (const auto& file : m_shared->read_files) {
-    auto& ct = transforms[file->srsWkt()];
-    if (!ct) ct.reset(OGRCreateCoordinateTransformation(&source, &file->srs()));
+  // One transformation per distinct pair of CRSs: a glob of tiles shares one.
+  std::map<std::pair<std::string, std::string>, std::unique_ptr<OGRCoordinateTransformation>> transforms;
+  for (std::size_t i = 0; i < m_shared->read_files.size(); ++i) {
+    const FileMeta* file = m_shared->read_files[i].get();
+    const GridSpec& representative = representative_of(m_shared->read_file_first[i]);
+    auto& ct = transforms[{representative.crs, file->srsWkt()}];
+    if (!ct) {
+      const OGRSpatialReference source = spatialReference(representative.crs);
+      ct.reset(OGRCreateCoordinateTransformation(&source, &file->srs()));
+    }
     if (!ct) {
       throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" +
                        shortened(file->info().path) + "'");

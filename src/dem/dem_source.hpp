@@ -4,6 +4,7 @@
 // merged in priority order, and windows of it resampled onto a tile's texel
 // grid in any CRS.
 #include <cstdint>
+#include <functional>
 #include <limits>
 #include <list>
 #include <memory>
@@ -93,8 +94,16 @@ class DemSource {
   std::size_t fileCount() const;
   Extent fileBoundsIn(std::size_t file, const std::string& crs) const;
 
+  // The grid of some of the files (indices in the order given): the first's
+  // pixel grid grown to cover them all, as info().grid is for every file.
+  GridSpec gridOf(const std::vector<std::size_t>& files) const;
+
   // The read plan for grids of the cell size `representative` has.
   ReadPlan planFor(const GridSpec& representative) const;
+  // The same with each file judged on a grid of its own (`representative_of`
+  // a file's index in the order given): files far apart are judged where
+  // they lie. A mosaic read as one raster is judged on its first file's.
+  ReadPlan planFor(const std::function<const GridSpec&(std::size_t file)>& representative_of) const;
 
   // Heights on `grid`, NaN where no valid sample of any file reaches. Void
   // samples are the declared nodata value, NaN, infinities, the void markers

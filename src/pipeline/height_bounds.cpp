@@ -72,12 +72,10 @@ HeightBounds::HeightBounds(const LayerPlan& plan) : m_backdrop(plan.backdrop), m
     a.grid.width = std::max(1, int(std::ceil(area.width() / cell)));
     a.grid.height = std::max(1, int(std::ceil(area.height() / cell)));
     a.heights = reader.read(a.grid, reader.planFor(a.grid));
-    a.backdrop = Raster<float>(a.grid.width, a.grid.height);
-    for (int r = 0; r < a.grid.height; ++r) {
-      for (int c = 0; c < a.grid.width; ++c) {
-        a.heights.at(c, r) = float(a.heights.at(c, r) * m_scale);
-        a.backdrop.at(c, r) = float(plan.backdrop->heightAt(a.grid.centreX(c), a.grid.centreY(r)) * m_scale);
-      }
+    a.backdrop = plan.backdrop->heightsAt(a.grid, std::vector<std::uint8_t>(a.heights.data.size(), 1));
+    for (std::size_t k = 0; k < a.heights.data.size(); ++k) {
+      a.heights.data[k] = float(a.heights.data[k] * m_scale);
+      a.backdrop.data[k] = float(a.backdrop.data[k] * m_scale);
     }
     GridSpec fine = a.grid;
     fine.cell_w = fine.cell_h = cell / kFinePerCell;

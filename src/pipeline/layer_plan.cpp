@@ -97,8 +97,8 @@ std::vector<Extent> within(const std::vector<Extent>& areas, const std::vector<E
 }
 
 // The job's zooms with "auto" resolved, checked against the scheme.
-std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& scheme, const Extent& dem_area,
-                              const dem::DemSource& dem) {
+std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& scheme,
+                              const std::vector<FileGroup>& groups, const dem::DemSource& dem) {
   if (!job.max_zoom_auto) {
     if (job.max_zoom > scheme.maxZoom()) {
       throw UsageError("tiling.zoom: " + scheme.name() + " tiling of '" + dem.info().path + "' has zooms 0-" +
@@ -106,7 +106,7 @@ std::pair<int, int> zoomRange(const config::TileJob& job, const tiling::Scheme& 
     }
     return {job.min_zoom, job.max_zoom};
   }
-  const int max_zoom = autoMaxZoom(scheme, dem_area, dem);
+  const int max_zoom = autoMaxZoom(scheme, groups, dem);
   if (job.min_zoom > max_zoom) {
     throw UsageError("tiling.zoom: min " + std::to_string(job.min_zoom) + " is above auto's choice, " +
                      std::to_string(max_zoom) + ", for " + scheme.name() + " tiling of '" + dem.info().path + "'");
@@ -161,12 +161,13 @@ TileSettings tileSettings(const config::TileJob& job) {
 }
 
 // The adaptive mesh's bound at each zoom: max_error_m, or max_error_texels
-// of the zoom's texel size on the ground in the middle of the DEM (whatever
-// the bbox, so a bbox run writes the bytes a whole run does).
-std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Scheme& scheme, const Extent& dem_area,
+// of the zoom's texel size on the ground in the middle of `area`, the first
+// file's group (whatever the bbox, so a bbox run writes the bytes a whole
+// run does).
+std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Scheme& scheme, const Extent& area,
                                    int max_zoom) {
   std::vector<double> bounds;
-  const double x = (dem_area.min_x + dem_area.max_x) / 2, y = (dem_area.min_y + dem_area.max_y) / 2;
+  const double x = (area.min_x + area.max_x) / 2, y = (area.min_y + area.max_y) / 2;
   for (int z = 0; z <= max_zoom; ++z) {
     const tiling::LevelGrid level = scheme.levelGrid(z);
     const double texel_m =
@@ -221,12 +222,11 @@ LayerPlan planLayer(const config::TileJob& job) {
   const std::vector<Extent> dem_areas = demAreas(*plan.scheme, *dem);
   // The native grid is the DEM's own, one area whatever the longitudes.
   const bool across = plan.scheme->kind() != SchemeKind::kNative && (dem_areas.size() > 1 || lon_lat.size() > 1);
-  const Extent dem_area = dem_areas.front();
-  plan.dem_area = dem_area;
-  plan.file_areas = fileAreas(*plan.scheme, *dem);
-  std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, dem_area, *dem);
+  const std::vector<FileGroup> groups = fileGroups(*plan.scheme, *dem);
+  plan.file_areas = groupAreas(groups);
+  std::tie(plan.min_zoom, plan.max_zoom) = zoomRange(job, *plan.scheme, groups, *dem);
   if (job.low_poly_mesh == LowPolyMesh::kAdaptive) {
-    plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, dem_area, plan.max_zoom);
+    plan.settings.max_error_m = maxErrorByZoom(job, *plan.scheme, groups[groupJudging(groups, 0)].area, plan.max_zoom);
   }
   if (job.bbox.empty()) {
     plan.areas = plan.file_areas;
@@ -241,14 +241,26 @@ LayerPlan planLayer(const config::TileJob& job) {
   }
   plan.area = plan.areas.front();
   for (const Extent& area : plan.areas) plan.area = plan.area.united(area);
+  std::vector<std::size_t> group_of(dem->fileCount());
+  for (std::size_t file = 0; file < group_of.size(); ++file) group_of[file] = groupJudging(groups, file);
   for (int z = plan.min_zoom; z <= plan.max_zoom; ++z) {
-    // Judged at a tile in the middle of the DEM, the same for the whole zoom
-    // whatever the bbox, so a bbox run writes the bytes a whole run does.
-    const tiling::TileRange tiles = plan.scheme->rangeCovering(dem_area, z);
-    const TileId middle = plan.scheme->tileAt(tiles, tiles.count() / 2);
-    plan.read_plans[z] = dem->planFor(plan.scheme->texelGrid(middle, plan.settings.apron));
+    // Each file judged at a tile in the middle of its group, the same for the
+    // whole zoom whatever the bbox, so a bbox run writes the bytes a whole
+    // run does, and a file listed with others far away those of its own run.
+    std::map<std::size_t, GridSpec> middles;
+    for (const std::size_t g : group_of) {
+      if (middles.count(g)) continue;
+      const tiling::TileRange tiles = plan.scheme->rangeCovering(groups[g].area, z);
+      const TileId middle = plan.scheme->tileAt(tiles, tiles.count() / 2);
+      middles[g] = plan.scheme->texelGrid(middle, plan.settings.apron);
+    }
+    plan.read_plans[z] = dem->planFor([&](std::size_t file) -> const GridSpec& { return middles.at(group_of[file]); });
   }
-  plan.backdrop = std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs());
+  std::vector<std::vector<std::size_t>> groups_of_files;
+  for (const FileGroup& group : groups) {
+    if (!group.files.empty()) groups_of_files.push_back(group.files);
+  }
+  plan.backdrop = std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs(), groups_of_files);
   dem->closeFiles();  // the workers open their own
   plan.backend = job.backend;
   plan.workers = job.workers > 0 ? job.workers : usableCores().count;

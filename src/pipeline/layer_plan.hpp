@@ -50,11 +50,11 @@ struct LayerPlan {
   std::shared_ptr<const tiling::Scheme> scheme;
   int min_zoom = 0;  // the job's zooms, "auto" resolved
   int max_zoom = 0;
-  Extent dem_area;  // the DEM's extent in the scheme's CRS: zooms and error bounds are judged at its centre
   // Where the DEM's files lie in the scheme's CRS, merged where they meet
-  // (fileAreas): one box for a mosaic, a box each side of the antimeridian,
+  // (fileGroups): one box for a mosaic, a box each side of the antimeridian,
   // one per file or group of neighbours for files far apart. Tiles along a
-  // bbox's edge read them past it.
+  // bbox's edge read them past it. Auto's zoom and each file's reads are
+  // judged in the middle of its box, max_error_texels in the first file's.
   std::vector<Extent> file_areas;
   // What the run covers: file_areas within tiling.bbox, so it makes only
   // the tiles they reach; and the box that holds them all.

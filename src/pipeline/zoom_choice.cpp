@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -72,14 +73,46 @@ std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource&
   return areasOf(scheme, [&](const std::string& crs) { return dem.boundsIn(crs); });
 }
 
-std::vector<Extent> fileAreas(const tiling::Scheme& scheme, const dem::DemSource& dem) {
+std::vector<FileGroup> fileGroups(const tiling::Scheme& scheme, const dem::DemSource& dem) {
   std::vector<Extent> areas;
+  std::vector<std::optional<Extent>> judging_area(dem.fileCount());  // each file's first
   for (std::size_t file = 0; file < dem.fileCount(); ++file) {
     for (const Extent& area : areasOf(scheme, [&](const std::string& crs) { return dem.fileBoundsIn(file, crs); })) {
+      if (!judging_area[file]) judging_area[file] = area;
       areas.push_back(area);
     }
   }
-  return mergeMeeting(areas);
+  std::vector<FileGroup> groups;
+  for (const Extent& merged : mergeMeeting(areas)) groups.push_back({merged, {}});
+  for (std::size_t file = 0; file < dem.fileCount(); ++file) {
+    if (!judging_area[file]) continue;  // beyond the scheme's latitudes
+    // Each area lies in exactly one merged box.
+    const Extent& a = *judging_area[file];
+    for (FileGroup& group : groups) {
+      const Extent& g = group.area;
+      if (g.min_x <= a.min_x && a.max_x <= g.max_x && g.min_y <= a.min_y && a.max_y <= g.max_y) {
+        group.files.push_back(file);
+        break;
+      }
+    }
+  }
+  return groups;
+}
+
+std::vector<Extent> groupAreas(const std::vector<FileGroup>& groups) {
+  std::vector<Extent> areas;
+  for (const FileGroup& group : groups) areas.push_back(group.area);
+  return areas;
+}
+
+std::size_t groupJudging(const std::vector<FileGroup>& groups, std::size_t file) {
+  std::optional<std::size_t> first;
+  for (std::size_t g = 0; g < groups.size(); ++g) {
+    const std::vector<std::size_t>& files = groups[g].files;
+    if (std::find(files.begin(), files.end(), file) != files.end()) return g;
+    if (!first && !files.empty()) first = g;
+  }
+  return first.value_or(0);
 }
 
 double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w, double cell_h) {
@@ -91,16 +124,32 @@ double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w
   return std::sqrt(glm::distance(ecef[0], ecef[1]) * glm::distance(ecef[2], ecef[3]));
 }
 
-double demPixelSizeM(const dem::DemSource& dem) {
-  const GridSpec& g = dem.info().grid;
+namespace {
+
+double pixelSizeAtCentreM(const GridSpec& g) {
   return cellGroundSizeM(g.crs, g.centreX(g.width / 2.0 - 0.5), g.centreY(g.height / 2.0 - 0.5), g.cell_w,
                          g.cell_h);
 }
 
-int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, const dem::DemSource& dem) {
+}  // namespace
+
+double demPixelSizeM(const dem::DemSource& dem) { return pixelSizeAtCentreM(dem.info().grid); }
+
+double pixelSizeM(const dem::DemSource& dem, const std::vector<std::size_t>& files) {
+  return pixelSizeAtCentreM(dem.gridOf(files));
+}
+
+int autoMaxZoom(const tiling::Scheme& scheme, const std::vector<FileGroup>& groups, const dem::DemSource& dem) {
+  int zoom = 0;
+  for (const FileGroup& group : groups) {
+    if (!group.files.empty()) zoom = std::max(zoom, autoMaxZoom(scheme, group.area, pixelSizeM(dem, group.files)));
+  }
+  return zoom;
+}
+
+int autoMaxZoom(const tiling::Scheme& scheme, const Extent& area, double pixel_m) {
   if (scheme.kind() == SchemeKind::kNative) return scheme.maxZoom();
   const int tile_size = scheme.tileSize();
-  const double pixel_m = demPixelSizeM(dem);
   const double x = (area.min_x + area.max_x) / 2, y = (area.min_y + area.max_y) / 2;
   int zoom = 0;
   for (int z = 1; z <= scheme.maxZoom(); ++z) {
