@@ -8,6 +8,7 @@
 
 #include <cpl_vsi.h>
 #include <gdal_priv.h>
+#include <gdal_utils.h>
 #include <ogr_spatialref.h>
 #include <sys/stat.h>
 
@@ -997,6 +998,7 @@ std::set<std::string> tileNamesOf(const fs::path& layer) {
 // Files far apart, listed in one job, plan the tiles round each: the job
 // makes the tiles each file's own job makes, and plans none between them
 // (the box over both once planned 1.5 million tiles at zoom 12 to write 30).
+// So does a VRT of them, round each of its sources.
 TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   const fs::path dir = caseDir();
   writeHills(dir / "alps.tif");
@@ -1019,6 +1021,21 @@ TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   // box over both has 94,842 tiles at zoom 10).
   const RunResult info = run({"info", (dir / "alps.tif").string(), (dir / "fiji.tif").string()});
   EXPECT_TRUE(contains(info.out, "webmercator  0-10, 24 tiles: z0 1, z1 2, z2 2,")) << describe(info);
+
+  // A VRT of both is one file whose sources lie far apart: it plans the same
+  // tiles, round each source, and `info` counts them so.
+  const std::string names[] = {(dir / "alps.tif").string(), (dir / "fiji.tif").string()};
+  const char* const sources[] = {names[0].c_str(), names[1].c_str()};
+  GDALDatasetH vrt = GDALBuildVRT((dir / "both.vrt").c_str(), 2, nullptr, sources, nullptr, nullptr);
+  ASSERT_NE(vrt, nullptr);
+  GDALClose(vrt);
+  const RunResult from_vrt = run(tileArgs(dir / "both.vrt", dir / "out", "vrt"));
+  ASSERT_EQ(from_vrt.exit_code, kExitOk) << describe(from_vrt);
+  EXPECT_TRUE(contains(from_vrt.err, "zoom 12: " + std::to_string(apart.size() / 2) + " tiles")) << describe(from_vrt);
+  EXPECT_TRUE(contains(from_vrt.out, "(0 skipped, 0 empty, 0 failed)")) << describe(from_vrt);
+  EXPECT_EQ(tileNamesOf(dir / "out" / "vrt"), apart);
+  const RunResult vrt_info = run({"info", (dir / "both.vrt").string()});
+  EXPECT_TRUE(contains(vrt_info.out, "webmercator  0-10, 24 tiles: z0 1, z1 2, z2 2,")) << describe(vrt_info);
 
   // A box between them holds no file: nothing to make, said at once.
   args.insert(args.end(), {"--bbox", "60,0,61,1"});

@@ -145,6 +145,13 @@ TEST(ExtentGroups, BoxesThatMeetMergeAndFarApartOnesStayApart) {
   EXPECT_EQ(reached[0].max_x, 3);
   EXPECT_EQ(reached[0].max_y, 3);
   EXPECT_EQ(mergeMeeting({}).size(), 0u);
+  // Thousands of areas in the same tile at a coarse zoom (a VRT's scattered
+  // sources) are one group, and a far tile another.
+  std::vector<Extent> repeated(20000, Extent{0, 0, 1, 1});
+  repeated.push_back({5, 5, 6, 6});
+  const std::vector<Extent> two = mergeMeeting(repeated);
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(two[1].max_x, 1);
 }
 
 TEST(Schemes, RangesOverSeveralAreasHoldEachTileOnce) {

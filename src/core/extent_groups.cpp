@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <numeric>
+#include <tuple>
 
 namespace terrabake {
 namespace {
@@ -48,6 +49,12 @@ std::vector<Extent> mergeOnce(const std::vector<Extent>& boxes) {
 }  // namespace
 
 std::vector<Extent> mergeMeeting(std::vector<Extent> boxes) {
+  // Repeats once: at coarse zooms thousands of areas fall in the same few
+  // tiles, and the sweep would compare each with all the others.
+  const auto key = [](const Extent& e) { return std::tie(e.min_x, e.min_y, e.max_x, e.max_y); };
+  std::sort(boxes.begin(), boxes.end(), [&](const Extent& a, const Extent& b) { return key(a) < key(b); });
+  boxes.erase(std::unique(boxes.begin(), boxes.end(), [&](const Extent& a, const Extent& b) { return key(a) == key(b); }),
+              boxes.end());
   // A group's box may reach boxes none of its members met: merge again.
   for (std::size_t count = 0; count != boxes.size();) {
     count = boxes.size();

@@ -29,6 +29,7 @@
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
 #include "dem/resampling.hpp"
+#include "dem/vrt_parts.hpp"
 #include "dem/void_samples.hpp"
 
 namespace terrabake::dem {
@@ -368,6 +369,7 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
     for (int i = 0; i < band->GetOverviewCount(); ++i) m_overview_widths.push_back(band->GetOverview(i)->GetXSize());
   }
   m_info.overview_count = int(m_overview_widths.size());
+  m_parts = vrtSourceParts(ds, m_band);
   m_info.data_type = GDALGetDataTypeName(type);
   m_info.crs_name = m_srs.GetName() ? m_srs.GetName() : "unnamed";
   m_info.epsg = epsgCode(m_srs);
@@ -419,16 +421,35 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   m_voids.implausible = &m_implausible;
 }
 
+namespace {
+
+constexpr std::size_t kWholeFile = std::size_t(-1);  // boxIn's key for the file's extent
+
+}  // namespace
+
 Extent FileMeta::boundsIn(const std::string& crs) const {
-  std::lock_guard<std::mutex> lock(m_bounds_mutex);
-  const auto known = m_bounds.find(crs);
-  if (known != m_bounds.end()) return known->second;
   const GridSpec& g = m_info.grid;
-  const double west = g.origin_x, east = west + g.width * g.cell_w;
-  double north = g.origin_y, south = north - g.height * g.cell_h;
+  return boxIn(kWholeFile, {g.origin_x, g.origin_y - g.height * g.cell_h, g.origin_x + g.width * g.cell_w, g.origin_y},
+               crs);
+}
+
+Extent FileMeta::partBoundsIn(std::size_t part, const std::string& crs) const {
+  return m_parts.empty() ? boundsIn(crs) : boxIn(part, m_parts.at(part), crs);
+}
+
+Extent FileMeta::boxIn(std::size_t key, const Extent& box, const std::string& crs) const {
+  std::lock_guard<std::mutex> lock(m_bounds_mutex);
+  const auto known = m_bounds.find({key, crs});
+  if (known != m_bounds.end()) return known->second;
+  const double west = box.min_x, east = box.max_x;
+  double north = box.max_y, south = box.min_y;
   if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
-  const OGRSpatialReference target = spatialReference(crs);
-  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_srs, &target));
+  // One transformation per CRS: a VRT of scattered sources has thousands of parts.
+  std::unique_ptr<OGRCoordinateTransformation>& ct = m_transforms[crs];
+  if (!ct) {
+    const OGRSpatialReference target = spatialReference(crs);
+    ct.reset(OGRCreateCoordinateTransformation(&m_srs, &target));
+  }
   Extent out;
   constexpr int kDensifyPoints = 21;
   CPLErrorReset();
@@ -443,7 +464,7 @@ Extent FileMeta::boundsIn(const std::string& crs) const {
                      " in its CRS) to the tiling CRS" + (*reason ? " (" + oneLine(reason) + ")" : std::string()) +
                      "; check its geotransform and CRS");
   }
-  return m_bounds.emplace(crs, out).first->second;
+  return m_bounds.emplace(std::make_pair(key, crs), out).first->second;
 }
 
 void FileMeta::northUpGeoTransform(double* gt) const {

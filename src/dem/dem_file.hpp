@@ -8,6 +8,7 @@
 #include <memory>
 #include <mutex>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <ogr_spatialref.h>
@@ -52,6 +53,11 @@ class FileMeta {
   // The file's extent in another CRS, edges densified before transforming;
   // computed once per CRS.
   Extent boundsIn(const std::string& crs) const;
+  // Where the file holds data, in parts that keep apart: a VRT's sources
+  // merged where they meet (vrtSourceParts), or the whole file as one part.
+  std::size_t partCount() const { return m_parts.empty() ? 1 : m_parts.size(); }
+  // A part's extent in another CRS, as boundsIn gives the file's.
+  Extent partBoundsIn(std::size_t part, const std::string& crs) const;
 
   // How to read this file onto grids of the cell size `representative` has;
   // `to_file` maps the grid's CRS to the file's. With `may_reduce`, a file
@@ -64,6 +70,8 @@ class FileMeta {
   std::shared_ptr<const ReducedLevels> reducedLevels() const;
 
  private:
+  // `box` (in the file's CRS) in another CRS, computed once per `key` and CRS.
+  Extent boxIn(std::size_t key, const Extent& box, const std::string& crs) const;
   // Makes the reduced levels on the first call; null when the file gains none.
   std::shared_ptr<const ReducedLevels> makeReducedLevels() const;
 
@@ -79,7 +87,9 @@ class FileMeta {
   VoidRule m_voids;
   std::vector<std::string> m_warnings;
   mutable std::mutex m_bounds_mutex;
-  mutable std::map<std::string, Extent> m_bounds;
+  mutable std::map<std::pair<std::size_t, std::string>, Extent> m_bounds;  // by part (kWholeFile for all) and CRS
+  std::vector<Extent> m_parts;  // in the file's CRS; none when the file is one part
+  mutable std::map<std::string, std::unique_ptr<OGRCoordinateTransformation>> m_transforms;  // by CRS, for boxIn
   mutable std::mutex m_reduced_mutex;
   mutable bool m_reduced_tried = false;
   mutable std::shared_ptr<const ReducedLevels> m_reduced;

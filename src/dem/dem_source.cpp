@@ -74,11 +74,9 @@ std::vector<std::string> expandGlobs(const std::vector<std::string>& paths) {
   return expanded;
 }
 
-// The first file's pixel grid, grown to cover every file.
-GridSpec mergedGrid(const std::vector<std::shared_ptr<const FileMeta>>& files) {
-  GridSpec grid = files.front()->info().grid;
-  Extent all = files.front()->boundsIn(grid.crs);
-  for (std::size_t i = 1; i < files.size(); ++i) all = all.united(files[i]->boundsIn(grid.crs));
+// `pixels`'s grid, its edges moved out to cover `all` (in its CRS).
+GridSpec gridCovering(const GridSpec& pixels, const Extent& all) {
+  GridSpec grid = pixels;
   const double west = grid.origin_x + std::floor((all.min_x - grid.origin_x) / grid.cell_w) * grid.cell_w;
   const double north = grid.origin_y - std::floor((grid.origin_y - all.max_y) / grid.cell_h) * grid.cell_h;
   grid.width = int(std::ceil((all.max_x - west) / grid.cell_w - 1e-9));
@@ -86,6 +84,14 @@ GridSpec mergedGrid(const std::vector<std::shared_ptr<const FileMeta>>& files) {
   grid.origin_x = west;
   grid.origin_y = north;
   return grid;
+}
+
+// The first file's pixel grid, grown to cover every file.
+GridSpec mergedGrid(const std::vector<std::shared_ptr<const FileMeta>>& files) {
+  const std::string& crs = files.front()->info().grid.crs;
+  Extent all = files.front()->boundsIn(crs);
+  for (std::size_t i = 1; i < files.size(); ++i) all = all.united(files[i]->boundsIn(crs));
+  return gridCovering(files.front()->info().grid, all);
 }
 
 // The cells of `grid` that `file` may fill, as [col0, col1) x [row0, row1):
@@ -330,10 +336,17 @@ Extent DemSource::fileBoundsIn(std::size_t file, const std::string& crs) const {
   return m_shared->files.at(file)->boundsIn(crs);
 }
 
+std::size_t DemSource::filePartCount(std::size_t file) const { return m_shared->files.at(file)->partCount(); }
+
+Extent DemSource::filePartBoundsIn(std::size_t file, std::size_t part, const std::string& crs) const {
+  return m_shared->files.at(file)->partBoundsIn(part, crs);
+}
+
 GridSpec DemSource::gridOf(const std::vector<std::size_t>& files) const {
-  std::vector<std::shared_ptr<const FileMeta>> metas;
-  for (const std::size_t file : files) metas.push_back(m_shared->files.at(file));
-  return mergedGrid(metas);
+  const GridSpec& first = m_shared->files.at(files.front())->info().grid;
+  Extent all = m_shared->files[files.front()]->partBoundsIn(0, first.crs);
+  for (const std::size_t file : files) all = all.united(m_shared->files.at(file)->partBoundsIn(0, first.crs));
+  return gridCovering(first, all);
 }
 
 ReadPlan DemSource::planFor(const GridSpec& representative) const {

@@ -93,9 +93,14 @@ class DemSource {
   // How many files the DEM is made of, and one file's extent in another CRS.
   std::size_t fileCount() const;
   Extent fileBoundsIn(std::size_t file, const std::string& crs) const;
+  // Where a file holds data, in parts that keep apart: each group of a VRT's
+  // sources that meet, or the whole file as one part.
+  std::size_t filePartCount(std::size_t file) const;
+  Extent filePartBoundsIn(std::size_t file, std::size_t part, const std::string& crs) const;
 
   // The grid of some of the files (indices in the order given): the first's
-  // pixel grid grown to cover them all, as info().grid is for every file.
+  // pixel grid grown to cover their first parts (filePartBoundsIn), as
+  // info().grid covers every file.
   GridSpec gridOf(const std::vector<std::size_t>& files) const;
 
   // The read plan for grids of the cell size `representative` has.

@@ -77,9 +77,12 @@ std::vector<FileGroup> fileGroups(const tiling::Scheme& scheme, const dem::DemSo
   std::vector<Extent> areas;
   std::vector<std::optional<Extent>> judging_area(dem.fileCount());  // each file's first
   for (std::size_t file = 0; file < dem.fileCount(); ++file) {
-    for (const Extent& area : areasOf(scheme, [&](const std::string& crs) { return dem.fileBoundsIn(file, crs); })) {
-      if (!judging_area[file]) judging_area[file] = area;
-      areas.push_back(area);
+    for (std::size_t part = 0; part < dem.filePartCount(file); ++part) {
+      const auto bounds_in = [&](const std::string& crs) { return dem.filePartBoundsIn(file, part, crs); };
+      for (const Extent& area : areasOf(scheme, bounds_in)) {
+        if (!judging_area[file]) judging_area[file] = area;
+        areas.push_back(area);
+      }
     }
   }
   std::vector<FileGroup> groups;

@@ -35,18 +35,20 @@ std::vector<Extent> lonLatPieces(const Extent& box, double max_lat_deg);
 std::vector<Extent> demAreas(const tiling::Scheme& scheme, const dem::DemSource& dem);
 
 // Where a group of the DEM's files that meet lies in the scheme's CRS, and
-// the files judged there: those whose area (the first, east of the
-// antimeridian, of one across it) lies in it.
+// the files judged there: those whose first area (of the first part of a
+// VRT of scattered sources, east of the antimeridian for one across it)
+// lies in it.
 struct FileGroup {
   Extent area;
-  std::vector<std::size_t> files;  // none for the west piece of files across the antimeridian
+  std::vector<std::size_t> files;  // none for a group of a file's other parts alone
 };
 
-// The areas of the DEM's files (as demAreas works them out for the DEM),
-// merged where they meet: one group for a mosaic, and one for each file or
-// group of neighbours of a list of files far apart, so that the tiles
-// between them are not planned, and each group's zooms and reads are judged
-// where it lies, as a job of its files alone judges them.
+// The areas of the DEM's files' parts (DemSource::filePartBoundsIn, as
+// demAreas works them out for the DEM), merged where they meet: one group
+// for a mosaic, and one for each file, part or group of neighbours far
+// apart, so that the tiles between them are not planned, and each file's
+// zooms and reads are judged where it lies, as a job of it alone judges
+// them.
 std::vector<FileGroup> fileGroups(const tiling::Scheme& scheme, const dem::DemSource& dem);
 
 // The groups' areas.
