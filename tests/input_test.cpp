@@ -1036,6 +1036,7 @@ TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   EXPECT_EQ(tileNamesOf(dir / "out" / "vrt"), apart);
   const RunResult vrt_info = run({"info", (dir / "both.vrt").string()});
   EXPECT_TRUE(contains(vrt_info.out, "webmercator  0-10, 24 tiles: z0 1, z1 2, z2 2,")) << describe(vrt_info);
+  EXPECT_TRUE(contains(vrt_info.out, "sources    in 2 groups apart")) << describe(vrt_info);
 
   // A box between them holds no file: nothing to make, said at once.
   args.insert(args.end(), {"--bbox", "60,0,61,1"});
