@@ -1093,6 +1093,27 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   EXPECT_TRUE(contains(info.out, "webmercator  0-11,")) << describe(info);
 }
 
+// Hundreds of files far apart (islands' tiles) each get a part of the
+// backdrop, and a coarse tile among them takes each texel's from the part
+// nearest to it by comparing only the parts near its block: comparing every
+// part for every texel of every part once kept such a job busy for hours.
+TEST(Inputs, HundredsOfFilesFarApartTileInSeconds) {
+  const fs::path dir = caseDir();
+  constexpr int kSide = 20;  // files a side, a degree apart
+  for (int i = 0; i < kSide; ++i) {
+    for (int j = 0; j < kSide; ++j) {
+      const double gt[6] = {-100.0 + i, 0.01, 0, 40.0 - j, 0, -0.01};
+      writeDem(dir / ("island_" + std::to_string(i) + "_" + std::to_string(j) + ".tif"), 20, 20, gt,
+               [&](int c, int r) { return float(100 + 10 * i + j + c + r); });
+    }
+  }
+  const RunResult r = run(tileArgs(dir / "island_*.tif", dir / "out", "islands", "3-6"), {},
+                          std::chrono::seconds(int(120 * test::kSanitizerSlowdown)));
+  ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out, ", 0 failed)")) << describe(r);
+  EXPECT_LT(r.seconds, 60 * test::kSanitizerSlowdown) << describe(r);
+}
+
 // World DEMs registered on pixel centres (ETOPO's and GMTED's grids) run
 // half a pixel past -180 and 180: they are the whole globe, in every scheme,
 // not a sliver east of the antimeridian (once one tile column in the

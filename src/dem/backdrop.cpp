@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <numeric>
 #include <optional>
 
 #include "dem/crs_transform.hpp"
@@ -14,6 +15,13 @@ namespace {
 // Cells along the backdrop's longer side: coarse enough to read quickly from
 // any DEM, fine enough that the step to the fill near the data stays small.
 constexpr int kCells = 256;
+// Beyond this many parts (groups of files far apart: islands' tiles, say)
+// each part has fewer cells, so that the backdrop holds about as many as
+// this many parts of kCells would, and kMinCells along each part at least.
+constexpr std::size_t kFullParts = 16;
+constexpr int kMinCells = 32;
+// Cells a side of the blocks heightsAt finds the nearest parts for at once.
+constexpr int kBlockCells = 16;
 // Margin around the DEM, as a share of its size, before the edge value holds.
 constexpr double kMargin = 0.5;
 // Catmull-Rom's negative weights sum to at most 0.125 along one axis (half
@@ -33,15 +41,23 @@ std::array<double, 4> cubicWeights(double t) {
 
 namespace {
 
-// How far (x, y) lies from `box`: 0 within it.
-double distanceTo(const Extent& box, double x, double y) {
-  return std::hypot(std::max({box.min_x - x, 0.0, x - box.max_x}), std::max({box.min_y - y, 0.0, y - box.max_y}));
+// How far (x, y) lies from `box`, squared: 0 within it.
+double distance2To(const Extent& box, double x, double y) {
+  const double dx = std::max({box.min_x - x, 0.0, x - box.max_x}), dy = std::max({box.min_y - y, 0.0, y - box.max_y});
+  return dx * dx + dy * dy;
+}
+
+// Cells along the longer side of each of `parts` parts.
+int cellsPerPart(std::size_t parts) {
+  if (parts <= kFullParts) return kCells;
+  return std::max(kMinCells, int(kCells * std::sqrt(double(kFullParts) / double(parts))));
 }
 
 }  // namespace
 
 Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vector<std::vector<std::size_t>>& groups)
     : m_part_of_file(dem.fileCount(), 0), m_dem(dem.reader()) {
+  const int cells = cellsPerPart(groups.size());
   for (const std::vector<std::size_t>& files : groups) {
     Extent e = dem.fileBoundsIn(files.front(), crs);
     for (const std::size_t file : files) {
@@ -58,7 +74,7 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vect
     }
     const double margin = kMargin * std::max(e.width(), e.height());
     const double span = std::max(e.width(), e.height()) + 2 * margin;
-    const double cell = span / kCells;
+    const double cell = span / cells;
     Part& part = m_parts.emplace_back();
     part.bounds = e;
     part.grid.crs = crs;
@@ -73,13 +89,14 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vect
 void Backdrop::make() const {
   std::call_once(m_made, [this] {
     try {
-      // Each file's reads judged on its own group's grid, as a job of that
-      // group alone judges them; a grid reads only the files it reaches.
+      // Each part read from its own group's files alone, judged on its grid,
+      // as a job of that group alone reads them.
       const ReadPlan plan = m_dem.planFor([this](std::size_t file) -> const GridSpec& {
         return m_parts[m_part_of_file[file]].grid;
       });
-      for (Part& part : m_parts) {
-        part.surface = m_dem.read(part.grid, plan);
+      for (std::size_t p = 0; p < m_parts.size(); ++p) {
+        Part& part = m_parts[p];
+        part.surface = m_dem.read(part.grid, m_dem.onlyFiles(plan, [&](std::size_t file) { return m_part_of_file[file] == p; }));
         // A DEM too small to reach a backdrop cell at all still gets a level floor.
         if (!fillHoles(part.surface)) std::fill(part.surface.data.begin(), part.surface.data.end(), 0.0f);
       }
@@ -94,31 +111,37 @@ void Backdrop::make() const {
 std::size_t Backdrop::nearestPart(double x, double y) const {
   std::size_t nearest = 0;
   for (std::size_t p = 1; p < m_parts.size(); ++p) {
-    if (distanceTo(m_parts[p].bounds, x, y) < distanceTo(m_parts[nearest].bounds, x, y)) nearest = p;
+    if (distance2To(m_parts[p].bounds, x, y) < distance2To(m_parts[nearest].bounds, x, y)) nearest = p;
   }
   return nearest;
 }
 
-std::vector<std::size_t> Backdrop::partsNear(const Extent& extent) const {
+std::vector<std::size_t> Backdrop::partsNear(const Extent& extent, const std::vector<std::size_t>& among) const {
   // A part is nearest to some point of the extent only if its closest
   // approach is no farther than the farthest any other part gets from it
   // (the distance to a box is convex: at most its value at a corner).
   const auto farthest = [&](const Extent& bounds) {
-    return std::max({distanceTo(bounds, extent.min_x, extent.min_y), distanceTo(bounds, extent.min_x, extent.max_y),
-                     distanceTo(bounds, extent.max_x, extent.min_y), distanceTo(bounds, extent.max_x, extent.max_y)});
+    return std::max({distance2To(bounds, extent.min_x, extent.min_y), distance2To(bounds, extent.min_x, extent.max_y),
+                     distance2To(bounds, extent.max_x, extent.min_y), distance2To(bounds, extent.max_x, extent.max_y)});
   };
   const auto closest = [&](const Extent& bounds) {
     const double dx = std::max({bounds.min_x - extent.max_x, 0.0, extent.min_x - bounds.max_x});
     const double dy = std::max({bounds.min_y - extent.max_y, 0.0, extent.min_y - bounds.max_y});
-    return std::hypot(dx, dy);
+    return dx * dx + dy * dy;
   };
-  double bound = farthest(m_parts.front().bounds);
-  for (const Part& part : m_parts) bound = std::min(bound, farthest(part.bounds));
+  double bound = farthest(m_parts[among.front()].bounds);
+  for (const std::size_t p : among) bound = std::min(bound, farthest(m_parts[p].bounds));
   std::vector<std::size_t> near;
-  for (std::size_t p = 0; p < m_parts.size(); ++p) {
+  for (const std::size_t p : among) {
     if (closest(m_parts[p].bounds) <= bound) near.push_back(p);
   }
   return near;
+}
+
+std::vector<std::size_t> Backdrop::partsNear(const Extent& extent) const {
+  std::vector<std::size_t> all(m_parts.size());
+  std::iota(all.begin(), all.end(), std::size_t(0));
+  return partsNear(extent, all);
 }
 
 Backdrop::Taps Backdrop::tapsAlong(double cell, int cells) {
@@ -185,19 +208,32 @@ Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::u
   const Extent extent{grid.centreX(0), grid.centreY(grid.height - 1), grid.centreX(grid.width - 1), grid.centreY(0)};
   const std::vector<std::size_t> near = partsNear(extent);
   if (near.size() == 1) return m_parts[near.front()].heightsAt(grid, wanted);
-  // Cells nearest to different parts: each part fills its own.
+  // Cells nearest to different parts: each from its own (the first of
+  // equals, as nearestPart takes it), with heightFrom's arithmetic, which
+  // Part::heightsAt shares. Block by block, each cell compares only the
+  // parts near its block: a coarse tile may lie among hundreds of islands.
   Raster<float> heights(grid.width, grid.height, 0.0f);
-  for (const std::size_t p : near) {
-    std::vector<std::uint8_t> own(wanted.size(), 0);
-    for (int r = 0; r < grid.height; ++r) {
-      for (int c = 0; c < grid.width; ++c) {
-        const std::size_t k = std::size_t(r) * std::size_t(grid.width) + std::size_t(c);
-        own[k] = wanted[k] && nearestPart(grid.centreX(c), grid.centreY(r)) == p;
+  for (int r0 = 0; r0 < grid.height; r0 += kBlockCells) {
+    const int r1 = std::min(r0 + kBlockCells, grid.height);
+    for (int c0 = 0; c0 < grid.width; c0 += kBlockCells) {
+      const int c1 = std::min(c0 + kBlockCells, grid.width);
+      const std::vector<std::size_t> block_near =
+          partsNear({grid.centreX(c0), grid.centreY(r1 - 1), grid.centreX(c1 - 1), grid.centreY(r0)}, near);
+      for (int r = r0; r < r1; ++r) {
+        for (int c = c0; c < c1; ++c) {
+          const std::size_t k = std::size_t(r) * std::size_t(grid.width) + std::size_t(c);
+          if (!wanted[k]) continue;
+          const double x = grid.centreX(c), y = grid.centreY(r);
+          std::size_t nearest = block_near.front();
+          double nearest2 = distance2To(m_parts[nearest].bounds, x, y);
+          for (const std::size_t p : block_near) {
+            const double d2 = distance2To(m_parts[p].bounds, x, y);
+            if (d2 < nearest2) nearest = p, nearest2 = d2;
+          }
+          const Part& part = m_parts[nearest];
+          heights.data[k] = part.heightFrom(part.tapsAtX(x), part.tapsAtY(y));
+        }
       }
-    }
-    const Raster<float> part = m_parts[p].heightsAt(grid, own);
-    for (std::size_t k = 0; k < own.size(); ++k) {
-      if (own[k]) heights.data[k] = part.data[k];
     }
   }
   return heights;

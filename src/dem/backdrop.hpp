@@ -27,7 +27,7 @@ class Backdrop {
   // order given; files far apart are in groups of their own), covering the
   // group's extent in `crs` and a margin around it: a point takes its height
   // from the group whose extent lies nearest, so a group's tiles get what a
-  // job of its files alone gets. Reads through a reader of its own. The
+  // job of its files alone gets (beyond 16 groups, on coarser cells). Reads through a reader of its own. The
   // methods below make it on their first call, on whichever thread, and
   // throw what making it threw.
   Backdrop(const DemSource& dem, const std::string& crs, const std::vector<std::vector<std::size_t>>& groups);
@@ -74,8 +74,10 @@ class Backdrop {
   // `cell`: the position in cells from the grid's first edge along the axis.
   static Taps tapsAlong(double cell, int cells);
 
-  // The parts nearest to some point of `extent`; one for most extents.
+  // The parts nearest to some point of `extent`; one for most extents. Of
+  // `among` (in ascending order), when the extent's nearest lie among them.
   std::vector<std::size_t> partsNear(const Extent& extent) const;
+  std::vector<std::size_t> partsNear(const Extent& extent, const std::vector<std::size_t>& among) const;
   std::size_t nearestPart(double x, double y) const;
 
   // Reads and fills the heights once.

@@ -376,6 +376,13 @@ ReadPlan DemSource::planFor(const std::function<const GridSpec&(std::size_t file
   return plan;
 }
 
+ReadPlan DemSource::onlyFiles(ReadPlan plan, const std::function<bool(std::size_t file)>& keep) const {
+  for (std::size_t i = 0; i < plan.files.size(); ++i) {
+    if (!keep(m_shared->read_file_first[i])) plan.files[i].skip = true;
+  }
+  return plan;
+}
+
 void DemSource::recount(DemFile& file, int before) const {
   const int delta = file.handles() - before;
   m_counted_handles += delta;
@@ -442,6 +449,7 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
   Raster<float> heights(grid.width, grid.height, NAN);
   const auto& files = m_shared->read_files;
   for (std::size_t i = 0; i < files.size(); ++i) {
+    if (plan.files[i].skip) continue;
     const CellWindow window = reachOf(*files[i], grid);
     if (window.empty()) continue;  // never opened
     DemFile& file = open(i);

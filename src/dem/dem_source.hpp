@@ -44,6 +44,7 @@ struct FilePlan {
   bool average = false;
   int overview = -1;  // -1: full resolution, else GDAL overview index
   int decimate = 1;   // read every decimate-th pixel of that level
+  bool skip = false;  // not read at all (DemSource::onlyFiles)
 };
 
 // Heights of terrain on Earth, in metres: the deepest trench is 10,935 m
@@ -109,6 +110,9 @@ class DemSource {
   // a file's index in the order given): files far apart are judged where
   // they lie. A mosaic read as one raster is judged on its first file's.
   ReadPlan planFor(const std::function<const GridSpec&(std::size_t file)>& representative_of) const;
+  // `plan` reading only the files `keep` keeps (by index in the order
+  // given; a mosaic read as one raster by its first file's).
+  ReadPlan onlyFiles(ReadPlan plan, const std::function<bool(std::size_t file)>& keep) const;
 
   // Heights on `grid`, NaN where no valid sample of any file reaches. Void
   // samples are the declared nodata value, NaN, infinities, the void markers
