@@ -1064,7 +1064,9 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   writeDem(dir / "fiji.tif", 300, 300, fiji_gt, hill);
   const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
     std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "10-auto");
-    for (std::size_t i = 1; i < names.size(); ++i) args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
+    for (std::size_t i = 1; i < names.size(); ++i) {
+      args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
+    }
     const RunResult r = run(args);
     EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
     return r;
@@ -1076,7 +1078,8 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   // max_error_texels is judged in the first file's group: each group listed first.
   const RunResult alps_first = job("alps_first", {"west", "east", "fiji"});
   const RunResult fiji_first = job("fiji_first", {"fiji", "west", "east"});
-  for (const auto& [layer, alone] : std::map<std::string, std::string>{{"alps_first", "alps"}, {"fiji_first", "fiji"}}) {
+  const std::map<std::string, std::string> own_job = {{"alps_first", "alps"}, {"fiji_first", "fiji"}};
+  for (const auto& [layer, alone] : own_job) {
     SCOPED_TRACE(layer);
     const auto listed = tilesOf(dir / "out" / layer);
     const auto own = tilesOf(dir / "out" / alone);
@@ -1089,7 +1092,8 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   }
   // Auto's zoom suits every group: Fiji's, the deeper.
   EXPECT_TRUE(contains(alps_first.err, "zoom 11:")) << describe(alps_first);
-  const RunResult info = run({"info", (dir / "west.tif").string(), (dir / "east.tif").string(), (dir / "fiji.tif").string()});
+  const RunResult info =
+      run({"info", (dir / "west.tif").string(), (dir / "east.tif").string(), (dir / "fiji.tif").string()});
   EXPECT_TRUE(contains(info.out, "webmercator  0-11,")) << describe(info);
 }
 

@@ -53,8 +53,8 @@ std::vector<Extent> mergeMeeting(std::vector<Extent> boxes) {
   // tiles, and the sweep would compare each with all the others.
   const auto key = [](const Extent& e) { return std::tie(e.min_x, e.min_y, e.max_x, e.max_y); };
   std::sort(boxes.begin(), boxes.end(), [&](const Extent& a, const Extent& b) { return key(a) < key(b); });
-  boxes.erase(std::unique(boxes.begin(), boxes.end(), [&](const Extent& a, const Extent& b) { return key(a) == key(b); }),
-              boxes.end());
+  const auto same = [&](const Extent& a, const Extent& b) { return key(a) == key(b); };
+  boxes.erase(std::unique(boxes.begin(), boxes.end(), same), boxes.end());
   // A group's box may reach boxes none of its members met: merge again.
   for (std::size_t count = 0; count != boxes.size();) {
     count = boxes.size();

@@ -96,7 +96,8 @@ void Backdrop::make() const {
       });
       for (std::size_t p = 0; p < m_parts.size(); ++p) {
         Part& part = m_parts[p];
-        part.surface = m_dem.read(part.grid, m_dem.onlyFiles(plan, [&](std::size_t file) { return m_part_of_file[file] == p; }));
+        const auto in_group = [&](std::size_t file) { return m_part_of_file[file] == p; };
+        part.surface = m_dem.read(part.grid, m_dem.onlyFiles(plan, in_group));
         // A DEM too small to reach a backdrop cell at all still gets a level floor.
         if (!fillHoles(part.surface)) std::fill(part.surface.data.begin(), part.surface.data.end(), 0.0f);
       }
