@@ -421,50 +421,50 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   m_voids.implausible = &m_implausible;
 }
 
-namespace {
-
-constexpr std::size_t kWholeFile = std::size_t(-1);  // boxIn's key for the file's extent
-
-}  // namespace
-
 Extent FileMeta::boundsIn(const std::string& crs) const {
+  std::lock_guard<std::mutex> lock(m_bounds_mutex);
+  const auto known = m_bounds.find(crs);
+  if (known != m_bounds.end()) return known->second;
   const GridSpec& g = m_info.grid;
-  return boxIn(kWholeFile, {g.origin_x, g.origin_y - g.height * g.cell_h, g.origin_x + g.width * g.cell_w, g.origin_y},
-               crs);
+  const Extent whole{g.origin_x, g.origin_y - g.height * g.cell_h, g.origin_x + g.width * g.cell_w, g.origin_y};
+  return m_bounds.emplace(crs, boxesIn({whole}, crs).front()).first->second;
 }
 
 Extent FileMeta::partBoundsIn(std::size_t part, const std::string& crs) const {
-  return m_parts.empty() ? boundsIn(crs) : boxIn(part, m_parts.at(part), crs);
+  if (m_parts.empty()) return boundsIn(crs);
+  std::lock_guard<std::mutex> lock(m_bounds_mutex);
+  auto known = m_part_bounds.find(crs);
+  // All parts at once, through one transformation: a VRT of scattered
+  // sources has thousands of them.
+  if (known == m_part_bounds.end()) known = m_part_bounds.emplace(crs, boxesIn(m_parts, crs)).first;
+  return known->second.at(part);
 }
 
-Extent FileMeta::boxIn(std::size_t key, const Extent& box, const std::string& crs) const {
-  std::lock_guard<std::mutex> lock(m_bounds_mutex);
-  const auto known = m_bounds.find({key, crs});
-  if (known != m_bounds.end()) return known->second;
-  const double west = box.min_x, east = box.max_x;
-  double north = box.max_y, south = box.min_y;
-  if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
-  // One transformation per CRS: a VRT of scattered sources has thousands of parts.
-  std::unique_ptr<OGRCoordinateTransformation>& ct = m_transforms[crs];
-  if (!ct) {
-    const OGRSpatialReference target = spatialReference(crs);
-    ct.reset(OGRCreateCoordinateTransformation(&m_srs, &target));
+std::vector<Extent> FileMeta::boxesIn(const std::vector<Extent>& boxes, const std::string& crs) const {
+  const OGRSpatialReference target = spatialReference(crs);
+  std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_srs, &target));
+  std::vector<Extent> transformed;
+  for (const Extent& box : boxes) {
+    const double west = box.min_x, east = box.max_x;
+    double north = box.max_y, south = box.min_y;
+    if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
+    Extent out;
+    constexpr int kDensifyPoints = 21;
+    CPLErrorReset();
+    if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
+                                    kDensifyPoints)) {
+      // PROJ often gives no reason: a geotransform far outside the CRS's area
+      // (metres for a geographic CRS, say) is the usual one.
+      char extent[160];
+      std::snprintf(extent, sizeof extent, "x %.10g to %.10g, y %.10g to %.10g", west, east, south, north);
+      const char* reason = CPLGetLastErrorMsg();
+      throw InputError("dem: cannot transform the extent of '" + shortened(m_info.path) + "' (" + extent +
+                       " in its CRS) to the tiling CRS" + (*reason ? " (" + oneLine(reason) + ")" : std::string()) +
+                       "; check its geotransform and CRS");
+    }
+    transformed.push_back(out);
   }
-  Extent out;
-  constexpr int kDensifyPoints = 21;
-  CPLErrorReset();
-  if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
-                                  kDensifyPoints)) {
-    // PROJ often gives no reason: a geotransform far outside the CRS's area
-    // (metres for a geographic CRS, say) is the usual one.
-    char extent[160];
-    std::snprintf(extent, sizeof extent, "x %.10g to %.10g, y %.10g to %.10g", west, east, south, north);
-    const char* reason = CPLGetLastErrorMsg();
-    throw InputError("dem: cannot transform the extent of '" + shortened(m_info.path) + "' (" + extent +
-                     " in its CRS) to the tiling CRS" + (*reason ? " (" + oneLine(reason) + ")" : std::string()) +
-                     "; check its geotransform and CRS");
-  }
-  return m_bounds.emplace(std::make_pair(key, crs), out).first->second;
+  return transformed;
 }
 
 void FileMeta::northUpGeoTransform(double* gt) const {

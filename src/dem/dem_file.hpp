@@ -8,7 +8,6 @@
 #include <memory>
 #include <mutex>
 #include <string>
-#include <utility>
 #include <vector>
 
 #include <ogr_spatialref.h>
@@ -70,8 +69,8 @@ class FileMeta {
   std::shared_ptr<const ReducedLevels> reducedLevels() const;
 
  private:
-  // `box` (in the file's CRS) in another CRS, computed once per `key` and CRS.
-  Extent boxIn(std::size_t key, const Extent& box, const std::string& crs) const;
+  // `boxes` (in the file's CRS) in another CRS, edges densified.
+  std::vector<Extent> boxesIn(const std::vector<Extent>& boxes, const std::string& crs) const;
   // Makes the reduced levels on the first call; null when the file gains none.
   std::shared_ptr<const ReducedLevels> makeReducedLevels() const;
 
@@ -87,9 +86,9 @@ class FileMeta {
   VoidRule m_voids;
   std::vector<std::string> m_warnings;
   mutable std::mutex m_bounds_mutex;
-  mutable std::map<std::pair<std::size_t, std::string>, Extent> m_bounds;  // by part (kWholeFile for all) and CRS
+  mutable std::map<std::string, Extent> m_bounds;                    // by CRS
   std::vector<Extent> m_parts;  // in the file's CRS; none when the file is one part
-  mutable std::map<std::string, std::unique_ptr<OGRCoordinateTransformation>> m_transforms;  // by CRS, for boxIn
+  mutable std::map<std::string, std::vector<Extent>> m_part_bounds;  // by CRS, of every part
   mutable std::mutex m_reduced_mutex;
   mutable bool m_reduced_tried = false;
   mutable std::shared_ptr<const ReducedLevels> m_reduced;
