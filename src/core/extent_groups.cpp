@@ -66,4 +66,13 @@ std::vector<Extent> mergeMeeting(std::vector<Extent> boxes) {
   return boxes;
 }
 
+std::size_t holderOf(const std::vector<Extent>& merged, const Extent& box) {
+  std::size_t m = 0;
+  while (!(merged[m].min_x <= box.min_x && box.max_x <= merged[m].max_x && merged[m].min_y <= box.min_y &&
+           box.max_y <= merged[m].max_y)) {
+    ++m;
+  }
+  return m;
+}
+
 }  // namespace terrabake

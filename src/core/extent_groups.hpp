@@ -2,6 +2,7 @@
 // Boxes gathered into groups that keep apart: where boxes meet, one box that
 // holds them. Plans with it give a list of far-apart DEM files an area
 // round each file or group of neighbours, rather than one box over all.
+#include <cstddef>
 #include <vector>
 
 #include "core/types.hpp"
@@ -14,5 +15,9 @@ namespace terrabake {
 // west edge, so the result does not depend on the boxes' order. Runs in
 // about n log n for boxes that meet few others (the files of a mosaic).
 std::vector<Extent> mergeMeeting(std::vector<Extent> boxes);
+
+// The index in `merged` (mergeMeeting's result) of the box that holds `box`,
+// one of the boxes merged.
+std::size_t holderOf(const std::vector<Extent>& merged, const Extent& box);
 
 }  // namespace terrabake

@@ -207,14 +207,7 @@ std::vector<std::vector<std::size_t>> groupsThatMeet(const std::vector<std::shar
   std::vector<std::vector<std::size_t>> groups;
   std::map<std::size_t, std::size_t> group_of_box;  // merged box -> index in groups
   for (std::size_t file = 0; file < files.size(); ++file) {
-    const Extent& b = boxes[file];
-    // Each box lies in exactly one merged box.
-    std::size_t m = 0;
-    while (!(merged[m].min_x <= b.min_x && b.max_x <= merged[m].max_x && merged[m].min_y <= b.min_y &&
-             b.max_y <= merged[m].max_y)) {
-      ++m;
-    }
-    const auto [it, added] = group_of_box.emplace(m, groups.size());
+    const auto [it, added] = group_of_box.emplace(holderOf(merged, boxes[file]), groups.size());
     if (added) groups.emplace_back();
     groups[it->second].push_back(file);
   }

@@ -85,18 +85,12 @@ std::vector<FileGroup> fileGroups(const tiling::Scheme& scheme, const dem::DemSo
       }
     }
   }
+  const std::vector<Extent> merged = mergeMeeting(areas);
   std::vector<FileGroup> groups;
-  for (const Extent& merged : mergeMeeting(areas)) groups.push_back({merged, {}});
+  for (const Extent& area : merged) groups.push_back({area, {}});
   for (std::size_t file = 0; file < dem.fileCount(); ++file) {
-    if (!judging_area[file]) continue;  // beyond the scheme's latitudes
-    // Each area lies in exactly one merged box.
-    const Extent& a = *judging_area[file];
-    for (FileGroup& group : groups) {
-      const Extent& g = group.area;
-      if (g.min_x <= a.min_x && a.max_x <= g.max_x && g.min_y <= a.min_y && a.max_y <= g.max_y) {
-        group.files.push_back(file);
-        break;
-      }
+    if (judging_area[file]) {  // else beyond the scheme's latitudes
+      groups[holderOf(merged, *judging_area[file])].files.push_back(file);
     }
   }
   return groups;
