@@ -546,7 +546,8 @@ struct DemFile::Impl {
   // Built on first use, per (overview level, decimation, target CRS).
   std::map<std::tuple<int, int, std::string>, LevelReader> readers;
 
-  LevelReader& readerFor(const FileMeta& meta, int overview, int decimate, const std::string& crs) {
+  LevelReader& readerFor(const FileMeta& meta, int overview, int decimate, const std::string& crs,
+                         Reprojections& reprojections) {
     const auto key = std::make_tuple(overview, decimate, crs);
     auto it = readers.find(key);
     if (it != readers.end()) return it->second;
@@ -577,7 +578,7 @@ struct DemFile::Impl {
     reader.dataset.reset(EdgeExtension::withVoidBorder(*level, level_band, meta.srsWkt()));
     if (!reader.dataset) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
     reader.transformer = std::make_unique<LatticeTransformer>(GDALDataset::ToHandle(reader.dataset.get()),
-                                                              toWkt(spatialReference(crs)));
+                                                              toWkt(spatialReference(crs)), reprojections);
     return readers.emplace(key, std::move(reader)).first->second;
   }
 };
@@ -597,8 +598,9 @@ int DemFile::handles() const {
   return count;
 }
 
-void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights) {
-  LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs);
+void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights,
+                              Reprojections& reprojections) {
+  LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs, reprojections);
   reader.transformer->prepare(grid);
   CPLErrorReset();
   const VoidRule& voids = reader.voids;

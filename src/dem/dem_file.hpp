@@ -108,8 +108,10 @@ class DemFile {
   int handles() const;
 
   // Resamples the file onto `grid` and writes the result into the texels of
-  // `heights` that are still NaN; void samples stay NaN.
-  void readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights);
+  // `heights` that are still NaN; void samples stay NaN. The reprojection to
+  // the grid's CRS comes from `reprojections`, which outlives this file.
+  void readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights,
+                       Reprojections& reprojections);
 
  private:
   struct Impl;

@@ -17,6 +17,7 @@
 #include "dem/crs_transform.hpp"
 #include "dem/dem_file.hpp"
 #include "dem/gdal_util.hpp"
+#include "dem/lattice_transformer.hpp"
 
 namespace terrabake::dem {
 namespace {
@@ -293,6 +294,7 @@ DemSource::DemSource(const std::vector<std::string>& paths, const DemOptions& op
 DemSource::~DemSource() { g_open_handles -= m_counted_handles; }
 DemSource::DemSource(DemSource&& other) noexcept
     : m_shared(std::move(other.m_shared)),
+      m_reprojections(std::move(other.m_reprojections)),
       m_open(std::move(other.m_open)),
       m_recent(std::move(other.m_recent)),
       m_counted_handles(std::exchange(other.m_counted_handles, 0)) {}
@@ -301,6 +303,7 @@ DemSource& DemSource::operator=(DemSource&& other) noexcept {
     g_open_handles -= m_counted_handles;
     m_shared = std::move(other.m_shared);
     m_open = std::move(other.m_open);
+    m_reprojections = std::move(other.m_reprojections);
     m_recent = std::move(other.m_recent);
     m_counted_handles = std::exchange(other.m_counted_handles, 0);
   }
@@ -401,6 +404,7 @@ DemFile& DemSource::open(std::size_t index) const {
   // recently read files; a reader with none open may still open one.
   static const int limit = openDatasetLimit();
   while (!m_recent.empty() && g_open_handles.load() + 1 > limit) closeLeastRecent();
+  if (!m_reprojections) m_reprojections = std::make_unique<Reprojections>();
   m_open[index] = std::make_unique<DemFile>(m_shared->read_files[index]);
   m_recent.push_front(index);
   recount(*m_open[index], 0);
@@ -448,7 +452,7 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
     DemFile& file = open(i);
     const int before = file.handles();
     if (window.col1 - window.col0 == grid.width && window.row1 - window.row0 == grid.height) {
-      file.readIntoMissing(grid, plan.files[i], heights);
+      file.readIntoMissing(grid, plan.files[i], heights, *m_reprojections);
     } else {
       // Each file is read onto the part of the grid it reaches only, so a
       // read costs what the files cover: not files x grid for a mosaic, nor
@@ -466,7 +470,7 @@ Raster<float> DemSource::readOnEarth(const GridSpec& grid, const ReadPlan& plan)
       for (int r = 0; r < part.height; ++r) {
         for (int c = 0; c < part.width; ++c) sub.at(c, r) = heights.at(window.col0 + c, window.row0 + r);
       }
-      file.readIntoMissing(part, plan.files[i], sub);
+      file.readIntoMissing(part, plan.files[i], sub, *m_reprojections);
       for (int r = 0; r < part.height; ++r) {
         for (int c = 0; c < part.width; ++c) heights.at(window.col0 + c, window.row0 + r) = sub.at(c, r);
       }

@@ -67,6 +67,7 @@ struct ReadPlan {
 };
 
 class DemFile;
+class Reprojections;
 class FileMeta;
 
 class DemSource {
@@ -151,6 +152,8 @@ class DemSource {
 
   std::shared_ptr<const Shared> m_shared;
   // The handles of this reader (one thread's): opened by reads, so mutable.
+  // The reprojections outlive the files that use them.
+  mutable std::unique_ptr<Reprojections> m_reprojections;
   mutable std::vector<std::unique_ptr<DemFile>> m_open;  // by file index; null while closed
   mutable std::list<std::size_t> m_recent;                // open files, most recently read first
   mutable int m_counted_handles = 0;                      // what it holds of the process budget

@@ -8,26 +8,54 @@
 #include "core/error.hpp"
 #include "core/floor.hpp"
 #include "dem/crs_transform.hpp"
+#include "dem/gdal_util.hpp"
 
 namespace terrabake::dem {
 
-LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& target_wkt) {
-  const std::string option = "DST_SRS=" + target_wkt;
-  const char* options[] = {option.c_str(), nullptr};
-  // No target dataset: the transformer's "destination" is CRS coordinates.
-  m_exact = GDALCreateGenImgProjTransformer2(source, nullptr, const_cast<char**>(options));
-  if (!m_exact) throw InputError("dem: no transformation from the DEM to the tiling CRS");
+Reprojections::~Reprojections() { destroyAll(); }
+
+Reprojections& Reprojections::operator=(Reprojections&& other) noexcept {
+  if (this != &other) {
+    destroyAll();
+    m_made = std::move(other.m_made);
+  }
+  return *this;
+}
+
+void Reprojections::destroyAll() {
+  for (const auto& [crss, transformer] : m_made) GDALDestroyGenImgProjTransformer(transformer);
+  m_made.clear();
+}
+
+void* Reprojections::between(const std::string& source_wkt, const std::string& target_wkt) {
+  const auto found = m_made.find({source_wkt, target_wkt});
+  if (found != m_made.end()) return found->second;
+  OGRSpatialReference source = spatialReference(source_wkt), target = spatialReference(target_wkt);
+  // Pixels that are CRS coordinates at both ends: GDAL's reprojection alone,
+  // as it runs between a raster's pixels and CRS coordinates.
+  const double identity[6] = {0, 1, 0, 0, 0, 1};
+  void* made = GDALCreateGenImgProjTransformer4(OGRSpatialReference::ToHandle(&source), identity,
+                                                OGRSpatialReference::ToHandle(&target), identity, nullptr);
+  if (!made) throw InputError("dem: no transformation from the DEM to the tiling CRS (" + lastGdalError() + ")");
+  m_made.emplace(std::pair{source_wkt, target_wkt}, made);
+  return made;
+}
+
+LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& target_wkt,
+                                       Reprojections& reprojections) {
   const char* source_wkt = GDALGetProjectionRef(source);
-  if (source_wkt && *source_wkt && isLonLatCrs(source_wkt)) {
-    double gt[6] = {};
-    GDALGetGeoTransform(source, gt);
+  double gt[6] = {};
+  if (!source_wkt || !*source_wkt || GDALGetGeoTransform(source, gt) != CE_None ||
+      !GDALInvGeoTransform(gt, m_source_from_crs)) {
+    throw InputError("dem: no transformation from the DEM to the tiling CRS (no georeferencing)");
+  }
+  m_to_source_crs = reprojections.between(source_wkt, target_wkt);
+  if (isLonLatCrs(source_wkt)) {
     m_pixels_a_turn = 360 / std::abs(gt[1]);
     m_source_middle_px = GDALGetRasterXSize(source) / 2.0;
     if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * m_source_middle_px;
   }
 }
-
-LatticeTransformer::~LatticeTransformer() { GDALDestroyGenImgProjTransformer(m_exact); }
 
 void LatticeTransformer::prepare(const GridSpec& grid) {
   m_gt[0] = grid.origin_x, m_gt[1] = grid.cell_w, m_gt[2] = 0;
@@ -62,8 +90,16 @@ void LatticeTransformer::prepare(const GridSpec& grid) {
       m_source_y[std::size_t(j) * m_nodes_x + i] = double(m_first_y + j) * m_spacing_y;
     }
   }
-  GDALGenImgProjTransform(m_exact, TRUE, int(count), m_source_x.data(), m_source_y.data(), z.data(),
+  GDALGenImgProjTransform(m_to_source_crs, TRUE, int(count), m_source_x.data(), m_source_y.data(), z.data(),
                           m_valid.data());
+  // Into the source's pixels, as GDAL's transformer from a raster would.
+  const double* to_px = m_source_from_crs;
+  for (std::size_t k = 0; k < count; ++k) {
+    if (!m_valid[k]) continue;
+    const double x = m_source_x[k], y = m_source_y[k];
+    m_source_x[k] = to_px[0] + x * to_px[1] + y * to_px[2];
+    m_source_y[k] = to_px[3] + x * to_px[4] + y * to_px[5];
+  }
   if (m_pixels_a_turn) unwrapRows();
   m_separable = std::all_of(m_valid.begin(), m_valid.end(), [](int v) { return v != 0; });
   for (std::size_t k = 0; m_separable && k < count; ++k) {

@@ -2,13 +2,39 @@
 // Internal to the dem module (it speaks GDAL types).
 #include <gdal.h>
 
+#include <map>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/types.hpp"
 
 namespace terrabake::dem {
+
+// Reprojections from target CRS coordinates to source CRS coordinates, each
+// made once and shared by every file and level of that source CRS that one
+// reader (one thread) opens. PROJ's objects take tens of kilobytes for each
+// reprojection, and making them is most of the cost of opening a file: a
+// list of a thousand files far apart once held one a file and level.
+class Reprojections {
+ public:
+  Reprojections() = default;
+  ~Reprojections();
+  Reprojections(Reprojections&&) noexcept = default;
+  Reprojections& operator=(Reprojections&&) noexcept;
+  Reprojections(const Reprojections&) = delete;
+  Reprojections& operator=(const Reprojections&) = delete;
+
+  // A GDAL transformer between the CRS coordinates of `target_wkt` and
+  // `source_wkt` (GDALGenImgProjTransform); throws InputError when there is
+  // none.
+  void* between(const std::string& source_wkt, const std::string& target_wkt);
+
+ private:
+  void destroyAll();
+  std::map<std::pair<std::string, std::string>, void*> m_made;  // by source and target WKT
+};
 
 // The map from a target grid's pixels to a source raster's pixels.
 // It reprojects exactly only at the nodes of a lattice anchored at the target
@@ -24,8 +50,8 @@ class LatticeTransformer {
   // 88 m texels, under 2e-4 of a texel either way.
   static constexpr int kNodeSpacingCells = 8;
 
-  LatticeTransformer(GDALDatasetH source, const std::string& target_wkt);  // throws InputError
-  ~LatticeTransformer();
+  // `reprojections` outlives the transformer. Throws InputError.
+  LatticeTransformer(GDALDatasetH source, const std::string& target_wkt, Reprojections& reprojections);
   LatticeTransformer(const LatticeTransformer&) = delete;
   LatticeTransformer& operator=(const LatticeTransformer&) = delete;
 
@@ -65,7 +91,8 @@ class LatticeTransformer {
     bool valid;
   };
 
-  void* m_exact = nullptr;  // source pixels <-> target CRS coordinates
+  void* m_to_source_crs = nullptr;   // target CRS <-> source CRS coordinates, shared
+  double m_source_from_crs[6] = {};  // source CRS coordinates -> source pixels
   // A geographic source: its pixels in 360 degrees. Where the reprojection
   // takes longitudes the short way round the antimeridian (a tile's apron
   // past it), a row of nodes would jump a whole turn; unwrapRows keeps each
@@ -80,7 +107,7 @@ class LatticeTransformer {
   // Both CRSs geographic: the source's middle longitude.
   std::optional<double> m_source_centre_lon;
   bool m_separable = false;  // every node valid, x the same down each column, y along each row
-  double m_gt[6] = {};      // target grid: pixels -> target CRS
+  double m_gt[6] = {};       // target grid: pixels -> target CRS
   double m_spacing_x = 0, m_spacing_y = 0;
   long m_first_x = 0, m_first_y = 0;  // global index of the first node
   int m_nodes_x = 0, m_nodes_y = 0;
