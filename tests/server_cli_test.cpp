@@ -170,7 +170,7 @@ TEST(ServeCli, AnOnDemandLayerInAFolderOfAnotherJobIsRefused) {
   EXPECT_EQ(process.wait(kStopLimit), 2) << process.err();
   EXPECT_EQ(std::count(process.err().begin(), process.err().end(), '\n'), 1) << process.err();
   EXPECT_NE(process.err().find((c.tiles / "live").string() +
-                               "' was made by a different job (its terrabake-job.txt: dem: another.tif there, ["),
+                               "' was made by a different job (dem: another.tif there, ["),
             std::string::npos)
       << process.err();
   EXPECT_EQ(process.out(), "");

@@ -8,6 +8,8 @@
 #include <vector>
 
 #include "config/key_table.hpp"
+#include "core/error.hpp"
+#include "core/log.hpp"
 #include "core/types.hpp"
 
 namespace terrabake::config {
@@ -224,6 +226,18 @@ bool growsLayer(const std::string& recorded, const std::string& wanted) {
     }
   }
   return true;
+}
+
+bool claimLayerOfAnotherJob(const std::string& layer, const std::string& recorded, const std::string& wanted,
+                            bool force, const std::string& remedy, const std::string& grown_note) {
+  const std::string differences = fingerprintDifferences(recorded, wanted);
+  if (growsLayer(recorded, wanted)) {
+    log::info(layer + " grows (" + differences + "); the tiles it holds are this job's too" + grown_note);
+    return true;
+  }
+  if (force) return false;
+  throw UsageError(layer + " was made by a different job" + (differences.empty() ? "" : " (" + differences + ")") +
+                   "; " + remedy);
 }
 
 std::string fingerprintDifferences(const std::string& recorded, const std::string& wanted) {

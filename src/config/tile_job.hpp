@@ -80,6 +80,15 @@ std::string fingerprintDifferences(const std::string& recorded, const std::strin
 // grown job's too.
 bool growsLayer(const std::string& recorded, const std::string& wanted);
 
+// A layer that another job, whose fingerprint is `recorded`, made, claimed
+// for the job `wanted`: taken when `wanted` grows it, which the log says
+// (`grown_note` added), and then its tiles are this job's (returns true);
+// taken with `force` (returns false); refused otherwise with a UsageError
+// naming what differs and `remedy`. `layer` names the layer in both
+// messages ("output: layer 'tiles/alps'").
+bool claimLayerOfAnotherJob(const std::string& layer, const std::string& recorded, const std::string& wanted,
+                            bool force, const std::string& remedy, const std::string& grown_note = "");
+
 // Checks the settings as a whole (required keys present, zoom order, ...).
 // Throws UsageError "<origin>: <key>: <problem>".
 void validate(const TileJob& job, const std::string& origin);

@@ -43,15 +43,9 @@ fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
     if (another_job || !fs::exists(path)) io::writeTextFileAtomically(path.string(), text);
   };
   if (another_job) {
-    const std::string differences = config::fingerprintDifferences(recorded, settings.job_record);
-    if (!config::growsLayer(recorded, settings.job_record)) {
-      throw UsageError("layer " + settings.name + ": folder '" + settings.folder.string() +
-                       "' was made by a different job (its " + io::kJobFile +
-                       (differences.empty() ? "" : ": " + differences) +
-                       "); give this job another output.layer, or move the folder away");
-    }
-    log::info("layer " + settings.name + ": folder '" + settings.folder.string() + "' grows (" + differences +
-              "); the tiles it holds are this job's too");
+    config::claimLayerOfAnotherJob("layer " + settings.name + ": folder '" + settings.folder.string() + "'", recorded,
+                                   settings.job_record, false,
+                                   "give this job another output.layer, or move the folder away");
     write(settings.folder / io::kJobFile, settings.job_record);
   }
   write(settings.folder / io::kTileJsonFile, settings.tilejson);
