@@ -62,36 +62,27 @@ ElevationImage encodeElevation(const Raster<float>& heights, int apron, int size
 Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green) {
   const double max_value = bits == 16 ? 65535.0 : 255.0;
   const float green_sign = green == Green::kUp ? 1.0f : -1.0f;
+  // A texel's three components in the lanes of one vector (GCC and Clang
+  // vector extensions), the same double arithmetic in each lane as one value
+  // alone; its fourth lane is stored into the next texel's first sample,
+  // which that texel then overwrites, and into one sample of padding at the
+  // end, cut off.
+  using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
+  using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
+  using Whole = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
+  using Samples = std::uint16_t __attribute__((vector_size(4 * sizeof(std::uint16_t))));
   Image<std::uint16_t> image;
   image.width = image.height = map.size;
   image.channels = 3;
-  image.pixels.reserve(map.texels.size() * 3 + 3);  // the quantisation's padding, below
-  image.pixels.resize(map.texels.size() * 3);
-  // The components in image order first, so that they are quantised as
-  // plain numbers, several at a time.
-  std::vector<float> components(image.pixels.size() + 3, 0.0f);
+  const std::size_t count = map.texels.size() * 3;
+  image.pixels.resize(count + 1);
   for (std::size_t k = 0; k < map.texels.size(); ++k) {
     glm::vec3 n = map.texels[k];
     // A texel whose frame is singular (a native tile of a lon/lat DEM that
     // reaches past a pole folds onto itself) has no normal in it: it gets
     // the frame's own, flat, rather than a NaN no integer can hold.
     if (!std::isfinite(n.x) || !std::isfinite(n.y) || !std::isfinite(n.z)) n = glm::vec3(0, 0, 1);
-    components[3 * k + 0] = n.x;
-    components[3 * k + 1] = green_sign * n.y;
-    components[3 * k + 2] = n.z;
-  }
-  // Four at a time (GCC and Clang vector extensions), the same double
-  // arithmetic in each lane as one value alone; three components of padding
-  // keep the last four read inside, and the last four stored land in
-  // padding too, cut off at the end.
-  using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
-  using Mask = std::int64_t __attribute__((vector_size(4 * sizeof(double))));
-  using Whole = std::int32_t __attribute__((vector_size(4 * sizeof(std::int32_t))));
-  using Samples = std::uint16_t __attribute__((vector_size(4 * sizeof(std::uint16_t))));
-  const std::size_t count = image.pixels.size();
-  image.pixels.resize(count + 3);
-  for (std::size_t k = 0; k < count; k += 4) {
-    Lanes c = {components[k], components[k + 1], components[k + 2], components[k + 3]};
+    Lanes c = {n.x, green_sign * n.y, n.z, 0.0};
     const Mask small = (c > -kZeroSnap) & (c < kZeroSnap);
     c = small ? Lanes{} : c;
     c = c < -1.0 ? Lanes{} - 1.0 : c;  // guards |n| = 1 + epsilon
@@ -100,7 +91,7 @@ Image<std::uint16_t> encodeNormalMap(const NormalMap& map, int bits, Green green
     // half rounds it.
     const Lanes q = (c * 0.5 + 0.5) * max_value + 0.5;
     const Samples samples = __builtin_convertvector(__builtin_convertvector(q, Whole), Samples);
-    std::memcpy(&image.pixels[k], &samples, sizeof samples);
+    std::memcpy(&image.pixels[3 * k], &samples, sizeof samples);
   }
   image.pixels.resize(count);
   return image;
