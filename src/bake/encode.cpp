@@ -1,10 +1,8 @@
 #include "bake/encode.hpp"
 
-#include <algorithm>
 #include <cmath>
 #include <cstring>
 #include <stdexcept>
-#include <vector>
 
 namespace terrabake::bake {
 namespace {
