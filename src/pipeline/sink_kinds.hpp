@@ -12,11 +12,9 @@
 namespace terrabake::pipeline {
 
 // claim() of a layer that another job, whose fingerprint is `recorded`,
-// made: taken when this job grows it (config::growsLayer), which the log
-// says (and that --resume keeps the layer's tiles, where the layer is
-// `resumable`), or with `force`; refused otherwise, naming what differs.
-// Returns whether the tiles the layer holds are this job's (they are when it
-// grows).
+// made: config::claimLayerOfAnotherJob with the batch run's words (and, where
+// the layer is `resumable`, the log's note that --resume keeps its tiles).
+// Returns whether the tiles the layer holds are this job's.
 bool claimFromDifferentJob(const std::string& location, const std::string& recorded, const std::string& fingerprint,
                            bool force, bool resumable);
 

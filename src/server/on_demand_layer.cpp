@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 // when missing; returns the folder. The record lets `terrabake tile --resume`
 // carry the layer on; a folder another job or another tool made is refused,
 // as a batch run refuses it, rather than filled with tiles of two jobs. A
-// folder of a job this one grows (config::growsLayer) is taken, and its
+// folder of a job this one grows (config::claimLayerOfAnotherJob) is taken, and its
 // record and tilejsons become this job's.
 fs::path prepareFolder(const OnDemandLayer::Settings& settings) {
   std::error_code ec;
