@@ -757,6 +757,19 @@ std::vector<RunResult> tileAndInfo(const fs::path& dem) {
   return {run(tileArgs(dem, dem.parent_path() / "out", "layer")), run({"info", dem.string()})};
 }
 
+// Its origin NaN: shown, rather than said to have no pixel size.
+TEST(Inputs, AGeoTransformThatIsNoNumberIsRefusedShowingIt) {
+  const fs::path dir = caseDir();
+  const double no_origin[6] = {NAN, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "nan.tif", 50, 50, no_origin, hill);
+  for (const RunResult& r : tileAndInfo(dir / "nan.tif")) {
+    EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
+    EXPECT_TRUE(contains(r.err, "nan.tif' has a geotransform of origin (nan, 46) and pixels 0.001 by -0.001: each "
+                                "must be a number, the pixel sizes not 0"))
+        << describe(r);
+  }
+}
+
 // A geocentric CRS (EPSG:4978) puts a grid on no surface: refused, for tile
 // and info alike, rather than read as degrees at the pole.
 TEST(Inputs, ADemInAGeocentricCrsIsRefused) {
@@ -777,6 +790,32 @@ TEST(Inputs, AGeoTiffCutShortIsNotTakenForOneWithoutACrs) {
   const RunResult r = run({"info", (dir / "cut.tif").string()});
   EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
   EXPECT_TRUE(contains(r.err, "cut.tif' has no CRS GDAL can read; is the file whole? (GDAL: ")) << describe(r);
+}
+
+// A file whose header opens but whose pixels cannot be read (a GeoTIFF cut
+// short in its pixels, a VRT whose source file is gone): every tile over it
+// would fail, so the run stops at the first with one line naming the file,
+// exit 3, and leaves no layer behind.
+TEST(Inputs, ADemWhosePixelsCannotBeReadStopsTheRunNamingIt) {
+  const fs::path dir = caseDir();
+  writeHills(dir / "cut.tif");
+  fs::resize_file(dir / "cut.tif", fs::file_size(dir / "cut.tif") / 2);
+  writeHills(dir / "gone.tif");
+  std::unique_ptr<GDALDataset> vrt(GetGDALDriverManager()->GetDriverByName("VRT")->CreateCopy(
+      (dir / "mosaic.vrt").c_str(), GDALDataset::Open((dir / "gone.tif").c_str()), false, nullptr, nullptr, nullptr));
+  ASSERT_NE(vrt, nullptr);
+  vrt.reset();
+  fs::remove(dir / "gone.tif");
+  for (const std::string name : {"cut.tif", "mosaic.vrt"}) {
+    const RunResult r = run(tileArgs(dir / name, dir / "out", name, "11-12"));
+    EXPECT_EQ(r.exit_code, kExitInput) << name << ": " << describe(r);
+    EXPECT_TRUE(contains(r.err, ": dem: cannot read a window of '" + (dir / name).string() + "' (")) << describe(r);
+    EXPECT_TRUE(contains(r.err, "; the run stopped there; the 0 tiles written are whole: repair or replace the file "
+                                "and run it again with --resume"))
+        << describe(r);
+    EXPECT_EQ(r.err.find("error:"), r.err.rfind("error:")) << "one error line: " << describe(r);
+    EXPECT_FALSE(fs::exists(dir / "out" / name)) << describe(r);
+  }
 }
 
 // A Mars DEM: PROJ finds no way to the Earth's CRSs, and the frames would be
@@ -828,13 +867,18 @@ TEST(Inputs, UtmDemTilesInTheGeodeticSchemeFromZoomZero) {
 // stereographic (a texel there once made a footprint 1e19 pixels wide, and
 // the read walked it for ever), and 20 km across the antimeridian near the
 // north pole in NSIDC's (its longitudes come back west > east, which once
-// sized the backdrop negative: "unexpected: cannot create std::vector").
+// sized the backdrop negative: "unexpected: cannot create std::vector");
+// and 200 km around the south pole, whose backdrop's cells are so large that
+// one cell south of its centre lies past the pole (which once failed every
+// tile: "cannot transform a tile centre").
 TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
   const fs::path dir = caseDir();
   const double gt[6] = {-100000, 100, 0, 100000, 0, -100};
   writeDem(dir / "antarctic.tif", kHillPixels, kHillPixels, gt, hill, 3031);
   writeDem(dir / "arctic.tif", kHillPixels, kHillPixels, gt, hill, 3413);
-  for (const std::string name : {"antarctic", "arctic"}) {
+  const double wide[6] = {-100000, 1000, 0, 100000, 0, -1000};
+  writeDem(dir / "antarctic_wide.tif", kHillPixels, kHillPixels, wide, hill, 3031);
+  for (const std::string name : {"antarctic", "arctic", "antarctic_wide"}) {
     std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / "out", name, "auto");
     args.insert(args.end(), {"--scheme", "geodetic"});
     const RunResult r = run(args, {}, std::chrono::seconds(60));

@@ -536,10 +536,14 @@ TEST(Shards, AStopSignalEndsTheWaitForTheTilesetsTurn) {
   EXPECT_FALSE(fs::exists(held->tileset));
 }
 
+// An empty one too: a job array's unset variable must not make the whole job on every machine.
 TEST(Shards, BadShardIsAUsageError) {
-  test::ChildProcess bad({"tile", "--dem", demForRuns().string(), "--zoom", "11", "--shard", "4/3"});
-  EXPECT_EQ(bad.wait(kRunLimit), 2);
-  EXPECT_NE(bad.err().find("--shard"), std::string::npos) << bad.err();
+  for (const std::string shard : {"4/3", ""}) {
+    test::ChildProcess bad({"tile", "--dem", demForRuns().string(), "--zoom", "11", "--shard", shard});
+    EXPECT_EQ(bad.wait(kRunLimit), 2) << "'" << shard << "'";
+    EXPECT_NE(bad.err().find("--shard: expected K/N with 1 <= K <= N, got '" + shard + "'"), std::string::npos)
+        << bad.err();
+  }
 }
 
 }  // namespace

@@ -65,7 +65,7 @@ Action addTileCommand(CLI::App& app) {
     // The default output.dir, `tiles`, is the working directory's; absolute
     // like every path a file or flag gives, so that messages say where.
     job.output_dir = config::key_table::resolvePath(std::filesystem::current_path(), job.output_dir);
-    if (!options->shard.empty()) parseShard(options->shard, options->run);
+    if (cmd->count("--shard") > 0) parseShard(options->shard, options->run);
     std::atomic<bool> stop{false};
     std::atomic<int> stop_code{0};
     options->run.stop = &stop;

@@ -41,13 +41,26 @@ struct InputError : Error {
   explicit InputError(const std::string& message) : Error(ExitCode::kInput, message) {}
 };
 
-// A write the output's storage refuses, and will refuse for every tile after
-// it: no space left, over quota, read-only, not ours to write. A run stops at
-// the first; `remedy` says what to do before running it again ("make room").
-struct OutputStorageError : InputError {
-  OutputStorageError(const std::string& message, std::string what_to_do)
+// A problem the tiles after it would meet too, each with its own error line:
+// a run stops at the first; `remedy` says what to do before running it again
+// ("make room").
+struct RunStoppingError : InputError {
+  RunStoppingError(const std::string& message, std::string what_to_do)
       : InputError(message), remedy(std::move(what_to_do)) {}
   std::string remedy;
+};
+
+// A write the output's storage refuses, and will refuse for every tile after
+// it: no space left, over quota, read-only, not ours to write.
+struct OutputStorageError : RunStoppingError {
+  using RunStoppingError::RunStoppingError;
+};
+
+// A DEM file that opened but whose pixels cannot be read: a GeoTIFF cut
+// short, a VRT whose source file is gone.
+struct UnreadableDemError : RunStoppingError {
+  explicit UnreadableDemError(const std::string& message)
+      : RunStoppingError(message, "repair or replace the file") {}
 };
 
 // Throws OutputStorageError for an errno value of that kind (ENOSPC, EDQUOT,

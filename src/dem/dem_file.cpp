@@ -323,7 +323,10 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   }
   if (!(std::isfinite(gt[1]) && std::isfinite(gt[5]) && gt[1] != 0.0 && gt[5] != 0.0 && std::isfinite(gt[0]) &&
         std::isfinite(gt[3]))) {
-    throw InputError("dem: " + name + " has a geotransform without a pixel size");
+    char text[200];
+    std::snprintf(text, sizeof text, "has a geotransform of origin (%g, %g) and pixels %g by %g: each must be a number, "
+                  "the pixel sizes not 0", gt[0], gt[3], gt[1], gt[5]);
+    throw InputError("dem: " + name + " " + text);
   }
   const long width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
   if (width > kMaxSidePixels || height > kMaxSidePixels) {
@@ -495,13 +498,18 @@ std::shared_ptr<const ReducedLevels> FileMeta::reducedLevels() const {
 }
 
 FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file, bool may_reduce) const {
-  // Size of one grid cell in DEM pixels, measured at (cx, cy) of the grid.
+  // Size of one grid cell in DEM pixels, measured at (cx, cy) of the grid: a
+  // cell east and south, or west and north where that leaves the CRS (a
+  // grid's centre within a cell of the South Pole).
   const auto pixelsPerCell = [&](double cx, double cy) -> std::optional<double> {
-    double x[3] = {cx, cx + grid.cell_w, cx}, y[3] = {cy, cy, cy - grid.cell_h};
-    if (!to_file.Transform(3, x, y)) return std::nullopt;
-    const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
-    const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
-    return std::sqrt(du * dv);
+    for (const double towards : {1.0, -1.0}) {
+      double x[3] = {cx, cx + towards * grid.cell_w, cx}, y[3] = {cy, cy, cy - towards * grid.cell_h};
+      if (!to_file.Transform(3, x, y)) continue;
+      const double du = std::hypot(x[1] - x[0], y[1] - y[0]) / m_info.grid.cell_w;
+      const double dv = std::hypot(x[2] - x[0], y[2] - y[0]) / m_info.grid.cell_h;
+      return std::sqrt(du * dv);
+    }
+    return std::nullopt;
   };
   // At the grid's centre; where the DEM's CRS cannot take that point (a
   // coarse zoom's tile reaching 80 degrees of longitude past a UTM zone), at
@@ -609,7 +617,7 @@ void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster
                                                      ? averageOverFootprints(band, *reader.transformer, grid, voids)
                                                      : interpolateCubic(band, *reader.transformer, grid, voids);
   if (!resampled) {
-    throw InputError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" + lastGdalError() +
+    throw UnreadableDemError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" + lastGdalError() +
                      ")");
   }
   for (std::size_t k = 0; k < heights.data.size(); ++k) {

@@ -168,8 +168,8 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         } else {
           ++empty;
         }
-      } catch (const OutputStorageError& e) {
-        // Every tile after it would fail the same way: stop the run here.
+      } catch (const RunStoppingError& e) {
+        // The tiles after it would fail the same way: stop the run here.
         stopRun({"tile " + tile.str() + ": " + oneLine(e.what()), e.remedy});
         break;
       } catch (const std::bad_alloc&) {
@@ -221,6 +221,8 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     } catch (const std::exception& e) {
       closing = " (" + oneLine(e.what()) + ")";
     }
+    // A layer this run made and wrote nothing into is not left behind.
+    if (written == 0) sink->releaseUnusedClaim();
     // A PMTiles archive is written whole at the end: the run left none.
     const std::string kept = job.format == OutputFormat::kPmtiles
                                  ? stop_cause->remedy + " and run the job again"
