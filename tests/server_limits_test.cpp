@@ -584,11 +584,13 @@ TEST(ServeRanges, SingleRangesArePartialContent) {
     EXPECT_EQ(answer.body, png.substr(part.first, part.last - part.first + 1));
     EXPECT_EQ(answer.header("ETag"), etag);
   }
-  // HEAD: the same head, no body.
-  const RawAnswer head = exchange(running.port(), "HEAD", "/fake/3/1/1.png", "Range: bytes=0-3\r\n");
-  EXPECT_EQ(head.status, 206);
-  EXPECT_EQ(head.header("Content-Length"), "4");
-  EXPECT_EQ(head.body, "");
+  // HEAD: ranges are for GET alone (RFC 9110 14.2), so the whole body's head, and no body.
+  for (const std::string range : {"bytes=0-3", "bytes=99999-"}) {
+    const RawAnswer head = exchange(running.port(), "HEAD", "/fake/3/1/1.png", "Range: " + range + "\r\n");
+    EXPECT_EQ(head.status, 200) << range;
+    EXPECT_EQ(head.header("Content-Length"), total) << range;
+    EXPECT_EQ(head.body, "") << range;
+  }
   // If-Range with this version: the part; with another: the whole.
   EXPECT_EQ(exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-Range: " + etag + "\r\n").status,
             206);
@@ -604,6 +606,48 @@ TEST(ServeRanges, SingleRangesArePartialContent) {
   EXPECT_EQ(
       exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-None-Match: " + etag + "\r\n").status,
       304);
+  // A list in two lines is one list (RFC 9110 5.3).
+  EXPECT_EQ(
+      exchange(running.port(), "GET", "/fake/3/1/1.png", "If-None-Match: \"old\"\r\nIf-None-Match: " + etag + "\r\n")
+          .status,
+      304);
+}
+
+// If-Match (RFC 9110 13.1.1): a reader of ranges that names the version it
+// read gets 412 once the bytes are another's, before any other condition.
+TEST(ServeRanges, IfMatchOfAnotherVersionIs412) {
+  World world;
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const std::string etag = exchange(running.port(), "GET", "/fake/3/1/1.png").header("ETag");
+  ASSERT_FALSE(etag.empty());
+  const struct {
+    std::string if_match;
+    int status;
+  } cases[] = {
+      {etag, 206},
+      {"*", 206},
+      {"\"old\", " + etag, 206},
+      {"\"old\"", 412},
+      {"W/" + etag, 412},  // compared strongly
+  };
+  for (const auto& c : cases) {
+    SCOPED_TRACE(c.if_match);
+    const RawAnswer answer =
+        exchange(running.port(), "GET", "/fake/3/1/1.png", "Range: bytes=0-3\r\nIf-Match: " + c.if_match + "\r\n");
+    EXPECT_EQ(answer.status, c.status) << answer.head;
+    if (c.status == 412) {
+      EXPECT_EQ(answer.header("ETag"), etag);
+    }
+  }
+  // A list in two lines is one list; If-None-Match is not asked once If-Match fails.
+  EXPECT_EQ(
+      exchange(running.port(), "GET", "/fake/3/1/1.png", "If-Match: \"old\"\r\nIf-Match: " + etag + "\r\n").status,
+      200);
+  EXPECT_EQ(
+      exchange(running.port(), "GET", "/fake/3/1/1.png", "If-Match: \"old\"\r\nIf-None-Match: " + etag + "\r\n")
+          .status,
+      412);
 }
 
 TEST(ServeRanges, ARangePastTheEndIs416) {
@@ -673,6 +717,9 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
       {"no Host", tile + "\r\n", 400, true},
       {"two Hosts", tile + "Host: a\r\nHost: b\r\n\r\n", 400, true},
       {"a Host with a space", tile + "Host: a b\r\n\r\n", 400, true},
+      {"a Host whose port is no number", tile + "Host: x:abc\r\n\r\n", 400, true},
+      {"a Host with two ports", tile + "Host: 1.2.3.4:80:90\r\n\r\n", 400, true},
+      {"an IP literal left open", tile + "Host: [::1\r\n\r\n", 400, true},
       {"an IPv6 Host with a port", tile + "Host: [::1]:8080\r\n\r\n", 200, false},
       // 3.2.2: the absolute form, as proxies send.
       {"absolute form", "GET http://x/fake/3/1/1.png HTTP/1.1\r\nHost: x\r\n\r\n", 200, false},
@@ -702,13 +749,25 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
       {"HTTP/1.2", "GET /fake/3/1/1.png HTTP/1.2\r\nHost: x\r\n\r\n", 200, false},
       {"HTTP/2.0", "GET /fake/3/1/1.png HTTP/2.0\r\nHost: x\r\n\r\n", 505, true},
   };
-  {
-    // A HEAD refused for its framing is still answered without a body.
+  // A HEAD refused (for its framing, or before its head is parsed) is still answered without a body.
+  const struct {
+    const char* what;
+    std::string head;
+    int status;
+  } heads[] = {
+      {"no Host", "HEAD /fake/3/1/1.png HTTP/1.1\r\n\r\n", 400},
+      {"a field line that is none", "HEAD /fake/3/1/1.png HTTP/1.1\r\nHost: x\r\nno colon\r\n\r\n", 400},
+      {"a target too long", "HEAD /" + std::string(20000, 'a') + " HTTP/1.1\r\nHost: x\r\n\r\n", 414},
+      {"headers too large", "HEAD / HTTP/1.1\r\nHost: x\r\nCookie: " + std::string(20000, 'c') + "\r\n\r\n", 431},
+      {"HTTP/2.0", "HEAD / HTTP/2.0\r\nHost: x\r\n\r\n", 505},
+  };
+  for (const auto& h : heads) {
+    SCOPED_TRACE(h.what);
     const int fd = connectTo(running.port());
     ASSERT_GE(fd, 0);
-    ASSERT_TRUE(sendAll(fd, "HEAD /fake/3/1/1.png HTTP/1.1\r\n\r\n"));
+    ASSERT_TRUE(sendAll(fd, h.head));
     const RawAnswer answer = readAnswer(fd, true, Clock::now());
-    EXPECT_EQ(answer.status, 400);
+    EXPECT_EQ(answer.status, h.status);
     EXPECT_NE(answer.header("Content-Length"), "0");
     EXPECT_EQ(answer.body, "");
     char extra[64];
@@ -735,6 +794,31 @@ TEST(ServeVersions, RequestHeadsAreFramedAsHttp11Says) {
     }
     ::close(fd);
   }
+}
+
+// Requests pipelined behind a Connection: close stay unread: the server
+// closes once the client has closed too (RFC 9112 9.6), so no reset cuts
+// the answer short while it is still on its way.
+TEST(ServeVersions, RequestsPipelinedBehindACloseDoNotCutItsAnswerShort) {
+  World world;
+  world.config.viewer_dir = (world.dir / "viewer").string();
+  fs::create_directories(world.config.viewer_dir);
+  constexpr std::uintmax_t kFileBytes = std::uintmax_t(16) << 20;  // sparse, more than the sockets' buffers hold
+  writeText(world.dir / "viewer" / "big.bin", "x");
+  fs::resize_file(world.dir / "viewer" / "big.bin", kFileBytes);
+  ServerThread running(world.config, onlyLayer(world.layer(1, 4)));
+  world.gate.open();
+  const int fd = connectTo(running.port(), 10000, 64 * 1024);
+  ASSERT_GE(fd, 0);
+  std::string requests = "GET /viewer/big.bin HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n";
+  for (int k = 0; k < 2000; ++k) requests += "GET /health HTTP/1.1\r\nHost: x\r\n\r\n";
+  ASSERT_TRUE(sendAll(fd, requests));
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the server has sent what the buffers hold
+  const RawAnswer answer = readAnswer(fd, false, Clock::now());
+  ::close(fd);
+  EXPECT_EQ(answer.status, 200);
+  EXPECT_EQ(answer.body.size(), kFileBytes);
+  EXPECT_TRUE(answer.closed);
 }
 
 // Every answer carries the date (RFC 9110 6.6.1), within a second or two of now.

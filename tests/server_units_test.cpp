@@ -193,6 +193,16 @@ TEST(ServeHttpRules, IfNoneMatchComparesWeakly) {
   EXPECT_FALSE(server::noneMatchHits("abc-12", etag));
 }
 
+TEST(ServeHttpRules, IfMatchComparesStrongly) {
+  const std::string etag = "\"abc-12\"";
+  EXPECT_TRUE(server::ifMatchHolds("", etag));
+  EXPECT_TRUE(server::ifMatchHolds("\"abc-12\"", etag));
+  EXPECT_TRUE(server::ifMatchHolds("\"x\", \"abc-12\"", etag));
+  EXPECT_TRUE(server::ifMatchHolds("*", etag));
+  EXPECT_FALSE(server::ifMatchHolds("W/\"abc-12\"", etag));
+  EXPECT_FALSE(server::ifMatchHolds("\"abc-13\"", etag));
+}
+
 TEST(ServeHttpRules, ContentTypes) {
   EXPECT_EQ(server::contentTypeFor("a/b.png"), "image/png");
   EXPECT_EQ(server::contentTypeFor("1.hires.glb"), "model/gltf-binary");
@@ -232,7 +242,13 @@ TEST(ServeHttpRules, HeadsThatMustBeRefused) {
   EXPECT_NE(server::framingProblem(11, Lines{"a/b"}, false, false), "");
   EXPECT_EQ(server::framingProblem(11, Lines{"tiles.example.com:8080"}, false, false), "");
   EXPECT_EQ(server::framingProblem(11, Lines{"[::1]:80"}, false, false), "");
-  EXPECT_EQ(server::framingProblem(11, Lines{""}, false, false), "");  // a target without authority
+  EXPECT_EQ(server::framingProblem(11, Lines{""}, false, false), "");         // a target without authority
+  EXPECT_EQ(server::framingProblem(11, Lines{"x,y"}, false, false), "");      // a reg-name may hold sub-delims
+  EXPECT_EQ(server::framingProblem(11, Lines{"10.0.0.1:"}, false, false), "");  // port = *DIGIT
+  EXPECT_EQ(server::framingProblem(11, Lines{"[v1.x]"}, false, false), "");   // IPvFuture
+  for (const std::string_view host : {"x:abc", "1.2.3.4:80:90", "[::1", "[::1]x", "::1", "a@b", "[::1]:8a"}) {
+    EXPECT_NE(server::framingProblem(11, Lines{host}, false, false), "") << host;
+  }
 }
 
 TEST(ServeHttpRules, CloseInAnyConnectionLineEndsTheConnection) {

@@ -82,6 +82,14 @@ bool noneMatchHits(const std::string& if_none_match, const std::string& etag) {
   return false;
 }
 
+bool ifMatchHolds(const std::string& if_match, const std::string& etag) {
+  if (trim(if_match).empty()) return true;
+  for (const std::string_view tag : listItems(if_match)) {
+    if (tag == "*" || tag == etag) return true;
+  }
+  return false;
+}
+
 namespace {
 
 // The path part of an absolute-form target (RFC 9112 3.2.2), or the target itself.
@@ -181,10 +189,26 @@ namespace {
 // A Host value: uri-host [":" port], the host a reg-name, IPv4 address or
 // bracketed IP literal (RFC 3986 3.2.2); empty for a target without authority.
 bool isHostValue(std::string_view text) {
-  constexpr std::string_view kSymbols = "-._~%!$&'()*+,;=:[]";
-  return std::all_of(text.begin(), text.end(), [&](char c) {
-    return std::isalnum(static_cast<unsigned char>(c)) || kSymbols.find(c) != std::string_view::npos;
-  });
+  const auto made_of = [](std::string_view part, std::string_view symbols) {
+    return std::all_of(part.begin(), part.end(), [&](char c) {
+      return std::isalnum(static_cast<unsigned char>(c)) || symbols.find(c) != std::string_view::npos;
+    });
+  };
+  const auto is_port = [](std::string_view part) {
+    return std::all_of(part.begin(), part.end(), [](char c) { return c >= '0' && c <= '9'; });
+  };
+  // A reg-name's characters: unreserved, sub-delims and percent-encodings.
+  constexpr std::string_view kNameSymbols = "-._~%!$&'()*+,;=";
+  std::size_t host_end = text.find(':');
+  if (!text.empty() && text.front() == '[') {
+    host_end = text.find(']');
+    if (host_end == std::string_view::npos || !made_of(text.substr(1, host_end - 1), ":-._~!$&'()*+,;=")) return false;
+    ++host_end;
+  } else if (!made_of(text.substr(0, host_end), kNameSymbols)) {
+    return false;
+  }
+  if (host_end >= text.size()) return true;
+  return text[host_end] == ':' && is_port(text.substr(host_end + 1));
 }
 
 }  // namespace

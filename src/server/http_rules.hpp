@@ -79,6 +79,11 @@ std::string contentEtag(const std::string& bytes);
 // matches `etag`. RFC 9110 compares weakly here: W/"x" matches "x".
 bool noneMatchHits(const std::string& if_none_match, const std::string& etag);
 
+// True when an If-Match value lets a request go on: none given, "*", or a
+// list holding `etag` itself (RFC 9110 13.1.1 compares strongly: a weak tag
+// never matches).
+bool ifMatchHolds(const std::string& if_match, const std::string& etag);
+
 // A method RFC 9110 or RFC 5789 (PATCH) defines, spelled as they do (methods
 // are case-sensitive).
 bool isStandardMethod(std::string_view method);

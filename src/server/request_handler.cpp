@@ -34,8 +34,9 @@ HttpReply text(int status, const std::string& message) {
   return reply;
 }
 
-// A body of `length` bytes answered under `etag`: 304 when the client holds
-// this very version, 416 for a range past the end (both `done`), else the
+// A body of `length` bytes answered under `etag`: 412 when If-Match names
+// another version, 304 when the client holds this very version, 416 for a
+// range past the end (all `done`), else the
 // headers of a 200 with the whole body, or of a 206 with the part a single
 // Range asks for, and which bytes of the body to send.
 struct Validation {
@@ -49,7 +50,15 @@ Validation validate(const HttpRequest& request, std::size_t length, const std::s
   Validation v;
   v.reply.headers.emplace_back("ETag", etag);
   v.reply.headers.emplace_back("Cache-Control", cache_control);
-  // If-None-Match first (RFC 9110 13.2.2): a client holding the version wants no part of it.
+  // If-Match first (RFC 9110 13.2.2): a range reader that asks for the
+  // version it read before must not get bytes of another.
+  if (!ifMatchHolds(request.if_match, etag)) {
+    v.reply = text(412, "precondition failed: the body is no longer the version If-Match names");
+    v.reply.headers.emplace_back("ETag", etag);
+    v.done = true;
+    return v;
+  }
+  // Then If-None-Match: a client holding the version wants no part of it.
   if (noneMatchHits(request.if_none_match, etag)) {
     // No body, and no Content-Length: the real length would make some clients wait for a body.
     v.reply.status = 304;
@@ -57,7 +66,9 @@ Validation validate(const HttpRequest& request, std::size_t length, const std::s
     return v;
   }
   v.reply.headers.emplace_back("Accept-Ranges", "bytes");
-  const bool range_applies = !request.range.empty() && (request.if_range.empty() || ifRangeHolds(request.if_range, etag));
+  // Ranges are for GET alone (RFC 9110 14.2): a HEAD is answered with the whole body's head.
+  const bool range_applies = request.method == "GET" && !request.range.empty() &&
+                             (request.if_range.empty() || ifRangeHolds(request.if_range, etag));
   const ByteRange range = range_applies ? parseRange(request.range, length) : ByteRange{};
   const std::string total = std::to_string(length);
   v.count = length;

@@ -23,6 +23,7 @@ struct HttpRequest {
   std::string method;
   std::string path;           // percent-decoded, without the query
   std::string local_address;  // "127.0.0.1:8080", where the client reached us: the base of URLs without a public_url
+  std::string if_match;
   std::string if_none_match;
   std::string range;     // the Range header
   std::string if_range;  // the If-Range header

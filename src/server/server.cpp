@@ -48,8 +48,9 @@ using tcp = net::ip::tcp;
 using Socket = tcp::socket::rebind_executor<net::io_context::executor_type>::other;
 using Stream = beast::basic_stream<tcp, net::io_context::executor_type, beast::unlimited_rate_policy>;
 
-// After an answer to a request whose body was not read, the connection is
-// closed; until then, for at most this long and this many bytes, what the
+// After an answer on a connection that is not kept (a request body not read,
+// Connection: close), the connection is closed once the client closes its
+// side; until then, for at most this long and this many bytes, what the
 // client still sends is read and dropped, so the close does not reset the
 // connection before the client has read the answer.
 constexpr auto kLingerTime = std::chrono::seconds(1);
@@ -104,6 +105,14 @@ std::vector<std::string_view> fieldLines(const Fields& fields, http::field field
     lines.emplace_back(line->value().data(), line->value().size());
   }
   return lines;
+}
+
+// A list field's value: its field lines joined, as one line (RFC 9110 5.3).
+template <class Fields>
+std::string listField(const Fields& fields, http::field field) {
+  std::string list;
+  for (const std::string_view line : fieldLines(fields, field)) list += (list.empty() ? "" : ", ") + std::string(line);
+  return list;
 }
 
 std::size_t bodyLength(const HttpReply::Body& body) {
@@ -268,6 +277,8 @@ class Session : public std::enable_shared_from_this<Session> {
     if (!started) m_stream.expires_after(m_server.read_timeout);
     m_buffer.consume(emptyLinesAtStart(bufferText()));
     const std::string_view text = bufferText();
+    // Known from the line's start: a HEAD refused before its head is parsed is answered without a body too.
+    m_head = text.substr(0, 5) == "HEAD ";
     const std::size_t end = text.find('\n');
     // The line alone past the head's limit: its target is what is too long (RFC 9112 3).
     if (std::min(end, text.size()) >= m_server.max_header_bytes) {
@@ -288,8 +299,7 @@ class Session : public std::enable_shared_from_this<Session> {
         static_cast<char*>(m_buffer.data().data())[line.size() - 1] = '1';
         break;
       case LineVersion::kOtherMajor:
-        return answerAndClose(m_server.handler.refusal(505, "HTTP version not supported: use HTTP/1.1"),
-                              line.substr(0, 5) == "HEAD ");
+        return answerAndClose(m_server.handler.refusal(505, "HTTP version not supported: use HTTP/1.1"));
     }
     readHead();
   }
@@ -339,20 +349,17 @@ class Session : public std::enable_shared_from_this<Session> {
     const std::string problem = framingProblem(request.version(), fieldLines(request, http::field::host),
                                                request.count(http::field::transfer_encoding) > 0, m_parser->chunked());
     if (!problem.empty()) {
-      return answerAndClose(m_server.handler.refusal(400, "bad request: " + problem),
-                            request.method() == http::verb::head);
+      return answerAndClose(m_server.handler.refusal(400, "bad request: " + problem));
     }
     HttpRequest in;
     in.method = std::string(request.method_string());
     in.path = requestPath(std::string(request.target()));
     in.local_address = m_local_address;
-    in.if_none_match = std::string(request[http::field::if_none_match]);
+    in.if_match = listField(request, http::field::if_match);
+    in.if_none_match = listField(request, http::field::if_none_match);
     in.range = std::string(request[http::field::range]);
     in.if_range = std::string(request[http::field::if_range]);
-    // A list may come in several field lines (RFC 9110 5.3): all of it is asked for.
-    for (const std::string_view line : fieldLines(request, http::field::access_control_request_headers)) {
-      in.cors_request_headers += (in.cors_request_headers.empty() ? "" : ", ") + std::string(line);
-    }
+    in.cors_request_headers = listField(request, http::field::access_control_request_headers);
     const auto length = m_parser->content_length();
     in.has_body = m_parser->chunked() || (length && *length > 0);
     m_head = request.method() == http::verb::head;
@@ -375,11 +382,10 @@ class Session : public std::enable_shared_from_this<Session> {
     }
   }
 
-  // `head_request`: the request is known to be a HEAD, whose answer has no body.
-  void answerAndClose(HttpReply reply, bool head_request = false) {
+  // The answer of a HEAD (m_head) has no body.
+  void answerAndClose(HttpReply reply) {
     m_keep_alive = false;
     m_unread_body = true;  // whatever is left of the request stays unread
-    m_head = head_request;
     m_version = 11;
     m_busy = true;
     write(std::move(reply));
@@ -398,7 +404,7 @@ class Session : public std::enable_shared_from_this<Session> {
     const std::optional<std::array<net::const_buffer, 2>> buffers = out->unwritten();
     if (!buffers) {
       // A file that cannot be read: answered 500 if nothing was sent yet, else cut short.
-      if (!out->started()) return answerAndClose(m_server.handler.refusal(500, "the file could not be read"), m_head);
+      if (!out->started()) return answerAndClose(m_server.handler.refusal(500, "the file could not be read"));
       return onWritten(make_error_code(boost::system::errc::io_error), keep);
     }
     m_stream.expires_after(m_server.read_timeout);
@@ -414,17 +420,13 @@ class Session : public std::enable_shared_from_this<Session> {
   void onWritten(beast::error_code ec, bool keep) {
     m_busy = false;
     if (ec) return m_stream.close();
-    if (m_unread_body) return linger();
-    if (!keep) {
-      beast::error_code ignored;
-      m_stream.socket().shutdown(tcp::socket::shutdown_send, ignored);
-      return m_stream.close();
-    }
+    if (m_unread_body || !keep) return linger();
     awaitNext();
   }
 
-  // Answered without reading the body: stop sending, drop what still comes
-  // for a moment, close.
+  // Answered, and not keeping the connection (a body left unread, or more
+  // requests maybe pipelined behind a Connection: close): stop sending, drop
+  // what still comes for a moment, close.
   void linger() {
     beast::error_code ignored;
     m_stream.socket().shutdown(tcp::socket::shutdown_send, ignored);
