@@ -52,7 +52,7 @@ const kt::KeyTable<TileJob>& table() {
       {"output.dir", "--out", "path", "folder that holds the layers",
        text(&TileJob::output_dir, kt::parsePath, kt::pathProblem, kt::writeText)},
       {"output.layer", "--layer", "folder name",
-       "layer folder under output.dir: letters, digits, '.', '_' and '-'",
+       "layer folder under output.dir: letters, digits, '.', '_' and '-', at most 128 bytes, not '.' or '..'",
        text(&TileJob::layer, kt::parseWord, kt::layerNameProblem, kt::writeText)},
       {"output.format", "--format", "string",
        "how the layer is stored: files (a folder of {z}/{x}/{y} files), mbtiles (one SQLite file) or pmtiles "
