@@ -1,11 +1,16 @@
 // Tile-local frames (src/geo/local_frame.hpp).
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <cmath>
+#include <string>
 #include <vector>
 
 #include <glm/geometric.hpp>
+#include <glm/trigonometric.hpp>
 
 #include "geo/local_frame.hpp"
+#include "geo/region.hpp"
 
 namespace terrabake {
 namespace {
@@ -58,6 +63,32 @@ TEST(Ecef, AGraticuleIsEachOfItsPointsBitForBitAndPastAPoleToRounding) {
       const std::size_t k = r * lon.size() + c;
       EXPECT_LE(glm::distance(beyond[k], geo::geodeticToEcef(lon[c], past_poles[r], heights[k])),
                 kGraticuleAgreementM);
+    }
+  }
+}
+
+// A straight edge between two vertices at one latitude bows towards the pole
+// (its middle, seen from the centre, lies poleward of its ends), by more the
+// nearer the pole: the region of the vertices holds every point of it, at
+// the equator, mid-latitudes and near the poles, for edges from 1 km to
+// 2,000 km, north and south. (Bounded by (L / R)^2 / 8 alone, the north edge
+// of a 54 km tile at 46 degrees once reached 3 m past its region.)
+TEST(Region, HoldsEveryPointOfAStraightEdgeAlongAParallel) {
+  for (const double lat : {0.0, 20.0, 46.0, 70.0, 85.0, 89.5, -60.0, -88.0}) {
+    for (const double length_m : {1e3, 54e3, 500e3, 2000e3}) {
+      SCOPED_TRACE("latitude " + std::to_string(lat) + ", edge " + std::to_string(length_m) + " m");
+      const geo::LocalFrame frame(10.0, lat);
+      // Ends on the parallel, `length_m` apart in a straight line.
+      double half_lon = glm::degrees(length_m / (2 * 6378137.0 * std::cos(glm::radians(lat))));
+      half_lon = std::min(half_lon, 179.0);
+      const glm::dvec3 a = frame.toLocal(10.0 - half_lon, lat, 0), b = frame.toLocal(10.0 + half_lon, lat, 0);
+      const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, frame, glm::distance(a, b));
+      for (int k = 0; k <= 64; ++k) {
+        const glm::dvec3 at = frame.toGeodetic(a + (b - a) * (k / 64.0));
+        EXPECT_LE(glm::radians(at.y), region.north) << "point " << k;
+        EXPECT_GE(glm::radians(at.y), region.south) << "point " << k;
+        EXPECT_GE(at.z, region.min_height_m) << "point " << k;
+      }
     }
   }
 }

@@ -42,7 +42,7 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
     high = std::max(high, g.z);
   }
   const double sag_m = chordSagM(longest_edge_m);
-  const double bow_deg = glm::degrees(chordBowRad(longest_edge_m));
+  const double bow_deg = glm::degrees(chordBowRad(longest_edge_m, glm::radians(std::max(-south, north))));
 
   double west = origin_lon + min_d, east = origin_lon + max_d;
   if (west < -180 && west > -180 - kAntimeridianSlackDeg) west = -180;

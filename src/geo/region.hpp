@@ -1,6 +1,7 @@
 #pragma once
 // Where a mesh lies on the globe as 3D Tiles bounds it: a region of
 // longitudes, latitudes (radians, WGS84) and heights above the ellipsoid.
+#include <algorithm>
 #include <cmath>
 #include <vector>
 
@@ -19,9 +20,30 @@ inline constexpr double kMinCurvatureRadiusM = 6335439.327;
 // earth, at most: a chord of length L sags L^2 / (8 R).
 inline double chordSagM(double length_m) { return length_m * length_m / (8 * kMinCurvatureRadiusM); }
 
-// How far (radians of latitude) such an edge bows towards a pole, at most:
-// seen from the centre it spans L / R radians and bows (L / R)^2 / 8.
-inline double chordBowRad(double length_m) { return std::pow(length_m / kMinCurvatureRadiusM, 2) / 8; }
+// The largest angle between the ellipsoid's normal and the direction to the
+// earth's centre (about e^2 / 2, at 45°): a point that far below or above
+// the surface lies north or south of where it would on it by at most its
+// depth times this, over R.
+inline constexpr double kMaxDeflectionRad = 0.00337;
+
+// How far (radians of latitude) such an edge bows towards a pole, at most,
+// when its ends lie no nearer a pole than `latitude_rad`: most along a
+// parallel, whose ends, a chord L long of a circle R cos φ round, span
+// Δλ = 2 asin(L / (2 R cos φ)) of longitude, and whose middle, seen from
+// the centre, lies at atan(tan φ / cos(Δλ / 2)) (about tan φ (L / R)^2 / 8
+// past φ); no less than the (L / R)^2 / 8 an arc bows across the equator;
+// and its middle, below the surface by the sag, deflected as deep points
+// are. The pole when the ends span half the globe or more.
+inline double chordBowRad(double length_m, double latitude_rad) {
+  constexpr double kHalfPi = 1.57079632679489661923;
+  const double across_rad = std::pow(length_m / kMinCurvatureRadiusM, 2) / 8;
+  const double deflection_rad = kMaxDeflectionRad * chordSagM(length_m) / kMinCurvatureRadiusM;
+  const double phi = std::min(std::abs(latitude_rad), kHalfPi);
+  const double half_chord_share = length_m / (2 * kMinCurvatureRadiusM * std::cos(phi));
+  if (!(half_chord_share < 1)) return kHalfPi - phi + across_rad + deflection_rad;
+  const double toward_pole_rad = std::atan(std::tan(phi) / std::cos(std::asin(half_chord_share))) - phi;
+  return std::max(across_rad, toward_pole_rad) + deflection_rad;
+}
 
 struct Region {
   double west = 0, south = 0, east = 0, north = 0;  // radians; west > east across the antimeridian

@@ -23,10 +23,6 @@ constexpr double kHalfPi = 1.57079632679489661923;
 // the poles): an angle spans no more ground than with it (the smallest,
 // geo::kMinCurvatureRadiusM, bounds how a chord sags).
 constexpr double kMaxCurvatureRadiusM = 6399593.626;
-// The largest angle between the ellipsoid's normal and the direction to the
-// earth's centre (about e^2 / 2, at 45°): a skirt hung towards the centre
-// moves north or south by at most its depth times this.
-constexpr double kMaxDeflectionRad = 0.00337;
 // How far the surface carried into a hole (dem/fill_holes.hpp) rises or
 // falls beyond the edge sample it starts from, in texel steps times its
 // reach: the edge's slope carried on, faded out by a smoothstep, goes
@@ -112,8 +108,9 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
     skirt_m = skirtErrorBoundM(settings, tile.z, max_error_m) + 2 * texel_m * at_height;
   }
   const double sag_m = geo::chordSagM(longest_edge_m);
-  const double bow_rad = geo::chordBowRad(longest_edge_m);
-  const double drift_rad = skirt_m * kMaxDeflectionRad / geo::kMinCurvatureRadiusM;
+  const double bow_rad = geo::chordBowRad(longest_edge_m, std::max(-box.south, box.north));
+  // A skirt hung towards the centre moves north or south as a deep point does.
+  const double drift_rad = skirt_m * geo::kMaxDeflectionRad / geo::kMinCurvatureRadiusM;
 
   io::GlbPlacement placement;
   placement.enu_to_ecef = tileFrame(scheme, to_lon_lat, tile).localToEcef();
