@@ -764,8 +764,9 @@ TEST(Inputs, AGeoTransformThatIsNoNumberIsRefusedShowingIt) {
   writeDem(dir / "nan.tif", 50, 50, no_origin, hill);
   for (const RunResult& r : tileAndInfo(dir / "nan.tif")) {
     EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
-    EXPECT_TRUE(contains(r.err, "nan.tif' has a geotransform of origin (nan, 46) and pixels 0.001 by -0.001: each "
-                                "must be a number, the pixel sizes not 0"))
+    EXPECT_TRUE(contains(r.err,
+                         "nan.tif' has a geotransform of origin (nan, 46) and pixels 0.001 by -0.001: each "
+                         "must be a number, the pixel sizes not 0"))
         << describe(r);
   }
 }
@@ -810,8 +811,9 @@ TEST(Inputs, ADemWhosePixelsCannotBeReadStopsTheRunNamingIt) {
     const RunResult r = run(tileArgs(dir / name, dir / "out", name, "11-12"));
     EXPECT_EQ(r.exit_code, kExitInput) << name << ": " << describe(r);
     EXPECT_TRUE(contains(r.err, ": dem: cannot read a window of '" + (dir / name).string() + "' (")) << describe(r);
-    EXPECT_TRUE(contains(r.err, "; the run stopped there; the 0 tiles written are whole: repair or replace the file "
-                                "and run it again with --resume"))
+    EXPECT_TRUE(contains(r.err,
+                         "; the run stopped there; the 0 tiles written are whole: repair or replace the file "
+                         "and run it again with --resume"))
         << describe(r);
     EXPECT_EQ(r.err.find("error:"), r.err.rfind("error:")) << "one error line: " << describe(r);
     EXPECT_FALSE(fs::exists(dir / "out" / name)) << describe(r);

@@ -625,11 +625,7 @@ TEST(ServeRanges, IfMatchOfAnotherVersionIs412) {
     std::string if_match;
     int status;
   } cases[] = {
-      {etag, 206},
-      {"*", 206},
-      {"\"old\", " + etag, 206},
-      {"\"old\"", 412},
-      {"W/" + etag, 412},  // compared strongly
+      {etag, 206}, {"*", 206}, {"\"old\", " + etag, 206}, {"\"old\"", 412}, {"W/" + etag, 412},  // compared strongly
   };
   for (const auto& c : cases) {
     SCOPED_TRACE(c.if_match);
@@ -645,8 +641,7 @@ TEST(ServeRanges, IfMatchOfAnotherVersionIs412) {
       exchange(running.port(), "GET", "/fake/3/1/1.png", "If-Match: \"old\"\r\nIf-Match: " + etag + "\r\n").status,
       200);
   EXPECT_EQ(
-      exchange(running.port(), "GET", "/fake/3/1/1.png", "If-Match: \"old\"\r\nIf-None-Match: " + etag + "\r\n")
-          .status,
+      exchange(running.port(), "GET", "/fake/3/1/1.png", "If-Match: \"old\"\r\nIf-None-Match: " + etag + "\r\n").status,
       412);
 }
 

@@ -242,10 +242,10 @@ TEST(ServeHttpRules, HeadsThatMustBeRefused) {
   EXPECT_NE(server::framingProblem(11, Lines{"a/b"}, false, false), "");
   EXPECT_EQ(server::framingProblem(11, Lines{"tiles.example.com:8080"}, false, false), "");
   EXPECT_EQ(server::framingProblem(11, Lines{"[::1]:80"}, false, false), "");
-  EXPECT_EQ(server::framingProblem(11, Lines{""}, false, false), "");         // a target without authority
-  EXPECT_EQ(server::framingProblem(11, Lines{"x,y"}, false, false), "");      // a reg-name may hold sub-delims
+  EXPECT_EQ(server::framingProblem(11, Lines{""}, false, false), "");           // a target without authority
+  EXPECT_EQ(server::framingProblem(11, Lines{"x,y"}, false, false), "");        // a reg-name may hold sub-delims
   EXPECT_EQ(server::framingProblem(11, Lines{"10.0.0.1:"}, false, false), "");  // port = *DIGIT
-  EXPECT_EQ(server::framingProblem(11, Lines{"[v1.x]"}, false, false), "");   // IPvFuture
+  EXPECT_EQ(server::framingProblem(11, Lines{"[v1.x]"}, false, false), "");     // IPvFuture
   for (const std::string_view host : {"x:abc", "1.2.3.4:80:90", "[::1", "[::1]x", "::1", "a@b", "[::1]:8a"}) {
     EXPECT_NE(server::framingProblem(11, Lines{host}, false, false), "") << host;
   }

@@ -102,7 +102,8 @@ void printInfo(const dem::DemSource& dem, std::size_t files, int tile_size) {
   std::printf("lon/lat    west %.6f, south %.6f, east %.6f, north %.6f\n", lon_lat.min_x, lon_lat.min_y,
               lon_lat.max_x, lon_lat.max_y);
   if (dem.fileCount() == 1 && dem.filePartCount(0) > 1) {
-    std::printf("sources    in %zu groups apart: the tiles counted below are those round each group\n", dem.filePartCount(0));
+    std::printf("sources    in %zu groups apart: the tiles counted below are those round each group\n",
+                dem.filePartCount(0));
   }
   std::printf("zooms      for %d-texel tiles: from where the DEM fits one tile to auto's choice, the deepest\n"
               "           zoom whose texels are no smaller than the DEM's pixels\n",

@@ -59,8 +59,7 @@ struct OutputStorageError : RunStoppingError {
 // A DEM file that opened but whose pixels cannot be read: a GeoTIFF cut
 // short, a VRT whose source file is gone.
 struct UnreadableDemError : RunStoppingError {
-  explicit UnreadableDemError(const std::string& message)
-      : RunStoppingError(message, "repair or replace the file") {}
+  explicit UnreadableDemError(const std::string& message) : RunStoppingError(message, "repair or replace the file") {}
 };
 
 // Throws OutputStorageError for an errno value of that kind (ENOSPC, EDQUOT,

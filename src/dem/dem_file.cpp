@@ -324,8 +324,10 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   if (!(std::isfinite(gt[1]) && std::isfinite(gt[5]) && gt[1] != 0.0 && gt[5] != 0.0 && std::isfinite(gt[0]) &&
         std::isfinite(gt[3]))) {
     char text[200];
-    std::snprintf(text, sizeof text, "has a geotransform of origin (%g, %g) and pixels %g by %g: each must be a number, "
-                  "the pixel sizes not 0", gt[0], gt[3], gt[1], gt[5]);
+    std::snprintf(text, sizeof text,
+                  "has a geotransform of origin (%g, %g) and pixels %g by %g: each must be a number, "
+                  "the pixel sizes not 0",
+                  gt[0], gt[3], gt[1], gt[5]);
     throw InputError("dem: " + name + " " + text);
   }
   const long width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
@@ -617,8 +619,8 @@ void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster
                                                      ? averageOverFootprints(band, *reader.transformer, grid, voids)
                                                      : interpolateCubic(band, *reader.transformer, grid, voids);
   if (!resampled) {
-    throw UnreadableDemError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" + lastGdalError() +
-                     ")");
+    throw UnreadableDemError("dem: cannot read a window of '" + shortened(m_meta->info().path) + "' (" +
+                             lastGdalError() + ")");
   }
   for (std::size_t k = 0; k < heights.data.size(); ++k) {
     if (std::isnan(heights.data[k])) heights.data[k] = resampled->data[k];
