@@ -18,6 +18,7 @@
 
 #include "core/error.hpp"
 #include "core/floor.hpp"
+#include "dem/crs_transform.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
 #include "dem/gdal_util.hpp"
@@ -599,6 +600,18 @@ TEST(Reprojections, OneForEachPairOfCrssAndRefusesAnUnknownOne) {
   EXPECT_NEAR(x, 1e6 / 6378137.0 * 180 / M_PI, 1e-9);
   EXPECT_NEAR(y, 0, 1e-9);
   EXPECT_THROW(reprojections.between("EPSG:999999", mercator), InputError);
+}
+
+// x runs one turn of longitude in 360 degrees (geographic) or the
+// equator's length (Web Mercator, on WGS84's semi-major axis), and in no
+// fixed width where it is no linear function of longitude.
+TEST(TurnWidth, IsOneTurnOfXWhereXRunsRoundTheGlobe) {
+  EXPECT_NEAR(dem::turnWidthOf("EPSG:4326"), 360, 1e-9);
+  EXPECT_NEAR(dem::turnWidthOf("EPSG:3857"), 2 * M_PI * 6378137.0, 1e-6);
+  EXPECT_EQ(dem::turnWidthOf("EPSG:32633"), 0);  // UTM
+  EXPECT_EQ(dem::turnWidthOf("EPSG:3413"), 0);   // polar stereographic
+  EXPECT_EQ(dem::turnTowards(-179.9, 180.1), 360);
+  EXPECT_EQ(dem::turnTowards(1, -1e7, 2e7), -2e7);
 }
 
 // Float32 heights near 1000 m are stored to 6e-5 m: two windows whose grids

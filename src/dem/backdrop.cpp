@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <optional>
 
@@ -41,10 +42,35 @@ std::array<double, 4> cubicWeights(double t) {
 
 namespace {
 
-// How far (x, y) lies from `box`, squared: 0 within it.
-double distance2To(const Extent& box, double x, double y) {
-  const double dx = std::max({box.min_x - x, 0.0, x - box.max_x}), dy = std::max({box.min_y - y, 0.0, y - box.max_y});
-  return dx * dx + dy * dy;
+// How far x lies from [low, high] along an axis that runs round a turn of
+// `turn` (the nearer way round; 0: one that does not).
+double gapAlong(double low, double high, double x, double turn) {
+  if (turn > 0) {
+    if (high - low >= turn) return 0;
+    x -= turn * std::round((x - (low + high) / 2) / turn);  // within half a turn of the middle
+  }
+  return std::max({low - x, 0.0, x - high});
+}
+
+// The least and the most gapAlong of the points of [from, to].
+struct Gaps {
+  double least, most;
+};
+Gaps gapsAlong(double low, double high, double from, double to, double turn) {
+  double most = std::max(gapAlong(low, high, from, turn), gapAlong(low, high, to, turn));
+  if (turn == 0) return {std::max({low - to, 0.0, from - high}), most};
+  // Round a turn the gap is largest half a turn from [low, high]'s middle.
+  const double opposite = (low + high) / 2 + turn / 2;
+  if (to - from >= turn || std::ceil((from - opposite) / turn) <= std::floor((to - opposite) / turn)) {
+    most = std::max(most, gapAlong(low, high, opposite, turn));
+  }
+  double least = most;
+  const double shift = turn * std::round(((from + to) / 2 - (low + high) / 2) / turn);
+  for (const double k : {-1.0, 0.0, 1.0}) {
+    const double lo = low + shift + k * turn, hi = high + shift + k * turn;
+    least = std::min(least, std::max({lo - to, 0.0, from - hi}));
+  }
+  return {to - from >= turn ? 0.0 : least, most};
 }
 
 // Cells along the longer side of each of `parts` parts.
@@ -55,8 +81,9 @@ int cellsPerPart(std::size_t parts) {
 
 }  // namespace
 
-Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vector<std::vector<std::size_t>>& groups)
-    : m_part_of_file(dem.fileCount(), 0), m_dem(dem.reader()) {
+Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::optional<Extent>& globe,
+                   const std::vector<std::vector<std::size_t>>& groups)
+    : m_turn(globe ? globe->width() : 0), m_part_of_file(dem.fileCount(), 0), m_dem(dem.reader()) {
   const int cells = cellsPerPart(groups.size());
   for (const std::vector<std::size_t>& files : groups) {
     Extent e = dem.fileBoundsIn(files.front(), crs);
@@ -64,24 +91,34 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::vect
       e = e.united(dem.fileBoundsIn(file, crs));
       m_part_of_file[file] = m_parts.size();
     }
-    // Longitudes of a DEM across the antimeridian come back west > east: the
-    // backdrop then spans every longitude. Counted 0 to 360, they are the
-    // places the tiles name from -180.
+    // A DEM across the antimeridian comes back west > east: its east edge
+    // lies a turn on. Longitudes counted 0 to 360 are the places the tiles
+    // name from -180.
     if (e.min_x > e.max_x) {
-      e.min_x = -180, e.max_x = 180;
-    } else if (isLonLatCrs(crs)) {
-      e = turnedIntoRange(e);
+      if (globe) {
+        e.max_x += m_turn;
+      } else {
+        e.min_x = -180, e.max_x = 180;
+      }
     }
+    if (isLonLatCrs(crs)) e = turnedIntoRange(e);
     const double margin = kMargin * std::max(e.width(), e.height());
     const double span = std::max(e.width(), e.height()) + 2 * margin;
-    const double cell = span / cells;
+    double cell = span / cells;
     Part& part = m_parts.emplace_back();
     part.bounds = e;
+    part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
+    if (globe) {
+      // Whole cells a turn, so that a column lies at the same places every
+      // turn; a grid wider than the globe goes once round it.
+      part.globe_cells = int(std::ceil(m_turn / cell));
+      cell = m_turn / part.globe_cells;
+      part.grid.width = std::min(int(std::ceil((e.width() + 2 * margin) / cell)), part.globe_cells);
+    }
     part.grid.crs = crs;
     part.grid.cell_w = part.grid.cell_h = cell;
     part.grid.origin_x = e.min_x - margin;
     part.grid.origin_y = e.max_y + margin;
-    part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
     part.grid.height = int(std::ceil((e.height() + 2 * margin) / cell));
   }
 }
@@ -109,27 +146,23 @@ void Backdrop::make() const {
   if (m_failure) std::rethrow_exception(m_failure);
 }
 
-std::size_t Backdrop::nearestPart(double x, double y) const {
-  std::size_t nearest = 0;
-  for (std::size_t p = 1; p < m_parts.size(); ++p) {
-    if (distance2To(m_parts[p].bounds, x, y) < distance2To(m_parts[nearest].bounds, x, y)) nearest = p;
-  }
-  return nearest;
+double Backdrop::distance2To(const Extent& box, double x, double y) const {
+  const double dx = gapAlong(box.min_x, box.max_x, x, m_turn), dy = gapAlong(box.min_y, box.max_y, y, 0);
+  return dx * dx + dy * dy;
 }
 
 std::vector<std::size_t> Backdrop::partsNear(const Extent& extent, const std::vector<std::size_t>& among) const {
   // A part is nearest to some point of the extent only if its closest
-  // approach is no farther than the farthest any other part gets from it
-  // (the distance to a box is convex: at most its value at a corner).
-  const auto farthest = [&](const Extent& bounds) {
-    return std::max({distance2To(bounds, extent.min_x, extent.min_y), distance2To(bounds, extent.min_x, extent.max_y),
-                     distance2To(bounds, extent.max_x, extent.min_y), distance2To(bounds, extent.max_x, extent.max_y)});
+  // approach is no farther than the farthest any other part gets from it.
+  // The squared distance is a sum of a gap along x and one along y, so its
+  // least and most over the extent are those of each gap.
+  const auto gaps = [&](const Extent& bounds) {
+    const Gaps x = gapsAlong(bounds.min_x, bounds.max_x, extent.min_x, extent.max_x, m_turn);
+    const Gaps y = gapsAlong(bounds.min_y, bounds.max_y, extent.min_y, extent.max_y, 0);
+    return Gaps{x.least * x.least + y.least * y.least, x.most * x.most + y.most * y.most};
   };
-  const auto closest = [&](const Extent& bounds) {
-    const double dx = std::max({bounds.min_x - extent.max_x, 0.0, extent.min_x - bounds.max_x});
-    const double dy = std::max({bounds.min_y - extent.max_y, 0.0, extent.min_y - bounds.max_y});
-    return dx * dx + dy * dy;
-  };
+  const auto farthest = [&](const Extent& bounds) { return gaps(bounds).most; };
+  const auto closest = [&](const Extent& bounds) { return gaps(bounds).least; };
   double bound = farthest(m_parts[among.front()].bounds);
   for (const std::size_t p : among) bound = std::min(bound, farthest(m_parts[p].bounds));
   std::vector<std::size_t> near;
@@ -177,11 +210,12 @@ Backdrop::Range Backdrop::rangeOver(const Extent& extent) const {
 }
 
 Backdrop::Range Backdrop::Part::rangeOver(const Extent& extent) const {
-  const Taps west = tapsAtX(extent.min_x), east = tapsAtX(extent.max_x);
+  const std::vector<std::uint8_t> columns = columnsReached(extent.min_x, extent.max_x);
   const Taps north = tapsAtY(extent.max_y), south = tapsAtY(extent.min_y);
-  float low = surface.at(west.cell[0], north.cell[0]), high = low;
+  float low = std::numeric_limits<float>::max(), high = std::numeric_limits<float>::lowest();
   for (int r = north.cell[0]; r <= south.cell[3]; ++r) {
-    for (int c = west.cell[0]; c <= east.cell[3]; ++c) {
+    for (int c = 0; c < grid.width; ++c) {
+      if (!columns[std::size_t(c)]) continue;
       low = std::min(low, surface.at(c, r));
       high = std::max(high, surface.at(c, r));
     }
@@ -190,18 +224,42 @@ Backdrop::Range Backdrop::Part::rangeOver(const Extent& extent) const {
   return {low - overshoot, high + overshoot};
 }
 
+std::vector<std::uint8_t> Backdrop::Part::columnsReached(double west, double east) const {
+  std::vector<std::uint8_t> reached(std::size_t(grid.width), 0);
+  if (globe_cells > 0 && east - west >= globe_cells * grid.cell_w) {
+    std::fill(reached.begin(), reached.end(), 1);
+    return reached;
+  }
+  // The taps change only where a position crosses a cell's centre (or the
+  // gap round the globe, where they stay): every half cell meets them all.
+  const int steps = int(std::ceil(2 * (east - west) / grid.cell_w));
+  for (int k = 0; k <= steps; ++k) {
+    const double x = k == steps ? east : west + k * (east - west) / steps;
+    for (const int c : tapsAtX(x).cell) reached[std::size_t(c)] = 1;
+  }
+  return reached;
+}
+
 Backdrop::Taps Backdrop::Part::tapsAtX(double x) const {
-  return tapsAlong((x - grid.origin_x) / grid.cell_w, grid.width);
+  const double cell = (x - grid.origin_x) / grid.cell_w;
+  if (globe_cells == 0) return tapsAlong(cell, grid.width);
+  // Cells past the first column's centre, counted within one turn.
+  const double at = cell - 0.5 - globe_cells * std::floor((cell - 0.5) / globe_cells);
+  if (grid.width == globe_cells) {
+    // Columns round the whole globe: the taps run on past the last to the first.
+    const int first = std::min(int(at), globe_cells - 1);
+    Taps taps{cubicWeights(at - first), {}};
+    for (int k = 0; k < 4; ++k) taps.cell[std::size_t(k)] = (first - 1 + k + globe_cells) % globe_cells;
+    return taps;
+  }
+  if (at <= grid.width - 1) return tapsAlong(at + 0.5, grid.width);
+  // In the gap from the east edge's centre to the west edge's a turn on.
+  const double share = (at - (grid.width - 1)) / double(globe_cells - grid.width + 1);
+  return {{1 - share, share, 0, 0}, {grid.width - 1, 0, 0, 0}};
 }
 
 Backdrop::Taps Backdrop::Part::tapsAtY(double y) const {
   return tapsAlong((grid.origin_y - y) / grid.cell_h, grid.height);
-}
-
-float Backdrop::heightAt(double x, double y) const {
-  make();
-  const Part& part = m_parts[nearestPart(x, y)];
-  return part.heightFrom(part.tapsAtX(x), part.tapsAtY(y));
 }
 
 Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::uint8_t>& wanted) const {
@@ -210,7 +268,7 @@ Raster<float> Backdrop::heightsAt(const GridSpec& grid, const std::vector<std::u
   const std::vector<std::size_t> near = partsNear(extent);
   if (near.size() == 1) return m_parts[near.front()].heightsAt(grid, wanted);
   // Cells nearest to different parts: each from its own (the first of
-  // equals, as nearestPart takes it), with heightFrom's arithmetic, which
+  // equals), with heightFrom's arithmetic, which
   // Part::heightsAt shares. Block by block, each cell compares only the
   // parts near its block: a coarse tile may lie among hundreds of islands.
   Raster<float> heights(grid.width, grid.height, 0.0f);
@@ -247,26 +305,25 @@ Raster<float> Backdrop::Part::heightsAt(const GridSpec& target, const std::vecto
   if (columns.empty() || rows.empty()) return Raster<float>(target.width, target.height, 0.0f);
   // The backdrop's columns the grid's taps reach, each mixed along a row's
   // taps once for the whole row: heightFrom's arithmetic, a quarter of it.
-  int first_column = columns.front().cell[0], last_column = first_column;
+  std::vector<std::uint8_t> reached(std::size_t(grid.width), 0);
   for (const Taps& taps : columns) {
-    first_column = std::min(first_column, taps.cell[0]);
-    last_column = std::max(last_column, taps.cell[3]);
+    for (const int c : taps.cell) reached[std::size_t(c)] = 1;
   }
-  std::vector<double> mixed(std::size_t(last_column - first_column + 1));
+  std::vector<double> mixed(std::size_t(grid.width));
   Raster<float> heights(target.width, target.height, 0.0f);
   for (std::size_t r = 0, k = 0; r < rows.size(); ++r, k += columns.size()) {
     const auto row_wanted = wanted.begin() + std::ptrdiff_t(k);
     if (std::none_of(row_wanted, row_wanted + std::ptrdiff_t(columns.size()), [](std::uint8_t w) { return w != 0; })) {
       continue;
     }
-    for (int column = first_column; column <= last_column; ++column) {
-      mixed[std::size_t(column - first_column)] = alongColumn(column, rows[r]);
+    for (int column = 0; column < grid.width; ++column) {
+      if (reached[std::size_t(column)]) mixed[std::size_t(column)] = alongColumn(column, rows[r]);
     }
     for (std::size_t c = 0; c < columns.size(); ++c) {
       if (!wanted[k + c]) continue;
       double sum = 0;
       for (std::size_t i = 0; i < 4; ++i) {
-        sum += columns[c].weight[i] * mixed[std::size_t(columns[c].cell[i] - first_column)];
+        sum += columns[c].weight[i] * mixed[std::size_t(columns[c].cell[i])];
       }
       heights.data[k + c] = float(sum);
     }

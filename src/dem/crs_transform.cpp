@@ -2,6 +2,7 @@
 
 #include <ogr_spatialref.h>
 
+#include <algorithm>
 #include <cmath>
 #include <map>
 
@@ -40,7 +41,28 @@ bool isLonLatCrs(const std::string& crs) {
   return known.emplace(crs, spatialReference(crs).IsGeographic()).first->second;
 }
 
-double turnTowards(double from, double to) { return 360 * std::round((to - from) / 360); }
+double turnWidthOf(const std::string& crs) {
+  thread_local std::map<std::string, double> known;
+  const auto it = known.find(crs);
+  if (it != known.end()) return it->second;
+  double turn = 0;
+  const OGRSpatialReference wgs84 = spatialReference("EPSG:4326"), target = spatialReference(crs);
+  const std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&wgs84, &target));
+  // Quarter turns on the equator and at 60 degrees: equal steps, the same at
+  // both latitudes, are a CRS whose x is longitude scaled.
+  double x[5] = {-90, 0, 90, 0, 90}, y[5] = {0, 0, 0, 60, 60};
+  int ok[5] = {};
+  if (ct && ct->Transform(5, x, y, nullptr, ok) && std::all_of(ok, ok + 5, [](int v) { return v != 0; })) {
+    const double step = x[1] - x[0];
+    const double tolerance = 1e-9 * std::abs(step);
+    if (step > 0 && std::abs(x[2] - x[1] - step) <= tolerance && std::abs(x[4] - x[3] - step) <= tolerance) {
+      turn = 4 * step;
+    }
+  }
+  return known.emplace(crs, turn).first->second;
+}
+
+double turnTowards(double from, double to, double turn) { return turn * std::round((to - from) / turn); }
 
 Extent turnedIntoRange(const Extent& lon_lat) {
   const double turn_deg = 360 * std::floor((lon_lat.min_x + 180) / 360);

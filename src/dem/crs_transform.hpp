@@ -28,8 +28,15 @@ class ToLonLat {
 // asked for every read).
 bool isLonLatCrs(const std::string& crs);
 
-// The whole turns of 360 degrees that bring longitude `from` nearest `to`.
-double turnTowards(double from, double to);
+// How far x runs in one turn of longitude where x is a linear function of
+// longitude alone (360 for longitude / latitude, the equator's length for
+// Web Mercator), 0 where it is not (UTM, polar stereographic). Kept per
+// thread: it is asked for every read.
+double turnWidthOf(const std::string& crs);
+
+// The whole turns of `turn` (360 degrees, or a CRS's turnWidthOf) that bring
+// x `from` nearest `to`.
+double turnTowards(double from, double to, double turn = 360);
 
 // `lon_lat` moved by whole turns of 360 degrees so that its west edge lies in
 // [-180, 180): a DEM counted 0 to 360 is the same place.

@@ -112,21 +112,27 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
     return whole;
   }
   if (!(bounds.min_x <= bounds.max_x) || !(bounds.min_y <= bounds.max_y)) return whole;  // across the antimeridian
-  if (file.srs().IsGeographic() && isLonLatCrs(grid.crs)) {
-    // A DEM stored past 180 (179.9 to 180.1, or 0 to 360) meets a lon/lat
-    // grid a whole turn round, as LatticeTransformer reads it.
-    const double turn_deg =
-        turnTowards((bounds.min_x + bounds.max_x) / 2, grid.origin_x + grid.width * grid.cell_w / 2);
-    bounds.min_x += turn_deg, bounds.max_x += turn_deg;
-  }
   const double margin_x = 0.05 * bounds.width() + 4 * grid.cell_w;
   const double margin_y = 0.05 * bounds.height() + 4 * grid.cell_h;
   const auto clampTo = [](double v, int high) { return int(std::clamp(v, 0.0, double(high))); };
-  CellWindow window;
-  window.col0 = clampTo(std::floor((bounds.min_x - margin_x - grid.origin_x) / grid.cell_w), grid.width);
-  window.col1 = clampTo(std::ceil((bounds.max_x + margin_x - grid.origin_x) / grid.cell_w), grid.width);
+  CellWindow window = whole;
   window.row0 = clampTo(std::floor((grid.origin_y - bounds.max_y - margin_y) / grid.cell_h), grid.height);
   window.row1 = clampTo(std::ceil((grid.origin_y - bounds.min_y + margin_y) / grid.cell_h), grid.height);
+  const double turn = turnWidthOf(grid.crs);
+  // A file round the whole globe reaches a grid past either of its edges
+  // (EdgeExtension reads its pixels a turn on).
+  if (turn > 0 && bounds.width() + 2 * margin_x >= turn) return window;
+  if (turn > 0) {
+    // A file meets a grid whose x runs round the globe a whole turn round,
+    // as the reprojection reads it: a DEM stored past 180 (179.9 to 180.1,
+    // or 0 to 360), or a file east of the antimeridian beside a grid
+    // reaching past it from the west.
+    const double turned =
+        turnTowards((bounds.min_x + bounds.max_x) / 2, grid.origin_x + grid.width * grid.cell_w / 2, turn);
+    bounds.min_x += turned, bounds.max_x += turned;
+  }
+  window.col0 = clampTo(std::floor((bounds.min_x - margin_x - grid.origin_x) / grid.cell_w), grid.width);
+  window.col1 = clampTo(std::ceil((bounds.max_x + margin_x - grid.origin_x) / grid.cell_w), grid.width);
   return window;
 }
 

@@ -260,7 +260,8 @@ LayerPlan planLayer(const config::TileJob& job) {
   for (const FileGroup& group : groups) {
     if (!group.files.empty()) groups_of_files.push_back(group.files);
   }
-  plan.backdrop = std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs(), groups_of_files);
+  plan.backdrop =
+      std::make_shared<const dem::Backdrop>(*dem, plan.scheme->crs(), plan.scheme->globe(), groups_of_files);
   dem->closeFiles();  // the workers open their own
   plan.backend = job.backend;
   plan.workers = job.workers > 0 ? job.workers : usableCores().count;

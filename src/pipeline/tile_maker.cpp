@@ -77,8 +77,7 @@ void scaleHeights(Raster<float>& heights, double scale) {
 // column of a global scheme is the first (the antimeridian).
 TileId eastOf(const tiling::Scheme& scheme, const TileId& tile) {
   const int cols = scheme.levelGrid(tile.z).cols;
-  const bool wraps = scheme.kind() != SchemeKind::kNative;
-  return {tile.z, wraps && tile.x + 1 == cols ? 0 : tile.x + 1, tile.y};
+  return {tile.z, scheme.globe() && tile.x + 1 == cols ? 0 : tile.x + 1, tile.y};
 }
 TileId southOf(const tiling::Scheme& scheme, const TileId& tile) {
   return {tile.z, tile.x, scheme.tmsRows() ? tile.y - 1 : tile.y + 1};

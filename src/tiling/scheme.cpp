@@ -25,6 +25,12 @@ std::unique_ptr<Scheme> makeScheme(SchemeKind kind, int tile_size, const GridSpe
   throw std::invalid_argument("makeScheme: unknown scheme");
 }
 
+std::optional<Extent> Scheme::globe() const {
+  if (kind() == SchemeKind::kNative) return std::nullopt;
+  const LevelGrid g = levelGrid(0);
+  return Extent{g.west, g.north - g.rows * g.tile_h, g.west + g.cols * g.tile_w, g.north};
+}
+
 Extent Scheme::tileExtent(const TileId& tile) const {
   const LevelGrid g = levelGrid(tile.z);
   const int row_from_north = tmsRows() ? g.rows - 1 - tile.y : tile.y;

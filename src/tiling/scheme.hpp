@@ -58,6 +58,11 @@ class Scheme {
   // the DEM's georeferencing can map (native).
   virtual std::optional<Extent> fromLonLat(const Extent& lon_lat) const = 0;
 
+  // The whole globe in the scheme's CRS, the extent of its zoom 0, whose
+  // east edge is its west edge a turn round (the antimeridian); nullopt for
+  // native, whose tiles end where the DEM does.
+  std::optional<Extent> globe() const;
+
   Extent tileExtent(const TileId& tile) const;
   // Tiles at `zoom` whose extent overlaps `area` (in the scheme's CRS), in
   // row-major order from the north-west.
