@@ -93,5 +93,28 @@ TEST(Region, HoldsEveryPointOfAStraightEdgeAlongAParallel) {
   }
 }
 
+// 3D Tiles reads a region's longitudes in [-pi, pi], eastward from west to
+// east (west > east across the antimeridian): a mesh of a DEM counted past
+// 180 degrees, whose frame's origin lies there too, gets its place counted
+// from -180, wholly east of the antimeridian or across it.
+TEST(Region, CountsLongitudesFromMinus180PastTheAntimeridian) {
+  struct Case {
+    double origin_lon, west_lon, east_lon;  // the mesh's, counted past 180
+    double west_deg, east_deg;              // its region's
+  };
+  for (const Case& c : {Case{180.12, 180.056, 180.184, -179.944, -179.816},
+                        Case{179.99, 179.95, 180.03, 179.95, -179.97}, Case{-170.0, -180.0, -160.0, -180.0, -160.0}}) {
+    SCOPED_TRACE("origin " + std::to_string(c.origin_lon));
+    const geo::LocalFrame frame(c.origin_lon, 50.0);
+    const glm::dvec3 a = frame.toLocal(c.west_lon, 50.0, 0), b = frame.toLocal(c.east_lon, 50.1, 0);
+    const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, frame, 0);
+    constexpr double kFloat32PositionDeg = 1e-6;  // a float32 vertex tens of kilometres from its origin
+    EXPECT_NEAR(glm::degrees(region.west), c.west_deg, kFloat32PositionDeg);
+    EXPECT_NEAR(glm::degrees(region.east), c.east_deg, kFloat32PositionDeg);
+    EXPECT_GE(region.west, -M_PI);
+    EXPECT_LE(region.east, M_PI);
+  }
+}
+
 }  // namespace
 }  // namespace terrabake
