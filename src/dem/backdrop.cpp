@@ -47,7 +47,7 @@ namespace {
 double gapAlong(double low, double high, double x, double turn) {
   if (turn > 0) {
     if (high - low >= turn) return 0;
-    x -= turn * std::round((x - (low + high) / 2) / turn);  // within half a turn of the middle
+    x += turnTowards(x, (low + high) / 2, turn);  // within half a turn of the middle
   }
   return std::max({low - x, 0.0, x - high});
 }
@@ -65,7 +65,7 @@ Gaps gapsAlong(double low, double high, double from, double to, double turn) {
     most = std::max(most, gapAlong(low, high, opposite, turn));
   }
   double least = most;
-  const double shift = turn * std::round(((from + to) / 2 - (low + high) / 2) / turn);
+  const double shift = turnTowards((low + high) / 2, (from + to) / 2, turn);
   for (const double k : {-1.0, 0.0, 1.0}) {
     const double lo = low + shift + k * turn, hi = high + shift + k * turn;
     least = std::min(least, std::max({lo - to, 0.0, from - hi}));
