@@ -61,7 +61,8 @@ Gaps gapsAlong(double low, double high, double from, double to, double turn) {
   if (turn == 0) return {std::max({low - to, 0.0, from - high}), most};
   // Round a turn the gap is largest half a turn from [low, high]'s middle.
   const double opposite = (low + high) / 2 + turn / 2;
-  if (to - from >= turn || std::ceil((from - opposite) / turn) <= std::floor((to - opposite) / turn)) {
+  if (to - from >= turn) return {0, gapAlong(low, high, opposite, turn)};
+  if (std::ceil((from - opposite) / turn) <= std::floor((to - opposite) / turn)) {
     most = std::max(most, gapAlong(low, high, opposite, turn));
   }
   double least = most;
@@ -70,7 +71,7 @@ Gaps gapsAlong(double low, double high, double from, double to, double turn) {
     const double lo = low + shift + k * turn, hi = high + shift + k * turn;
     least = std::min(least, std::max({lo - to, 0.0, from - hi}));
   }
-  return {to - from >= turn ? 0.0 : least, most};
+  return {least, most};
 }
 
 // Cells along the longer side of each of `parts` parts.
@@ -107,14 +108,14 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::opti
     double cell = span / cells;
     Part& part = m_parts.emplace_back();
     part.bounds = e;
-    part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
     if (globe) {
-      // Whole cells a turn, so that a column lies at the same places every
-      // turn; a grid wider than the globe goes once round it.
+      // Whole cells a turn, so that a column lies at the same places every turn.
       part.globe_cells = int(std::ceil(m_turn / cell));
       cell = m_turn / part.globe_cells;
-      part.grid.width = std::min(int(std::ceil((e.width() + 2 * margin) / cell)), part.globe_cells);
     }
+    part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
+    // A grid wider than the globe goes once round it.
+    if (globe) part.grid.width = std::min(part.grid.width, part.globe_cells);
     part.grid.crs = crs;
     part.grid.cell_w = part.grid.cell_h = cell;
     part.grid.origin_x = e.min_x - margin;
@@ -156,18 +157,18 @@ std::vector<std::size_t> Backdrop::partsNear(const Extent& extent, const std::ve
   // approach is no farther than the farthest any other part gets from it.
   // The squared distance is a sum of a gap along x and one along y, so its
   // least and most over the extent are those of each gap.
-  const auto gaps = [&](const Extent& bounds) {
+  std::vector<Gaps> squared;  // of each of `among`
+  double bound = std::numeric_limits<double>::max();
+  for (const std::size_t p : among) {
+    const Extent& bounds = m_parts[p].bounds;
     const Gaps x = gapsAlong(bounds.min_x, bounds.max_x, extent.min_x, extent.max_x, m_turn);
     const Gaps y = gapsAlong(bounds.min_y, bounds.max_y, extent.min_y, extent.max_y, 0);
-    return Gaps{x.least * x.least + y.least * y.least, x.most * x.most + y.most * y.most};
-  };
-  const auto farthest = [&](const Extent& bounds) { return gaps(bounds).most; };
-  const auto closest = [&](const Extent& bounds) { return gaps(bounds).least; };
-  double bound = farthest(m_parts[among.front()].bounds);
-  for (const std::size_t p : among) bound = std::min(bound, farthest(m_parts[p].bounds));
+    squared.push_back({x.least * x.least + y.least * y.least, x.most * x.most + y.most * y.most});
+    bound = std::min(bound, squared.back().most);
+  }
   std::vector<std::size_t> near;
-  for (const std::size_t p : among) {
-    if (closest(m_parts[p].bounds) <= bound) near.push_back(p);
+  for (std::size_t i = 0; i < among.size(); ++i) {
+    if (squared[i].least <= bound) near.push_back(among[i]);
   }
   return near;
 }

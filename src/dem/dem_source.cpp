@@ -118,12 +118,11 @@ CellWindow reachOf(const FileMeta& file, const GridSpec& grid) {
   CellWindow window = whole;
   window.row0 = clampTo(std::floor((grid.origin_y - bounds.max_y - margin_y) / grid.cell_h), grid.height);
   window.row1 = clampTo(std::ceil((grid.origin_y - bounds.min_y + margin_y) / grid.cell_h), grid.height);
-  const double turn = turnWidthOf(grid.crs);
-  // A file round the whole globe reaches a grid past either of its edges
-  // (EdgeExtension reads its pixels a turn on).
-  if (turn > 0 && bounds.width() + 2 * margin_x >= turn) return window;
-  if (turn > 0) {
-    // A file meets a grid whose x runs round the globe a whole turn round,
+  if (const double turn = turnWidthOf(grid.crs); turn > 0) {
+    // A file round the whole globe reaches a grid past either of its edges
+    // (EdgeExtension reads its pixels a turn on).
+    if (bounds.width() + 2 * margin_x >= turn) return window;
+    // Any other file meets a grid whose x runs round the globe a whole turn round,
     // as the reprojection reads it: a DEM stored past 180 (179.9 to 180.1,
     // or 0 to 360), or a file east of the antimeridian beside a grid
     // reaching past it from the west.
