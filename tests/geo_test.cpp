@@ -2,11 +2,15 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <string>
 #include <vector>
 
+#include <glm/common.hpp>
 #include <glm/geometric.hpp>
+#include <glm/mat4x4.hpp>
+#include <glm/matrix.hpp>
 #include <glm/trigonometric.hpp>
 
 #include "geo/local_frame.hpp"
@@ -113,6 +117,83 @@ TEST(Region, CountsLongitudesFromMinus180PastTheAntimeridian) {
     EXPECT_NEAR(glm::degrees(region.east), c.east_deg, kFloat32PositionDeg);
     EXPECT_GE(region.west, -M_PI);
     EXPECT_LE(region.east, M_PI);
+  }
+}
+
+geo::Region regionDeg(double west, double south, double east, double north, double low = 0, double high = 0) {
+  return {glm::radians(west), glm::radians(south), glm::radians(east), glm::radians(north), low, high};
+}
+
+// Two regions make the smallest one that holds both: across the antimeridian
+// where that way round is the shorter, all longitudes where none is shorter
+// than a turn, and exactly the outer edges where neither crosses.
+TEST(Region, UnitesTheShorterWayRoundTheGlobe) {
+  struct Case {
+    geo::Region a, b;
+    double west_deg, east_deg;
+  };
+  for (const Case& c : {Case{regionDeg(179, 0, 180, 1), regionDeg(-180, 0, -179, 1), 179, -179},
+                        Case{regionDeg(10.25, 0, 11.5, 1), regionDeg(11.5, 0, 12.75, 1), 10.25, 12.75},
+                        Case{regionDeg(170, 0, -175, 1), regionDeg(-178, 0, -160, 1), 170, -160},
+                        Case{regionDeg(-170, 0, 170, 1), regionDeg(160, 0, -160, 1), -180, 180},
+                        Case{regionDeg(-180, 0, 180, 1), regionDeg(5, 0, 6, 1), -180, 180},
+                        Case{regionDeg(-10, 0, 10, 1), regionDeg(-5, 0, 5, 1), -10, 10}}) {
+    SCOPED_TRACE(std::to_string(glm::degrees(c.a.west)) + " " + std::to_string(glm::degrees(c.b.west)));
+    for (const geo::Region& united : {geo::unite(c.a, c.b), geo::unite(c.b, c.a)}) {
+      EXPECT_DOUBLE_EQ(glm::degrees(united.west), c.west_deg);
+      EXPECT_DOUBLE_EQ(glm::degrees(united.east), c.east_deg);
+    }
+  }
+  const geo::Region heights = geo::unite(regionDeg(1, -2, 2, 3, -10, 50), regionDeg(1.5, -1, 2.5, 4, 5, 80));
+  EXPECT_EQ(heights.south, glm::radians(-2.0));
+  EXPECT_EQ(heights.north, glm::radians(4.0));
+  EXPECT_EQ(heights.min_height_m, -10);
+  EXPECT_EQ(heights.max_height_m, 80);
+}
+
+// A box around a region holds every point of it, and is little larger than
+// the points' own extent along its axes: a tile of 0.2 degrees across the
+// antimeridian, and one of half the globe past a pole.
+TEST(Region, ABoxAroundItHoldsEveryPointAndLittleMore) {
+  struct Case {
+    geo::Region region;
+    double frame_lon, frame_lat;
+    double looser_m;  // how much wider than the points' extent the box may be on a side
+  };
+  for (const Case& c : {Case{regionDeg(179.9, 49.9, -179.9, 50.1, 200, 900), 180, 50, 1.0},
+                        Case{regionDeg(92, -90, -90, -40, -500, 4000), -179, -70, 150e3}}) {
+    SCOPED_TRACE(std::to_string(glm::degrees(c.region.west)));
+    const geo::LocalFrame frame(c.frame_lon, c.frame_lat);
+    glm::dmat4 frame_to_ecef(1.0);
+    const std::array<double, 16> m = frame.localToEcef();
+    for (int k = 0; k < 16; ++k) frame_to_ecef[k / 4][k % 4] = m[std::size_t(k)];
+    const geo::Box box = geo::boxAroundRegion(c.region, frame_to_ecef);
+    const glm::dmat4 ecef_to_frame = glm::inverse(frame_to_ecef);
+    // A grid far finer than the box's, at heights in between too.
+    constexpr int kSteps = 400;
+    const double lon_span = c.region.east - c.region.west + (c.region.west > c.region.east ? 2 * M_PI : 0);
+    glm::dvec3 low(1e300), high(-1e300);
+    int outside = 0;
+    for (int i = 0; i <= kSteps; ++i) {
+      for (int j = 0; j <= kSteps; ++j) {
+        for (const double share : {0.0, 0.37, 1.0}) {
+          const double lon = c.region.west + lon_span * i / kSteps;
+          const double lat = c.region.south + (c.region.north - c.region.south) * j / kSteps;
+          const double h = c.region.min_height_m + share * (c.region.max_height_m - c.region.min_height_m);
+          const glm::dvec3 p(ecef_to_frame *
+                             glm::dvec4(geo::geodeticToEcef(glm::degrees(lon), glm::degrees(lat), h), 1));
+          low = glm::min(low, p), high = glm::max(high, p);
+          for (int axis = 0; axis < 3; ++axis) {
+            if (std::abs(p[axis] - box.centre[axis]) > box.half_axes[std::size_t(axis)][axis]) ++outside;
+          }
+        }
+      }
+    }
+    EXPECT_EQ(outside, 0);
+    for (int axis = 0; axis < 3; ++axis) {
+      EXPECT_LE(box.centre[axis] + box.half_axes[std::size_t(axis)][axis] - high[axis], c.looser_m) << "axis " << axis;
+      EXPECT_LE(low[axis] - (box.centre[axis] - box.half_axes[std::size_t(axis)][axis]), c.looser_m) << "axis " << axis;
+    }
   }
 }
 

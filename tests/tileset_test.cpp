@@ -1,12 +1,15 @@
 // A layer's 3D Tiles (docs/CONTRACT.md §8), judged from the files alone the
 // way a 3D Tiles viewer reads them (tileset_walk.hpp): every content URI
-// resolves, each tile's region holds its children's and every point of its
-// own mesh, geometricError falls strictly down the tree, and the transforms
+// resolves, each tile's bounding volume holds every point of its own mesh
+// and of those below it (a region its children's regions), geometricError
+// falls strictly down the tree, and the transforms
 // composed from the root place each mesh where its enu_to_ecef says. The
-// pyramid is deep enough to continue in external tilesets. Skirts: walls of the stated
+// pyramid is deep enough to continue in external tilesets. Across the
+// antimeridian, boxes. Skirts: walls of the stated
 // depth under the tile's border, facing out, shaded like the edge above.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <glm/geometric.hpp>
@@ -19,6 +22,7 @@
 #include "io/tileset.hpp"
 #include "layer_check.hpp"
 #include "mesh/skirt.hpp"
+#include "support/analytic_terrain.hpp"
 #include "tileset_walk.hpp"
 
 namespace terrabake {
@@ -52,8 +56,8 @@ json readJson(const fs::path& path) {
 }
 
 // The walk over the layer folder's files.
-test::TilesetWalk folderWalk(const fs::path& layer) {
-  return test::TilesetWalk(layer, kMaxZoom, [layer](const std::string& path) -> std::optional<std::string> {
+test::TilesetWalk folderWalk(const fs::path& layer, int deepest_zoom = kMaxZoom) {
+  return test::TilesetWalk(layer, deepest_zoom, [layer](const std::string& path) -> std::optional<std::string> {
     if (!fs::is_regular_file(layer / path)) return std::nullopt;
     return test::readBytes(layer / path);
   });
@@ -119,6 +123,55 @@ TEST(Tileset, ShardsAndMbtilesHoldTheSameTileset) {
     if (!entry.is_regular_file()) continue;
     const std::string path = fs::relative(entry.path(), test::layerDir(whole)).string();
     EXPECT_EQ(stored->tilesetDocument(path).value_or(""), test::readBytes(entry.path())) << path;
+  }
+}
+
+// A tile whose mesh runs across the antimeridian, and a parent of tiles
+// either side of it, is bounded by a box in its frame (3d-tiles-renderer
+// makes a region with west > east a box round the other side of the globe,
+// thousands of kilometres across); every volume still holds its meshes and its children's, and a
+// union of regions either side of the antimeridian spans the gap between
+// them, not the whole band of longitudes: the root's box is about as wide
+// as the tiles under it. A DEM counted from 179.9 to 180.1 degrees, tiled
+// on its own grid (tiles across 180) and geodetic (tiles either side).
+TEST(Tileset, BoundsTilesAcrossTheAntimeridianWithBoxes) {
+  const fs::path dem = test::sharedFixture("tileset_across_antimeridian.tif", [](const fs::path& path) {
+    test_support::writeFloatDem(path, 4326, {179.9, 0.001, 0, 50.1, 0, -0.001}, 200, 200, [](double lon, double lat) {
+      return 600 + 250 * std::sin(lon * 2 * M_PI / 0.06) * std::cos(lat * 2 * M_PI / 0.045);
+    });
+  });
+  struct Case {
+    SchemeKind scheme;
+    int min_zoom, max_zoom;
+    double root_half_axis_m;  // at most: half the tiles' extent, and some
+  };
+  // The DEM is 14 km by 22 km; zoom-5 geodetic tiles are 5.6 degrees, 400 km at 50 N.
+  for (const Case& c : {Case{SchemeKind::kNative, 0, 0, 20e3}, Case{SchemeKind::kGeodetic, 5, 8, 500e3}}) {
+    const std::string name(wordOf(c.scheme));
+    SCOPED_TRACE(name);
+    config::TileJob job = test::tileJob(dem, "tileset/antimeridian_" + name, c.scheme, c.min_zoom, c.max_zoom);
+    job.max_zoom_auto = c.scheme == SchemeKind::kNative;  // every level of the DEM's own pyramid
+    job.tile_size = 32;
+    job.tileset = true;
+    job.backend = Backend::kCpu;
+    fs::remove_all(test::layerDir(job));
+    ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+    const fs::path layer = test::layerDir(job);
+    const std::set<TileId> on_disk = test::meshesOnDisk(layer);
+    ASSERT_FALSE(on_disk.empty());
+    const int deepest = std::max_element(on_disk.begin(), on_disk.end())->z;
+
+    test::TilesetWalk walk = folderWalk(layer, deepest);
+    walk.run();
+    for (const TileId& id : on_disk) EXPECT_EQ(walk.meshes_seen[id], 1) << id.str() << " is not in the tileset once";
+    EXPECT_GE(walk.boxes, 1);
+    const json root = readJson(layer / io::kTilesetFile).at("root");
+    ASSERT_TRUE(root.at("boundingVolume").contains("box")) << "the root holds tiles either side of 180 degrees";
+    const json& box = root.at("boundingVolume").at("box");
+    for (std::size_t axis = 0; axis < 3; ++axis) {
+      const glm::dvec3 half(box.at(3 + 3 * axis), box.at(4 + 3 * axis), box.at(5 + 3 * axis));
+      EXPECT_LT(glm::length(half), c.root_half_axis_m) << "axis " << axis;
+    }
   }
 }
 

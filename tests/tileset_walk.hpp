@@ -1,8 +1,9 @@
 #pragma once
 // Walks a layer's 3D Tiles tileset (docs/CONTRACT.md §8) as a viewer does,
 // through whatever serves the layer's files (its folder, a server): every
-// content URI resolves, each tile's region holds its children's and every
-// point of its own mesh, geometricError falls strictly down the tree (and
+// content URI resolves, each tile's bounding volume (a region, or a box
+// across the antimeridian) holds every point of its own mesh and of those
+// below it, a region its children's regions, geometricError falls strictly down the tree (and
 // holds its mesh's distance and texel size), a file holds six levels, and
 // the transforms composed from the root place each mesh where its
 // enu_to_ecef says. Shared by tileset_test and server_tileset_test.
@@ -57,18 +58,91 @@ inline std::set<TileId> meshesOnDisk(const std::filesystem::path& layer) {
 }
 
 struct TilesetRegion {
-  double west, south, east, north, low, high;
+  double west, south, east, north, low, high;  // west > east across the antimeridian
 };
 
-inline TilesetRegion regionOf(const nlohmann::json& tile) {
-  const nlohmann::json& r = tile.at("boundingVolume").at("region");
-  return {r.at(0), r.at(1), r.at(2), r.at(3), r.at(4), r.at(5)};
+// How far east `to` lies of `from`: in [0, 2π), and 2π from -π to π.
+inline double eastwardRad(double from, double to) {
+  const double d = to - from;
+  return d < 0 ? d + 2 * M_PI : d;
 }
 
-inline bool inside(const TilesetRegion& outer, const TilesetRegion& inner) {
-  return inner.west >= outer.west - kRegionToleranceRad && inner.east <= outer.east + kRegionToleranceRad &&
-         inner.south >= outer.south - kRegionToleranceRad && inner.north <= outer.north + kRegionToleranceRad &&
-         inner.low >= outer.low - kRegionToleranceM && inner.high <= outer.high + kRegionToleranceM;
+// Whether longitude `lon` lies in [west, east], the way east from west.
+inline bool withinLongitudes(double west, double east, double lon) {
+  const double offset = eastwardRad(west, lon);
+  return offset <= eastwardRad(west, east) + kRegionToleranceRad || offset >= 2 * M_PI - kRegionToleranceRad;
+}
+
+// A tile's boundingVolume: a region, or a box in the tile's frame.
+struct TileVolume {
+  std::optional<TilesetRegion> region;
+  glm::dmat4 box_to_ecef{1.0};  // the cube [-1, 1]^3 onto the box, in ECEF
+
+  // Whether `ecef` lies inside, within the tolerances. A point within a
+  // metre of the earth's axis lies on a pole, in every longitude.
+  bool holds(const glm::dvec3& ecef) const {
+    if (!region) {
+      const glm::dvec3 cube(glm::inverse(box_to_ecef) * glm::dvec4(ecef, 1.0));
+      for (int k = 0; k < 3; ++k) {
+        const double half_m = glm::length(glm::dvec3(box_to_ecef[k]));
+        if ((std::abs(cube[k]) - 1) * half_m > kRegionToleranceM) return false;
+      }
+      return true;
+    }
+    double lat = 0, lon = 0, h = 0;
+    GeographicLib::Geocentric::WGS84().Reverse(ecef.x, ecef.y, ecef.z, lat, lon, h);
+    const TilesetRegion& r = *region;
+    const bool on_pole = std::hypot(ecef.x, ecef.y) < 1.0;
+    return (on_pole || withinLongitudes(r.west, r.east, lon * M_PI / 180)) &&
+           lat * M_PI / 180 >= r.south - kRegionToleranceRad && lat * M_PI / 180 <= r.north + kRegionToleranceRad &&
+           h >= r.low - kRegionToleranceM && h <= r.high + kRegionToleranceM;
+  }
+
+  // A region's points on a grid of its longitudes and latitudes, at its
+  // lowest and highest heights.
+  std::vector<glm::dvec3> outline() const {
+    std::vector<glm::dvec3> points;
+    constexpr int kSteps = 8;
+    const TilesetRegion& r = *region;
+    for (int i = 0; i <= kSteps; ++i) {
+      for (int j = 0; j <= kSteps; ++j) {
+        for (const double h : {r.low, r.high}) {
+          const double lon = r.west + eastwardRad(r.west, r.east) * i / kSteps;
+          const double lat = r.south + (r.north - r.south) * j / kSteps;
+          glm::dvec3 p;
+          GeographicLib::Geocentric::WGS84().Forward(lat * 180 / M_PI, lon * 180 / M_PI, h, p.x, p.y, p.z);
+          points.push_back(p);
+        }
+      }
+    }
+    return points;
+  }
+};
+
+// The tile's boundingVolume, its box in the frame `world` places the tile in.
+inline TileVolume volumeOf(const nlohmann::json& tile, const glm::dmat4& world) {
+  const nlohmann::json& volume = tile.at("boundingVolume");
+  TileVolume v;
+  if (volume.contains("region")) {
+    const nlohmann::json& r = volume.at("region");
+    v.region = TilesetRegion{r.at(0), r.at(1), r.at(2), r.at(3), r.at(4), r.at(5)};
+    return v;
+  }
+  const nlohmann::json& b = volume.at("box");
+  glm::dmat4 box(1.0);
+  for (int c = 0; c < 4; ++c) {
+    const std::size_t from = c == 3 ? 0 : std::size_t(3 * (c + 1));  // the half axes, then the centre
+    box[c] = glm::dvec4(b.at(from).get<double>(), b.at(from + 1).get<double>(), b.at(from + 2).get<double>(), c == 3);
+  }
+  v.box_to_ecef = world * box;
+  return v;
+}
+
+// Whether every point of region `inner` lies in `outer`. (A box around a
+// region reaches past it, so the test of a box is that of the meshes under it.)
+inline bool inside(const TileVolume& outer, const TileVolume& inner) {
+  const std::vector<glm::dvec3> points = inner.outline();
+  return std::all_of(points.begin(), points.end(), [&](const glm::dvec3& p) { return outer.holds(p); });
 }
 
 inline glm::dmat4 matrixOf(const nlohmann::json& values) {
@@ -106,6 +180,7 @@ class TilesetWalk {
 
   std::map<TileId, int> meshes_seen;  // how often each .glb is some tile's content
   int external_tilesets = 0;
+  int boxes = 0;  // tiles bounded by a box rather than a region
   int deepest_leaf_errors_nonzero = 0;
   // The largest amount by which the lowest point of a tile's mesh and its
   // descendants' lies above the tile's region's floor, and their highest
@@ -115,7 +190,7 @@ class TilesetWalk {
 
  private:
   struct Parent {
-    TilesetRegion region;
+    TileVolume volume;
     double error;
   };
 
@@ -133,31 +208,43 @@ class TilesetWalk {
   void visit(const nlohmann::json& tile, const std::filesystem::path& doc_dir, const glm::dmat4& parent_world,
              const std::optional<Parent>& parent, int depth, int file_level, HeightSpan& heights_above) {
     ASSERT_LT(depth, 64) << "the tree is deeper than any pyramid";
-    const TilesetRegion region = regionOf(tile);
+    const glm::dmat4 world = tile.contains("transform") ? parent_world * matrixOf(tile["transform"]) : parent_world;
+    const TileVolume volume = volumeOf(tile, world);
     HeightSpan heights;
     // Runs on every way out of this tile, the assertions' early returns included.
     struct Fold {
-      const TilesetRegion& region;
+      const TileVolume& volume;
       HeightSpan& heights;
       HeightSpan& above;
       TilesetWalk& walk;
       ~Fold() {
+        walk.m_path.pop_back();
         if (heights.low > heights.high) return;  // no mesh under this tile
-        walk.loosest_floor_m = std::max(walk.loosest_floor_m, heights.low - region.low);
-        walk.loosest_ceiling_m = std::max(walk.loosest_ceiling_m, region.high - heights.high);
+        if (volume.region) {
+          walk.loosest_floor_m = std::max(walk.loosest_floor_m, heights.low - volume.region->low);
+          walk.loosest_ceiling_m = std::max(walk.loosest_ceiling_m, volume.region->high - heights.high);
+        }
         above.add(heights);
       }
-    } fold{region, heights, heights_above, *this};
+    } fold{volume, heights, heights_above, *this};
+    m_path.push_back(volume);
     const double error = tile.at("geometricError").get<double>();
-    EXPECT_LE(region.west, region.east);
-    EXPECT_LE(region.south, region.north);
-    EXPECT_LE(region.low, region.high);
+    if (volume.region) {
+      EXPECT_LE(volume.region->south, volume.region->north);
+      EXPECT_LE(volume.region->low, volume.region->high);
+      for (const double lon : {volume.region->west, volume.region->east}) {
+        EXPECT_LE(std::abs(lon), M_PI) << "3D Tiles' longitudes lie in [-π, π]";
+      }
+    } else {
+      ++boxes;
+    }
     EXPECT_EQ(tile.value("refine", "REPLACE"), "REPLACE");
     if (parent) {
-      EXPECT_TRUE(inside(parent->region, region)) << "a child's region leaves its parent's";
+      if (volume.region) {
+        EXPECT_TRUE(inside(parent->volume, volume)) << "a child's region leaves its parent's volume";
+      }
       EXPECT_LT(error, parent->error) << "geometricError must fall down the tree";
     }
-    const glm::dmat4 world = tile.contains("transform") ? parent_world * matrixOf(tile["transform"]) : parent_world;
 
     if (tile.contains("content")) {
       const std::string uri = tile["content"].at("uri");
@@ -170,8 +257,7 @@ class TilesetWalk {
         EXPECT_FALSE(tile.contains("children")) << "a tile pointing to a tileset has no children of its own";
         const nlohmann::json doc = nlohmann::json::parse(*fetched);
         const nlohmann::json& root = doc.at("root");
-        const TilesetRegion same = regionOf(root);
-        EXPECT_TRUE(inside(region, same) && inside(same, region));
+        EXPECT_EQ(root.at("boundingVolume"), tile.at("boundingVolume"));
         EXPECT_EQ(root.at("geometricError").get<double>(), error);
         EXPECT_EQ(file_level, io::kTilesetLevelsPerFile) << uri << ": an external tileset not after a file's levels";
         EXPECT_FALSE(root.contains("transform")) << uri << ": its root is placed by the referring tile alone";
@@ -180,24 +266,24 @@ class TilesetWalk {
         EXPECT_EQ(relative, std::filesystem::path("tilesets") / mesh_path.parent_path() /
                                 (mesh_path.stem().string() + ".json"))
             << "an external tileset is tilesets/{z}/{x}/{y}.json of its root's tile";
-        checkContent(root, relative.parent_path(), world, region, heights);
+        checkContent(root, relative.parent_path(), world, heights);
         for (const nlohmann::json& child : root.value("children", nlohmann::json::array())) {
-          visit(child, relative.parent_path(), world, Parent{region, error}, depth + 1, 1, heights);
+          visit(child, relative.parent_path(), world, Parent{volume, error}, depth + 1, 1, heights);
         }
         return;
       }
       EXPECT_LT(file_level, io::kTilesetLevelsPerFile) << uri << ": a file holds at most that many levels";
-      checkContent(tile, doc_dir, world, region, heights);
+      checkContent(tile, doc_dir, world, heights);
     }
     const int below = file_level + (tile.contains("content") ? 1 : 0);
     for (const nlohmann::json& child : tile.value("children", nlohmann::json::array())) {
-      visit(child, doc_dir, world, Parent{region, error}, depth + 1, below, heights);
+      visit(child, doc_dir, world, Parent{volume, error}, depth + 1, below, heights);
     }
   }
 
-  // The tile's .glb lies inside its region, where its transform puts it.
+  // The tile's .glb lies inside its bounding volume and those above it, where its transform puts it.
   void checkContent(const nlohmann::json& tile, const std::filesystem::path& doc_dir, const glm::dmat4& world,
-                    const TilesetRegion& region, HeightSpan& heights) {
+                    HeightSpan& heights) {
     const std::filesystem::path relative =
         (doc_dir / tile.at("content").at("uri").get<std::string>()).lexically_normal();
     ASSERT_TRUE(m_fetch(relative.generic_string())) << relative << " from " << doc_dir << " does not resolve";
@@ -208,18 +294,27 @@ class TilesetWalk {
     if (id.z == m_deepest_zoom && tile.at("geometricError").get<double>() != 0) ++deepest_leaf_errors_nonzero;
     const glm::dmat4 own = matrixOf(nlohmann::json(mesh.enu_to_ecef));
     double worst_m = 0;
+    int outside = 0;
+    // Longitudes counted from the frame's origin's, so a mesh across the antimeridian spans no turn.
+    const glm::dvec3 origin(own[3]);
+    const double origin_lon = std::atan2(origin.y, origin.x);
     TilesetRegion seen{10, 10, -10, -10, 1e300, -1e300};
     for (const glm::dvec3& p : mesh.position) {
       const glm::dvec3 ecef = glm::dvec3(own * glm::dvec4(p, 1.0));
       worst_m = std::max(worst_m, glm::distance(glm::dvec3(world * glm::dvec4(yUpToZUp(p), 1.0)), ecef));
+      for (const TileVolume& holder : m_path) outside += holder.holds(ecef) ? 0 : 1;
       double lat = 0, lon = 0, h = 0;
       GeographicLib::Geocentric::WGS84().Reverse(ecef.x, ecef.y, ecef.z, lat, lon, h);
-      seen = {std::min(seen.west, lon * M_PI / 180), std::min(seen.south, lat * M_PI / 180),
-              std::max(seen.east, lon * M_PI / 180), std::max(seen.north, lat * M_PI / 180),
-              std::min(seen.low, h), std::max(seen.high, h)};
+      const double from_origin = std::remainder(lon * M_PI / 180 - origin_lon, 2 * M_PI);
+      seen = {std::min(seen.west, from_origin),
+              std::min(seen.south, lat * M_PI / 180),
+              std::max(seen.east, from_origin),
+              std::max(seen.north, lat * M_PI / 180),
+              std::min(seen.low, h),
+              std::max(seen.high, h)};
     }
     EXPECT_LT(worst_m, kTransformToleranceM) << relative << ": the composed transforms miss enu_to_ecef";
-    EXPECT_TRUE(inside(region, seen)) << relative << ": a vertex lies outside the tile's region";
+    EXPECT_EQ(outside, 0) << relative << ": vertices lie outside the bounding volume of the tile or of a tile above";
     heights.add({seen.low, seen.high});
     // A tile with children states at least the mesh's own distance to the
     // samples and the ground size of its widest texel: the mesh's span of
@@ -248,6 +343,7 @@ class TilesetWalk {
   std::filesystem::path m_layer;
   int m_deepest_zoom;
   Fetch m_fetch;
+  std::vector<TileVolume> m_path;  // the volumes of the tile being visited and those above it
 };
 
 }  // namespace terrabake::test

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <limits>
 
+#include <glm/common.hpp>
+#include <glm/matrix.hpp>
 #include <glm/trigonometric.hpp>
 
 namespace terrabake::geo {
@@ -21,6 +23,29 @@ double wrapDegrees(double d) {
   while (d < -180) d += 360;
   return d;
 }
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kTurnRad = 2 * kPi;
+// Spans whose ends differ by rounding alone (well under a micrometre on the
+// ground) still hold one another.
+constexpr double kLongitudeSlackRad = 1e-12;
+
+// How far east `to` lies of `from`: in [0, 2π), and 2π from -π to π.
+double eastwardRad(double from, double to) {
+  const double d = to - from;
+  return d < 0 ? d + kTurnRad : d;
+}
+
+// Whether the span [west, east] lies within the one `width` east of `start`.
+bool spanWithin(double west, double east, double start, double width) {
+  const double offset = eastwardRad(start, west);
+  // A span that starts at `start` less rounding is not a turn away from it.
+  const double from = offset > kTurnRad - kLongitudeSlackRad ? 0 : offset;
+  return from + eastwardRad(west, east) <= width + kLongitudeSlackRad;
+}
+
+// The largest radius of curvature of the WGS84 ellipsoid, a^2 / b, at the poles.
+constexpr double kMaxCurvatureRadiusM = 6399593.626;
 
 }  // namespace
 
@@ -69,6 +94,56 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
   r.min_height_m = low - sag_m;
   r.max_height_m = high;
   return r;
+}
+
+Region unite(const Region& a, const Region& b) {
+  Region r;
+  r.south = std::min(a.south, b.south);
+  r.north = std::max(a.north, b.north);
+  r.min_height_m = std::min(a.min_height_m, b.min_height_m);
+  r.max_height_m = std::max(a.max_height_m, b.max_height_m);
+  // The narrowest span from one's west edge to one's east edge that holds both.
+  double width = kTurnRad + 1;
+  for (const double west : {a.west, b.west}) {
+    for (const double east : {a.east, b.east}) {
+      const double w = eastwardRad(west, east);
+      if (w < width && spanWithin(a.west, a.east, west, w) && spanWithin(b.west, b.east, west, w)) {
+        width = w;
+        r.west = west, r.east = east;
+      }
+    }
+  }
+  if (width >= kTurnRad) r.west = -kPi, r.east = kPi;
+  return r;
+}
+
+Box boxAroundRegion(const Region& region, const glm::dmat4& frame_to_ecef) {
+  // Points of the region on a grid of longitudes and latitudes, at its
+  // lowest and highest heights (a point's position is linear in its height).
+  constexpr int kSteps = 32;
+  const double lon_step = eastwardRad(region.west, region.east) / kSteps;
+  const double lat_step = (region.north - region.south) / kSteps;
+  const glm::dmat4 ecef_to_frame = glm::inverse(frame_to_ecef);
+  glm::dvec3 low(std::numeric_limits<double>::max()), high(std::numeric_limits<double>::lowest());
+  for (int i = 0; i <= kSteps; ++i) {
+    for (int j = 0; j <= kSteps; ++j) {
+      for (const double height_m : {region.min_height_m, region.max_height_m}) {
+        const glm::dvec3 ecef = geodeticToEcef(glm::degrees(region.west + i * lon_step),
+                                               glm::degrees(region.south + j * lat_step), height_m);
+        const glm::dvec3 p(ecef_to_frame * glm::dvec4(ecef, 1.0));
+        low = glm::min(low, p), high = glm::max(high, p);
+      }
+    }
+  }
+  // Between grid points the surface bulges past them, along any axis, by at
+  // most its second derivatives (no more than the largest radius of
+  // curvature, and the height) times (step_lon + step_lat)^2 / 8; twice that
+  // covers how the radius changes with latitude.
+  const double radius_m = kMaxCurvatureRadiusM + std::max(region.max_height_m, 0.0);
+  const double bulge_m = 2 * radius_m * (lon_step + lat_step) * (lon_step + lat_step) / 8;
+  low -= bulge_m, high += bulge_m;
+  const glm::dvec3 half = (high - low) * 0.5;
+  return {low + half, {glm::dvec3(half.x, 0, 0), glm::dvec3(0, half.y, 0), glm::dvec3(0, 0, half.z)}};
 }
 
 }  // namespace terrabake::geo

@@ -2,9 +2,11 @@
 // Where a mesh lies on the globe as 3D Tiles bounds it: a region of
 // longitudes, latitudes (radians, WGS84) and heights above the ellipsoid.
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <vector>
 
+#include <glm/mat4x4.hpp>
 #include <glm/vec3.hpp>
 
 #include "geo/local_frame.hpp"
@@ -55,5 +57,22 @@ struct Region {
 // the vertices' extent, widened by how far a straight edge that long bows
 // away from its ends on the curved earth (below them, and towards a pole).
 Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& frame, double longest_edge_m);
+
+// The smallest region that holds both: its longitudes the shorter way round
+// the globe that holds both spans (west > east where that way crosses the
+// antimeridian), all of them, [-π, π], where no way shorter than a turn does.
+Region unite(const Region& a, const Region& b);
+
+// A box as 3D Tiles' boundingVolume.box: its centre and its three half axes.
+struct Box {
+  glm::dvec3 centre;
+  std::array<glm::dvec3, 3> half_axes;
+};
+
+// The box with the axes of a frame (`frame_to_ecef`, a rotation and a
+// translation) that holds every point of `region`, in that frame's
+// coordinates: a bounding volume for viewers that read a region across the
+// antimeridian the wrong way round.
+Box boxAroundRegion(const Region& region, const glm::dmat4& frame_to_ecef);
 
 }  // namespace terrabake::geo

@@ -10,6 +10,8 @@
 #include <glm/matrix.hpp>
 #include <nlohmann/json.hpp>
 
+#include "geo/region.hpp"
+
 namespace terrabake::io {
 namespace {
 
@@ -31,16 +33,11 @@ struct Node {
   glm::dmat4 world{1.0};            // ENU (z up) to ECEF
 };
 
+geo::Region regionOf(const std::array<double, 6>& r) { return {r[0], r[1], r[2], r[3], r[4], r[5]}; }
+
 std::array<double, 6> unite(const std::array<double, 6>& a, const std::array<double, 6>& b) {
-  std::array<double, 6> r{};
-  const bool crosses = a[0] > a[2] || b[0] > b[2];  // west > east: across the antimeridian
-  r[0] = crosses ? -kPi : std::min(a[0], b[0]);
-  r[2] = crosses ? kPi : std::max(a[2], b[2]);
-  r[1] = std::min(a[1], b[1]);
-  r[3] = std::max(a[3], b[3]);
-  r[4] = std::min(a[4], b[4]);
-  r[5] = std::max(a[5], b[5]);
-  return r;
+  const geo::Region r = geo::unite(regionOf(a), regionOf(b));
+  return {r.west, r.south, r.east, r.north, r.min_height_m, r.max_height_m};
 }
 
 // The longer side of a region on the ground, in metres.
@@ -69,6 +66,21 @@ glm::dmat4 enuToEcef(const std::array<double, 16>& gltf_to_ecef) {
   unturn[2][1] = 1;
   unturn[3][3] = 1;
   return gltf * unturn;
+}
+
+// The region, or where it runs across the antimeridian (west > east), a box
+// around it in the tile's frame (`world`): 3d-tiles-renderer builds its box
+// for such a region from the middle of its two longitudes, round the other
+// side of the globe, thousands of kilometres across, and so never culls the
+// tile or lets its error fall with distance. Every viewer reads the box alike.
+Json boundingVolumeJson(const std::array<double, 6>& region, const glm::dmat4& world) {
+  if (region[0] <= region[2]) return {{"region", region}};
+  const geo::Box box = geo::boxAroundRegion(regionOf(region), world);
+  Json values = Json::array();
+  for (const glm::dvec3& v : {box.centre, box.half_axes[0], box.half_axes[1], box.half_axes[2]}) {
+    values.insert(values.end(), {v.x, v.y, v.z});
+  }
+  return {{"box", values}};
 }
 
 Json matrixJson(const glm::dmat4& m) {
@@ -113,7 +125,8 @@ class Writer {
   // A tile of the document at `doc_path`. A tile that starts a new file is
   // written here as a reference to it, unless it is that file's root.
   Json tileJson(const std::string& doc_path, const Node& node, const glm::dmat4& parent_world, bool document_root) {
-    Json tile = {{"boundingVolume", {{"region", node.region}}}, {"geometricError", node.geometric_error},
+    Json tile = {{"boundingVolume", boundingVolumeJson(node.region, node.world)},
+                 {"geometricError", node.geometric_error},
                  {"refine", "REPLACE"}};
     if (!node.own) {
       Json children = Json::array();

@@ -21,6 +21,12 @@
 //    without, seen in three.js from a camera that sees only terrain and draws
 //    tiles of two levels side by side. The background (magenta) must not show
 //    with skirts, and must show without (else the view proves nothing).
+// 5. Across the antimeridian: the sample DEM set on a longitude/latitude grid
+//    from 179.85 to 180.15 degrees (gdal_translate) and tiled on its own
+//    grid, so that tiles and their parents span 180 degrees and the root is
+//    bounded by a box. Each viewer, looking down at the layer's centre (the
+//    middle of bounds that run across 180 degrees), must draw terrain over
+//    the whole view.
 //
 // Exit code: 0 passed, 1 failed, 77 skipped (no Chromium or no playwright-core).
 import path from 'node:path';
@@ -50,6 +56,10 @@ const kCoarseErrorTexels = '6';
 // A lower camera, further off, whose far tiles are a level coarser than its
 // near ones (measured: 382 background pixels along their seams without skirts).
 const kCrackView = { ...kView, camEl: '35', camDist: '9000', sse: '16' };
+const kAntimeridianLayer = 'antimeridian';
+// The sample's pixels on a 0.3 x 0.2 degree grid (23 x 22 km at 46.5 N).
+const kAntimeridianBounds = ['179.85', '46.6', '-179.85', '46.4'];
+const kAntimeridianView = { ...kView, camEl: '70', camDist: '6000' };
 // Skirts must hide every gap; without them at least this many background
 // pixels must show through, or the view shows no gap to hide.
 const kMaxCrackPixelsWithSkirts = 0;
@@ -141,6 +151,14 @@ async function main() {
       '--max-error-texels', kCoarseErrorTexels, '--out', tilesDir, '--layer', `skirts_${skirts}`], kTileTimeoutMs);
   }
 
+  const acrossDem = path.join(out, 'sample_across_180.tif');
+  const [west, north, east, south] = kAntimeridianBounds;
+  const translated = await t.runToEnd('gdal_translate', ['-q', '-a_srs', 'EPSG:4326', '-a_ullr', west, north,
+    String(Number(east) + 360), south, path.join(kRepo, 'tests/data/sample_dem.tif'), acrossDem], kTileTimeoutMs);
+  if (translated.code !== 0) await t.abort(`gdal_translate ended with code ${translated.code}:\n${translated.output}`);
+  await t.tile(terrabake, ['--dem', acrossDem, '--scheme', 'native', '--zoom', 'auto', '--tileset', 'true',
+    '--out', tilesDir, '--layer', kAntimeridianLayer], kTileTimeoutMs);
+
   const server = await t.serve(terrabake, tilesDir);
   await t.launchChromium({ viewport: kViewport });
 
@@ -159,6 +177,19 @@ async function main() {
     cracks[skirts] = countBackground(shot.image);
   }
 
+  const across = {};
+  for (const renderer of ['three', 'cesium']) {
+    const shot = await screenshot(server.url, out, `${renderer}_antimeridian`,
+      { layer: kAntimeridianLayer, renderer, ...kAntimeridianView });
+    if (!shot) continue;
+    const { width, height } = shot.image;
+    across[renderer] = 1 - countBackground(shot.image) / (width * height);
+    if (across[renderer] < kMinTerrainShare) {
+      fail(`${renderer}, across the antimeridian: terrain covers ${(100 * across[renderer]).toFixed(1)}% of the view ` +
+        `(at least ${100 * kMinTerrainShare}%)`);
+    }
+  }
+
   console.log('');
   console.log('  viewer   terrain   |normal-mapped - high-res|   |low-poly - high-res|   ratio');
   for (const r of results) {
@@ -166,6 +197,8 @@ async function main() {
       `${r.bare.toFixed(2).padStart(21)}   ${(r.bare / r.normalMapped).toFixed(2)}`);
   }
   console.log(`  background pixels where levels meet: skirts on ${cracks.on ?? '-'}, skirts off ${cracks.off ?? '-'}`);
+  const share = (r) => (across[r] === undefined ? '-' : `${(100 * across[r]).toFixed(1)}%`);
+  console.log(`  terrain across the antimeridian: three ${share('three')}, cesium ${share('cesium')}`);
   console.log('');
   if (cracks.on !== undefined && cracks.on > kMaxCrackPixelsWithSkirts) {
     fail(`cracks: ${cracks.on} background pixels show through with skirts (at most ${kMaxCrackPixelsWithSkirts})`);

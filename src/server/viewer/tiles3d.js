@@ -15,7 +15,7 @@
 //   fov=DEG                    vertical field of view (40)
 //   sse=PX                     screen-space error at which tiles refine (16)
 //   center=LON,LAT             the target (default: the middle of the layer's bounds),
-//                              at the middle height of the tileset's root region
+//                              at the middle height of the tileset's root volume
 //
 // The background is magenta, which no lit grey terrain is, so a screenshot
 // tells gaps between tiles from terrain. Once every tile the view needs has
@@ -75,10 +75,24 @@ async function layerTarget() {
   const tilesetUrl = tilejson.terrabake?.tileset;
   if (!tilesetUrl) throw new Error(`layer ${view.layer} has no tileset (tile it with output.tileset: true)`);
   const tileset = await fetchJson(tilesetUrl);
-  const region = tileset.root.boundingVolume.region;
-  const [west, south, east, north] = tilejson.bounds;
-  const center = params.has('center') ? params.get('center').split(',').map(Number) : [(west + east) / 2, (south + north) / 2];
-  return { tilesetUrl, lon: radians(center[0]), lat: radians(center[1]), height: (region[4] + region[5]) / 2 };
+  // tilejson's center is the middle of the bounds, across the antimeridian too.
+  const center = params.has('center') ? params.get('center').split(',').map(Number) : tilejson.center;
+  return { tilesetUrl, lon: radians(center[0]), lat: radians(center[1]), height: middleHeight(tileset.root.boundingVolume) };
+}
+
+// The middle height of the root's region, or of the centre of its box (the
+// root has no transform: the box is in ECEF), above the WGS84 ellipsoid
+// along the radius, which differs from the height along the normal by
+// well under a metre near the surface.
+function middleHeight(volume) {
+  if (volume.region) return (volume.region[4] + volume.region[5]) / 2;
+  const [x, y, z] = volume.box;
+  const a = 6378137.0;
+  const b = 6356752.314245;
+  const r = Math.hypot(x, y, z);
+  const sinLat = z / r;
+  const cosLat = Math.hypot(x, y) / r;
+  return r - (a * b) / Math.hypot(b * cosLat, a * sinLat);
 }
 
 // Resolves once the view has been drawn kStableFrames times in a row with
