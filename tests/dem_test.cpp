@@ -115,6 +115,45 @@ TEST(FillHoles, LeavesNoHoleAndNoSpike) {
 TEST(FillHoles, RefusesAWindowWithoutData) {
   Raster<float> r(8, 8, NAN);
   EXPECT_FALSE(dem::fillHoles(r));
+  EXPECT_FALSE(dem::fillHolesRoundTheGlobe(r));
+}
+
+// Columns round the globe (2.8 degrees each), heights climbing 5 m a degree
+// of longitude, and a void for 20 degrees either side of the antimeridian,
+// between -800 m at 160 W and 800 m at 160 E. Filled round the globe, the
+// membrane runs across the seam: the step between the last column and the
+// first is no larger than the void's other steps, where filled as a plain
+// raster the two sides end at their own data's heights, 1,600 m apart.
+TEST(FillHoles, RunsOnAcrossTheSeamOfARasterRoundTheGlobe) {
+  constexpr int kColumns = 128, kRows = 16;
+  Raster<float> heights(kColumns, kRows);
+  for (int r = 0; r < kRows; ++r) {
+    for (int c = 0; c < kColumns; ++c) {
+      const double lon = -180 + (c + 0.5) * 360.0 / kColumns;
+      heights.at(c, r) = std::abs(lon) > 160 ? NAN : float(5 * lon + r);
+    }
+  }
+  // The largest step between neighbouring columns inside the void, and the one across the seam.
+  const auto steps = [&](const Raster<float>& filled) {
+    float inside = 0, seam = 0;
+    for (int r = 0; r < kRows; ++r) {
+      seam = std::max(seam, std::abs(filled.at(0, r) - filled.at(kColumns - 1, r)));
+      for (int c = 1; c < kColumns; ++c) {
+        if (!std::isnan(heights.at(c, r)) && !std::isnan(heights.at(c - 1, r))) continue;
+        inside = std::max(inside, std::abs(filled.at(c, r) - filled.at(c - 1, r)));
+      }
+    }
+    return std::pair<float, float>{inside, seam};
+  };
+  Raster<float> round = heights, plain = heights;
+  ASSERT_TRUE(dem::fillHolesRoundTheGlobe(round));
+  ASSERT_TRUE(dem::fillHoles(plain));
+  const auto [round_inside, round_seam] = steps(round);
+  const auto [plain_inside, plain_seam] = steps(plain);
+  RecordProperty("seam_step_m", std::to_string(round_seam) + " (plain raster " + std::to_string(plain_seam) + ")");
+  EXPECT_LE(round_seam, round_inside);
+  EXPECT_GT(plain_seam, 10 * round_seam) << "the plain fill shows no step: the case proves nothing";
+  for (const float v : round.data) ASSERT_FALSE(std::isnan(v));
 }
 
 // A curved surface whose data ends along a slanted line, as a DEM's edge

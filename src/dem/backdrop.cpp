@@ -137,7 +137,9 @@ void Backdrop::make() const {
         const auto in_group = [&](std::size_t file) { return m_part_of_file[file] == p; };
         part.surface = m_dem.read(part.grid, m_dem.onlyFiles(plan, in_group));
         // A DEM too small to reach a backdrop cell at all still gets a level floor.
-        if (!fillHoles(part.surface)) std::fill(part.surface.data.begin(), part.surface.data.end(), 0.0f);
+        const bool round_the_globe = part.globe_cells == part.grid.width;
+        const bool filled = round_the_globe ? fillHolesRoundTheGlobe(part.surface) : fillHoles(part.surface);
+        if (!filled) std::fill(part.surface.data.begin(), part.surface.data.end(), 0.0f);
       }
     } catch (...) {
       m_failure = std::current_exception();

@@ -271,6 +271,21 @@ bool fillHoles(Raster<float>& heights) {
   return true;
 }
 
+bool fillHolesRoundTheGlobe(Raster<float>& heights) {
+  const std::size_t width = std::size_t(heights.width);
+  Raster<float> round(3 * heights.width, heights.height);
+  for (int r = 0; r < heights.height; ++r) {
+    const float* row = &heights.at(0, r);
+    for (std::size_t copy = 0; copy < 3; ++copy) std::copy(row, row + width, &round.at(int(copy * width), r));
+  }
+  if (!fillHoles(round)) return false;
+  for (int r = 0; r < heights.height; ++r) {
+    const float* middle = &round.at(heights.width, r);
+    std::copy(middle, middle + width, &heights.at(0, r));
+  }
+  return true;
+}
+
 Raster<float> continueIntoHoles(const Raster<float>& around, int margin, const Raster<float>& backdrop, int reach) {
   const std::vector<std::uint8_t> is_edge = holeEdge(around);
   const std::vector<EdgePlane> edge = edgePlanes(around, is_edge);

@@ -22,6 +22,12 @@ std::vector<std::uint8_t> holeMask(const Raster<float>& heights, int margin);
 // Returns false, leaving the raster untouched, when it holds no valid sample.
 bool fillHoles(Raster<float>& heights);
 
+// fillHoles for a raster whose columns run round the globe (the last
+// column's east neighbour is the first): filled as the middle of three
+// copies side by side, so that the membrane runs on across that seam
+// instead of ending at two borders that need not agree.
+bool fillHolesRoundTheGlobe(Raster<float>& heights);
+
 // Continues the surface of a window into its NaN holes and fades it into
 // `backdrop` (heights of the window, read only at its holes). `around` is the
 // window with `margin` more samples each side, at least
