@@ -71,8 +71,8 @@ struct Box {
 
 // The box with the axes of a frame (`frame_to_ecef`, a rotation and a
 // translation) that holds every point of `region`, in that frame's
-// coordinates: a bounding volume for viewers that read a region across the
-// antimeridian the wrong way round.
+// coordinates: a bounding volume that every 3D Tiles viewer reads alike,
+// also where the region runs across the antimeridian.
 Box boxAroundRegion(const Region& region, const glm::dmat4& frame_to_ecef);
 
 }  // namespace terrabake::geo
