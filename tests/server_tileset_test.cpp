@@ -152,6 +152,37 @@ TEST(ServeOnDemandTileset, RegionsHoldTheTerrainPastABboxEdge) {
   EXPECT_GT(walk.meshes_seen.size(), 20u);
 }
 
+// Native tiles of a DEM counted past 180 degrees, planned before they are
+// baked: each planned volume lies within 3D Tiles' longitudes and holds
+// the mesh baked for it, across the antimeridian (boxes) too.
+TEST(ServeOnDemandTileset, VolumesHoldTheMeshesAcrossTheAntimeridian) {
+  const config::ServeConfig config = onDemandConfig(
+      caseDir(), "across", jobText(acrossAntimeridianDem(), "across", true, 0, 3, 32, "  scheme: native\n"));
+  ServerThread running(config);
+  TilesetWalk walk = httpWalk(running, config, "across", 3);
+  walk.run();
+  EXPECT_GT(walk.meshes_seen.size(), 40u);
+  EXPECT_GE(walk.boxes, 1);
+}
+
+// Native tiles of a polar stereographic DEM 200 km round the South Pole:
+// the planned region of the tile round the pole spans every longitude and
+// reaches it, and every planned region holds the mesh baked for it, to
+// float32's placement of the vertices of tiles 50 to 200 km across.
+TEST(ServeOnDemandTileset, RegionsHoldTheMeshesRoundAPole) {
+  const fs::path dem = sharedFixture("south_pole_3031.tif", [](const fs::path& path) {
+    test_support::writeFloatDem(path, 3031, {-100000, 1000, 0, 100000, 0, -1000}, 200, 200, [](double x, double y) {
+      return 2800 + 150 * std::sin(x / 9000) * std::cos(y / 7000);
+    });
+  });
+  const config::ServeConfig config =
+      onDemandConfig(caseDir(), "pole", jobText(dem, "pole", true, 0, 2, 32, "  scheme: native\n"));
+  ServerThread running(config);
+  TilesetWalk walk = httpWalk(running, config, "pole", 2);
+  walk.run();
+  EXPECT_EQ(walk.meshes_seen.size(), 21u);  // zooms 0-2: 1 + 4 + 16 tiles
+}
+
 // The first external tileset a tileset's tile names, depth first.
 std::optional<std::string> firstExternal(const Json& tile) {
   if (tile.contains("content")) {

@@ -22,7 +22,6 @@
 #include "io/tileset.hpp"
 #include "layer_check.hpp"
 #include "mesh/skirt.hpp"
-#include "support/analytic_terrain.hpp"
 #include "tileset_walk.hpp"
 
 namespace terrabake {
@@ -135,11 +134,7 @@ TEST(Tileset, ShardsAndMbtilesHoldTheSameTileset) {
 // as the tiles under it. A DEM counted from 179.9 to 180.1 degrees, tiled
 // on its own grid (tiles across 180) and geodetic (tiles either side).
 TEST(Tileset, BoundsTilesAcrossTheAntimeridianWithBoxes) {
-  const fs::path dem = test::sharedFixture("tileset_across_antimeridian.tif", [](const fs::path& path) {
-    test_support::writeFloatDem(path, 4326, {179.9, 0.001, 0, 50.1, 0, -0.001}, 200, 200, [](double lon, double lat) {
-      return 600 + 250 * std::sin(lon * 2 * M_PI / 0.06) * std::cos(lat * 2 * M_PI / 0.045);
-    });
-  });
+  const fs::path dem = test::acrossAntimeridianDem();
   struct Case {
     SchemeKind scheme;
     int min_zoom, max_zoom;

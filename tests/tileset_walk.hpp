@@ -26,6 +26,7 @@
 
 #include "core/types.hpp"
 #include "io/tileset.hpp"
+#include "support/analytic_terrain.hpp"
 #include "support/glb_reader.hpp"
 #include "test_helpers.hpp"
 
@@ -39,11 +40,29 @@ constexpr double kTransformToleranceM = 1e-3;
 // 1.6e-10 rad on the ground.
 constexpr double kRegionToleranceRad = 1e-9;
 constexpr double kRegionToleranceM = 2e-3;
+// A float32 coordinate rounds by half a step, 2^-24 of its size; a vertex,
+// by the length of three such (√3 times) of its largest coordinate, twice
+// over for the sums that place it (as layer_check.hpp's kFloat32EdgeGapShare).
+// Native tiles hundreds of kilometres across move by centimetres.
+constexpr double kFloat32PlacementShare = 2 * 1.7320508075688772 / 16777216.0;
+// The WGS84 meridian's smallest radius of curvature, a(1 - e^2): metres to radians of latitude, at most.
+constexpr double kMinCurvatureRadiusM = 6335439.327;
 // A texel's ground size from a mesh's span of longitudes, on a sphere of the
 // earth's mean radius: the mesh's vertices reach the tile's edges, and the
 // ellipsoid's radius of curvature differs from the mean by under 0.5 %.
 constexpr double kMeanEarthRadiusM = 6371008.8;
 constexpr double kTexelSizeRelative = 0.005;
+
+// Hills on a DEM counted from 179.9 to 180.1 degrees (200 x 200 pixels of
+// 0.001 degrees, 49.9 to 50.1 N): tiled on its own grid, tiles and their
+// parents run across the antimeridian.
+inline std::filesystem::path acrossAntimeridianDem() {
+  return sharedFixture("tileset_across_antimeridian.tif", [](const std::filesystem::path& path) {
+    test_support::writeFloatDem(path, 4326, {179.9, 0.001, 0, 50.1, 0, -0.001}, 200, 200, [](double lon, double lat) {
+      return 600 + 250 * std::sin(lon * 2 * M_PI / 0.06) * std::cos(lat * 2 * M_PI / 0.045);
+    });
+  });
+}
 
 // The tiles whose low-poly .glb lies in a layer folder ({z}/{x}/{y}.glb).
 inline std::set<TileId> meshesOnDisk(const std::filesystem::path& layer) {
@@ -67,10 +86,11 @@ inline double eastwardRad(double from, double to) {
   return d < 0 ? d + 2 * M_PI : d;
 }
 
-// Whether longitude `lon` lies in [west, east], the way east from west.
-inline bool withinLongitudes(double west, double east, double lon) {
+// Whether longitude `lon` lies in [west, east], the way east from west,
+// within `tolerance_rad`.
+inline bool withinLongitudes(double west, double east, double lon, double tolerance_rad) {
   const double offset = eastwardRad(west, lon);
-  return offset <= eastwardRad(west, east) + kRegionToleranceRad || offset >= 2 * M_PI - kRegionToleranceRad;
+  return offset <= eastwardRad(west, east) + tolerance_rad || offset >= 2 * M_PI - tolerance_rad;
 }
 
 // A tile's boundingVolume: a region, or a box in the tile's frame.
@@ -78,24 +98,26 @@ struct TileVolume {
   std::optional<TilesetRegion> region;
   glm::dmat4 box_to_ecef{1.0};  // the cube [-1, 1]^3 onto the box, in ECEF
 
-  // Whether `ecef` lies inside, within the tolerances. A point within a
-  // metre of the earth's axis lies on a pole, in every longitude.
-  bool holds(const glm::dvec3& ecef) const {
+  // Whether `ecef` lies inside, within `tolerance_m` on the ground.
+  bool holds(const glm::dvec3& ecef, double tolerance_m = kRegionToleranceM) const {
     if (!region) {
       const glm::dvec3 cube(glm::inverse(box_to_ecef) * glm::dvec4(ecef, 1.0));
       for (int k = 0; k < 3; ++k) {
         const double half_m = glm::length(glm::dvec3(box_to_ecef[k]));
-        if ((std::abs(cube[k]) - 1) * half_m > kRegionToleranceM) return false;
+        if ((std::abs(cube[k]) - 1) * half_m > tolerance_m) return false;
       }
       return true;
     }
     double lat = 0, lon = 0, h = 0;
     GeographicLib::Geocentric::WGS84().Reverse(ecef.x, ecef.y, ecef.z, lat, lon, h);
     const TilesetRegion& r = *region;
-    const bool on_pole = std::hypot(ecef.x, ecef.y) < 1.0;
-    return (on_pole || withinLongitudes(r.west, r.east, lon * M_PI / 180)) &&
-           lat * M_PI / 180 >= r.south - kRegionToleranceRad && lat * M_PI / 180 <= r.north + kRegionToleranceRad &&
-           h >= r.low - kRegionToleranceM && h <= r.high + kRegionToleranceM;
+    // Near a pole a float32 vertex's millimetres span many radians of longitude.
+    const double from_axis_m = std::hypot(ecef.x, ecef.y);
+    const double lon_tolerance_rad = std::max(kRegionToleranceRad, tolerance_m / from_axis_m);
+    const double lat_tolerance_rad = std::max(kRegionToleranceRad, tolerance_m / kMinCurvatureRadiusM);
+    return withinLongitudes(r.west, r.east, lon * M_PI / 180, lon_tolerance_rad) &&
+           lat * M_PI / 180 >= r.south - lat_tolerance_rad && lat * M_PI / 180 <= r.north + lat_tolerance_rad &&
+           h >= r.low - tolerance_m && h <= r.high + tolerance_m;
   }
 
   // A region's points on a grid of its longitudes and latitudes, at its
@@ -295,6 +317,12 @@ class TilesetWalk {
     const glm::dmat4 own = matrixOf(nlohmann::json(mesh.enu_to_ecef));
     double worst_m = 0;
     int outside = 0;
+    // How far float32 may have moved a vertex from where it belongs.
+    double largest_m = 0;
+    for (const glm::dvec3& p : mesh.position) {
+      largest_m = std::max({largest_m, std::abs(p.x), std::abs(p.y), std::abs(p.z)});
+    }
+    const double placement_m = std::max(kRegionToleranceM, kFloat32PlacementShare * largest_m);
     // Longitudes counted from the frame's origin's, so a mesh across the antimeridian spans no turn.
     const glm::dvec3 origin(own[3]);
     const double origin_lon = std::atan2(origin.y, origin.x);
@@ -302,7 +330,7 @@ class TilesetWalk {
     for (const glm::dvec3& p : mesh.position) {
       const glm::dvec3 ecef = glm::dvec3(own * glm::dvec4(p, 1.0));
       worst_m = std::max(worst_m, glm::distance(glm::dvec3(world * glm::dvec4(yUpToZUp(p), 1.0)), ecef));
-      for (const TileVolume& holder : m_path) outside += holder.holds(ecef) ? 0 : 1;
+      for (const TileVolume& holder : m_path) outside += holder.holds(ecef, placement_m) ? 0 : 1;
       double lat = 0, lon = 0, h = 0;
       GeographicLib::Geocentric::WGS84().Reverse(ecef.x, ecef.y, ecef.z, lat, lon, h);
       const double from_origin = std::remainder(lon * M_PI / 180 - origin_lon, 2 * M_PI);

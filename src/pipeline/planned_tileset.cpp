@@ -33,22 +33,47 @@ constexpr double kFillOvershootShare = 0.3;
 constexpr int kEdgePoints = 16;
 
 struct LonLatBox {
-  double west = 0, south = 0, east = 0, north = 0;  // radians
+  double west = 0, south = 0, east = 0, north = 0;  // radians; west > east across the antimeridian
+  // Radians of longitude from west to east.
+  double widthRad() const { return east - west + (west > east ? 2 * M_PI : 0); }
 };
 
+// The extent in longitude and latitude: its edges walked round in order,
+// each point's longitude taken the shorter way from the one before, so that
+// an extent across the antimeridian, or counted past it, stays one span
+// (west > east where it runs across), and one whose edges wind round the
+// earth's axis (a polar CRS's tile round a pole) spans every longitude and
+// reaches the pole.
 LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
   std::vector<glm::dvec2> points;
-  for (int k = 0; k <= kEdgePoints; ++k) {
+  for (int k = 0; k < kEdgePoints; ++k) {
     const double t = double(k) / kEdgePoints;
-    const double x = e.min_x + t * e.width(), y = e.min_y + t * e.height();
-    points.insert(points.end(), {{x, e.min_y}, {x, e.max_y}, {e.min_x, y}, {e.max_x, y}});
+    points.insert(points.end(), {{e.min_x + t * e.width(), e.min_y},
+                                 {e.max_x, e.min_y + t * e.height()},
+                                 {e.max_x - t * e.width(), e.max_y},
+                                 {e.min_x, e.max_y - t * e.height()}});
   }
-  to_lon_lat.transform(points);
-  LonLatBox box{points[0].x, points[0].y, points[0].x, points[0].y};
-  for (const glm::dvec2& p : points) {
-    box = {std::min(box.west, p.x), std::min(box.south, p.y), std::max(box.east, p.x), std::max(box.north, p.y)};
+  // In order round the extent: the south edge, the east, the north, the west.
+  std::vector<glm::dvec2> round(points.size());
+  for (std::size_t k = 0; k < points.size(); ++k) round[(k % 4) * kEdgePoints + k / 4] = points[k];
+  to_lon_lat.transform(round);
+  double lon = round[0].x, west = lon, east = lon, south = round[0].y, north = south;
+  for (std::size_t k = 1; k <= round.size(); ++k) {
+    const glm::dvec2& p = round[k % round.size()];
+    lon += std::remainder(p.x - lon, 360.0);
+    west = std::min(west, lon), east = std::max(east, lon);
+    south = std::min(south, p.y), north = std::max(north, p.y);
   }
-  return {glm::radians(box.west), glm::radians(box.south), glm::radians(box.east), glm::radians(box.north)};
+  // Back at the first point, a whole turn on where the edges wind round a pole.
+  if (std::abs(lon - round[0].x) > 180) {
+    (south + north > 0 ? north : south) = south + north > 0 ? 90 : -90;
+    return {-M_PI, glm::radians(south), M_PI, glm::radians(north)};
+  }
+  // The west edge turned into [-180, 180); an east edge past 180 lies across the antimeridian.
+  const double turns = 360 * std::floor((west + 180) / 360);
+  west -= turns, east -= turns;
+  if (east > 180) east -= 360;
+  return {glm::radians(west), glm::radians(south), glm::radians(east), glm::radians(north)};
 }
 
 // Where the tile's meshes will lie, or nullopt when it holds no DEM sample.
@@ -88,7 +113,7 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
 
   const LonLatBox box = lonLatOf(extent, to_lon_lat);
   const double widest_cos = box.south <= 0 && box.north >= 0 ? 1.0 : std::max(std::cos(box.south), std::cos(box.north));
-  const double width_m = (box.east - box.west) * widest_cos * kMaxCurvatureRadiusM;
+  const double width_m = box.widthRad() * widest_cos * kMaxCurvatureRadiusM;
   const double height_m = (box.north - box.south) * kMaxCurvatureRadiusM;
   const double texel_m = std::max(width_m, height_m) / scheme.tileSize();
   // No mesh edge is longer than the tile's diagonal with its relief.
