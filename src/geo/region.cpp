@@ -30,12 +30,6 @@ constexpr double kTurnRad = 2 * kPi;
 // ground) still hold one another.
 constexpr double kLongitudeSlackRad = 1e-12;
 
-// How far east `to` lies of `from`: in [0, 2π), and 2π from -π to π.
-double eastwardRad(double from, double to) {
-  const double d = to - from;
-  return d < 0 ? d + kTurnRad : d;
-}
-
 // Whether the span [west, east] lies within the one `width` east of `start`.
 bool spanWithin(double west, double east, double start, double width) {
   const double offset = eastwardRad(start, west);
@@ -94,6 +88,11 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
   r.min_height_m = low - sag_m;
   r.max_height_m = high;
   return r;
+}
+
+double eastwardRad(double west, double east) {
+  const double d = east - west;
+  return d < 0 ? d + kTurnRad : d;
 }
 
 Region unite(const Region& a, const Region& b) {

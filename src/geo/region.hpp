@@ -58,6 +58,10 @@ struct Region {
 // away from its ends on the curved earth (below them, and towards a pole).
 Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& frame, double longest_edge_m);
 
+// Radians of longitude from `west` east to `east`: in [0, 2π), west > east
+// across the antimeridian, and 2π from -π to π.
+double eastwardRad(double west, double east);
+
 // The smallest region that holds both: its longitudes the shorter way round
 // the globe that holds both spans (west > east where that way crosses the
 // antimeridian), all of them, [-π, π], where no way shorter than a turn does.

@@ -23,7 +23,6 @@ using Json = nlohmann::ordered_json;
 constexpr double kParentErrorMargin = 1.01;
 // The earth's mean radius, for a texel's ground size from its region.
 constexpr double kMeanEarthRadiusM = 6371008.8;
-constexpr double kPi = 3.14159265358979323846;
 
 struct Node {
   const TilesetTile* own = nullptr;  // null for the synthetic root
@@ -42,8 +41,7 @@ std::array<double, 6> unite(const std::array<double, 6>& a, const std::array<dou
 
 // The longer side of a region on the ground, in metres.
 double regionSizeM(const std::array<double, 6>& region) {
-  double width = region[2] - region[0];
-  if (width < 0) width += 2 * kPi;
+  const double width = geo::eastwardRad(region[0], region[2]);
   const double widest_cos = region[1] <= 0 && region[3] >= 0 ? 1.0 : std::max(std::cos(region[1]), std::cos(region[3]));
   return std::max(width * widest_cos, region[3] - region[1]) * kMeanEarthRadiusM;
 }

@@ -34,8 +34,6 @@ constexpr int kEdgePoints = 16;
 
 struct LonLatBox {
   double west = 0, south = 0, east = 0, north = 0;  // radians; west > east across the antimeridian
-  // Radians of longitude from west to east.
-  double widthRad() const { return east - west + (west > east ? 2 * M_PI : 0); }
 };
 
 // The extent in longitude and latitude: its edges walked round in order,
@@ -45,17 +43,13 @@ struct LonLatBox {
 // earth's axis (a polar CRS's tile round a pole) spans every longitude and
 // reaches the pole.
 LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
-  std::vector<glm::dvec2> points;
-  for (int k = 0; k < kEdgePoints; ++k) {
-    const double t = double(k) / kEdgePoints;
-    points.insert(points.end(), {{e.min_x + t * e.width(), e.min_y},
-                                 {e.max_x, e.min_y + t * e.height()},
-                                 {e.max_x - t * e.width(), e.max_y},
-                                 {e.min_x, e.max_y - t * e.height()}});
-  }
   // In order round the extent: the south edge, the east, the north, the west.
-  std::vector<glm::dvec2> round(points.size());
-  for (std::size_t k = 0; k < points.size(); ++k) round[(k % 4) * kEdgePoints + k / 4] = points[k];
+  const glm::dvec2 corners[] = {{e.min_x, e.min_y}, {e.max_x, e.min_y}, {e.max_x, e.max_y}, {e.min_x, e.max_y}};
+  std::vector<glm::dvec2> round;
+  for (int edge = 0; edge < 4; ++edge) {
+    const glm::dvec2 from = corners[edge], to = corners[(edge + 1) % 4];
+    for (int k = 0; k < kEdgePoints; ++k) round.push_back(from + (to - from) * (double(k) / kEdgePoints));
+  }
   to_lon_lat.transform(round);
   double lon = round[0].x, west = lon, east = lon, south = round[0].y, north = south;
   for (std::size_t k = 1; k <= round.size(); ++k) {
@@ -66,7 +60,11 @@ LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
   }
   // Back at the first point, a whole turn on where the edges wind round a pole.
   if (std::abs(lon - round[0].x) > 180) {
-    (south + north > 0 ? north : south) = south + north > 0 ? 90 : -90;
+    if (south + north > 0) {
+      north = 90;
+    } else {
+      south = -90;
+    }
     return {-M_PI, glm::radians(south), M_PI, glm::radians(north)};
   }
   // The west edge turned into [-180, 180); an east edge past 180 lies across the antimeridian.
@@ -113,7 +111,7 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
 
   const LonLatBox box = lonLatOf(extent, to_lon_lat);
   const double widest_cos = box.south <= 0 && box.north >= 0 ? 1.0 : std::max(std::cos(box.south), std::cos(box.north));
-  const double width_m = box.widthRad() * widest_cos * kMaxCurvatureRadiusM;
+  const double width_m = geo::eastwardRad(box.west, box.east) * widest_cos * kMaxCurvatureRadiusM;
   const double height_m = (box.north - box.south) * kMaxCurvatureRadiusM;
   const double texel_m = std::max(width_m, height_m) / scheme.tileSize();
   // No mesh edge is longer than the tile's diagonal with its relief.
