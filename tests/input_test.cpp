@@ -849,6 +849,25 @@ TEST(Inputs, ATinyDemAtCoarseZoomsMakesNothingWithoutRunningOutOfMemory) {
   EXPECT_FALSE(contains(r.err, "bad_alloc")) << describe(r);
 }
 
+// A drone survey's DEM: 128 x 128 pixels of a centimetre in UTM, tiled
+// from zoom 0 to its deepest in every scheme. Its backdrop's cells are 1 cm,
+// 4 x 10^9 of them round the globe, which once overflowed a count of them
+// (std::bad_alloc, "out of memory", for the first tile with holes).
+TEST(Inputs, ADroneDemOfACentimetreTilesInEveryScheme) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {500000, 0.01, 0, 5100000, 0, -0.01};
+  const auto ripples = [](int c, int r) { return float(300 + 0.1 * std::sin(c / 9.0) + 0.001 * r); };
+  writeDem(dir / "drone.tif", 128, 128, gt, ripples, 32632);
+  for (const std::string scheme : {"webmercator", "geodetic", "native"}) {
+    std::vector<std::string> args = tileArgs(dir / "drone.tif", dir / "out", scheme, "auto");
+    args.insert(args.end(), {"--scheme", scheme});
+    const RunResult r = run(args, {}, std::chrono::seconds(60));
+    EXPECT_EQ(r.exit_code, kExitOk) << scheme << ": " << describe(r);
+    EXPECT_TRUE(contains(r.out + r.err, " 0 failed)")) << scheme << ": " << describe(r);
+    EXPECT_GE(tilesOf(dir / "out" / scheme).size(), 2u) << scheme << ": " << describe(r);
+  }
+}
+
 // A UTM DEM tiled in the geodetic scheme from zoom 0: the middle tile of the
 // coarse zooms reaches 80 degrees of longitude past the UTM zone, where the
 // projection has no inverse. The read plan is then judged inside the DEM;

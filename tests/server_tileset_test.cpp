@@ -183,6 +183,34 @@ TEST(ServeOnDemandTileset, RegionsHoldTheMeshesRoundAPole) {
   EXPECT_EQ(walk.meshes_seen.size(), 21u);  // zooms 0-2: 1 + 4 + 16 tiles
 }
 
+// A drone survey's DEM, 128 x 128 pixels of a centimetre in UTM, planned
+// from zoom 0 in the webmercator scheme: a zoom 0 tile spans 10^9 of the
+// backdrop's cells and 10^10 of the height bounds' (counts that once
+// overflowed, or were walked a cell at a time). The root's region holds the
+// DEM and its heights.
+TEST(ServeOnDemandTileset, ADemOfACentimetreIsPlannedFromZoomZero) {
+  const fs::path dem = sharedFixture("drone_1cm_32632.tif", [](const fs::path& path) {
+    test_support::writeFloatDem(path, 32632, {500000, 0.01, 0, 5100000, 0, -0.01}, 128, 128,
+                                [](double x, double) { return 300 + 0.1 * std::sin(x / 0.09); });
+  });
+  const config::ServeConfig config = onDemandConfig(caseDir(), "drone", jobText(dem, "drone", true, 0, 24, 32));
+  ServerThread running(config);
+  const auto tileset = get(running.port(), "/drone/tileset.json");
+  ASSERT_TRUE(tileset);
+  ASSERT_EQ(tileset->status, 200) << tileset->body;
+  const Json region = Json::parse(tileset->body)["root"]["boundingVolume"]["region"];
+  ASSERT_EQ(region.size(), 6u) << region;
+  // Just inside the DEM's north-west corner and its south-east one, 1.28 m on.
+  constexpr double kWestRad = 9.0000001 * M_PI / 180, kNorthRad = 46.0535743 * M_PI / 180;
+  constexpr double kSouthRad = 46.0535629 * M_PI / 180, kEastRad = 9.0000164 * M_PI / 180;
+  EXPECT_LE(region[0].get<double>(), kWestRad);
+  EXPECT_LE(region[1].get<double>(), kSouthRad);
+  EXPECT_GE(region[2].get<double>(), kEastRad);
+  EXPECT_GE(region[3].get<double>(), kNorthRad);
+  EXPECT_LE(region[4].get<double>(), 299.9);
+  EXPECT_GE(region[5].get<double>(), 300.1);
+}
+
 // The first external tileset a tileset's tile names, depth first.
 std::optional<std::string> firstExternal(const Json& tile) {
   if (tile.contains("content")) {

@@ -110,12 +110,12 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::opti
     part.bounds = e;
     if (globe) {
       // Whole cells a turn, so that a column lies at the same places every turn.
-      part.globe_cells = int(std::ceil(m_turn / cell));
-      cell = m_turn / part.globe_cells;
+      part.globe_cells = std::int64_t(std::ceil(m_turn / cell));
+      cell = m_turn / double(part.globe_cells);
     }
     part.grid.width = int(std::ceil((e.width() + 2 * margin) / cell));
     // A grid wider than the globe goes once round it.
-    if (globe) part.grid.width = std::min(part.grid.width, part.globe_cells);
+    if (globe) part.grid.width = int(std::min<std::int64_t>(part.grid.width, part.globe_cells));
     part.grid.crs = crs;
     part.grid.cell_w = part.grid.cell_h = cell;
     part.grid.origin_x = e.min_x - margin;
@@ -229,16 +229,36 @@ Backdrop::Range Backdrop::Part::rangeOver(const Extent& extent) const {
 
 std::vector<std::uint8_t> Backdrop::Part::columnsReached(double west, double east) const {
   std::vector<std::uint8_t> reached(std::size_t(grid.width), 0);
-  if (globe_cells > 0 && east - west >= globe_cells * grid.cell_w) {
+  const double turn = double(globe_cells) * grid.cell_w;
+  if (globe_cells > 0 && east - west >= turn) {
     std::fill(reached.begin(), reached.end(), 1);
     return reached;
   }
-  // The taps change only where a position crosses a cell's centre (or the
-  // gap round the globe, where they stay): every half cell meets them all.
-  const int steps = int(std::ceil(2 * (east - west) / grid.cell_w));
-  for (int k = 0; k <= steps; ++k) {
-    const double x = k == steps ? east : west + k * (east - west) / steps;
-    for (const int c : tapsAtX(x).cell) reached[std::size_t(c)] = 1;
+  // The taps change only where a position crosses a column's centre: every
+  // half cell from `from` to `to` meets them all.
+  const auto reach = [&](double from, double to) {
+    const int steps = int(std::ceil(2 * (to - from) / grid.cell_w));
+    for (int k = 0; k <= steps; ++k) {
+      const double x = k == steps ? to : from + k * (to - from) / steps;
+      for (const int c : tapsAtX(x).cell) reached[std::size_t(c)] = 1;
+    }
+  };
+  // Past the first and the last column's centres the taps stay as they are
+  // there, so the steps need not go past them: an extent may be a world
+  // wide, the grid's cells a centimetre.
+  const double first = grid.centreX(0), last = grid.centreX(grid.width - 1);
+  if (globe_cells == 0) {
+    reach(std::clamp(west, first, last), std::clamp(east, first, last));
+    return reached;
+  }
+  const double shift = turn * std::floor((west - first) / turn);  // west - shift lies in the turn from `first`
+  for (double from = west - shift, to = east - shift; to >= first; from -= turn, to -= turn) {
+    const double start = std::max(from, first);
+    if (start <= last) reach(start, std::min(to, last));
+    // Past the last column the taps stay the same up to the first a turn
+    // on (the gap's, or a cell's where the columns go round): a cell meets them.
+    const double past = std::max(start, last);
+    if (to > past) reach(past, std::min(to, past + grid.cell_w));
   }
   return reached;
 }
@@ -247,12 +267,13 @@ Backdrop::Taps Backdrop::Part::tapsAtX(double x) const {
   const double cell = (x - grid.origin_x) / grid.cell_w;
   if (globe_cells == 0) return tapsAlong(cell, grid.width);
   // Cells past the first column's centre, counted within one turn.
-  const double at = cell - 0.5 - globe_cells * std::floor((cell - 0.5) / globe_cells);
+  const double turn_cells = double(globe_cells);
+  const double at = cell - 0.5 - turn_cells * std::floor((cell - 0.5) / turn_cells);
   if (grid.width == globe_cells) {
     // Columns round the whole globe: the taps run on past the last to the first.
-    const int first = std::min(int(at), globe_cells - 1);
+    const int first = std::min(int(at), grid.width - 1);
     Taps taps{cubicWeights(at - first), {}};
-    for (int k = 0; k < 4; ++k) taps.cell[std::size_t(k)] = (first - 1 + k + globe_cells) % globe_cells;
+    for (int k = 0; k < 4; ++k) taps.cell[std::size_t(k)] = (first - 1 + k + grid.width) % grid.width;
     return taps;
   }
   if (at <= grid.width - 1) return tapsAlong(at + 0.5, grid.width);

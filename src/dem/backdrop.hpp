@@ -66,8 +66,9 @@ class Backdrop {
     GridSpec grid;  // over them and the margin
     // Columns in a turn round the globe: the grid's width where its columns
     // run round it, more where a gap lies between its east and west edges;
-    // 0 where the scheme has no globe.
-    int globe_cells = 0;
+    // 0 where the scheme has no globe. 64 bits: a DEM of a metre has cells
+    // of a centimetre, 4 x 10^9 of them round the equator.
+    std::int64_t globe_cells = 0;
     Raster<float> surface;  // its heights, holes filled
     // The taps of a tiling-CRS x (along the grid's columns) or y (its rows).
     Taps tapsAtX(double x) const;

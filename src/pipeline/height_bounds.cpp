@@ -128,8 +128,11 @@ std::optional<HeightRange> HeightBounds::over(const Extent& extent) const {
 }
 
 std::optional<HeightRange> HeightBounds::Area::over(const Extent& extent) const {
-  const auto column = [&](double x) { return int(std::floor((x - grid.origin_x) / grid.cell_w)); };
-  const auto row = [&](double y) { return int(std::floor((grid.origin_y - y) / grid.cell_h)); };
+  // Cells held to a cell past the grid before they are ints: a zoom 0 tile
+  // spans 10^10 cells of a DEM of a metre.
+  const auto cellAlong = [](double cells, int count) { return int(std::clamp(std::floor(cells), -2.0, count + 1.0)); };
+  const auto column = [&](double x) { return cellAlong((x - grid.origin_x) / grid.cell_w, grid.width); };
+  const auto row = [&](double y) { return cellAlong((grid.origin_y - y) / grid.cell_h, grid.height); };
   const int c0 = std::max(0, column(extent.min_x) - 1), c1 = std::min(grid.width - 1, column(extent.max_x) + 1);
   const int r0 = std::max(0, row(extent.max_y) - 1), r1 = std::min(grid.height - 1, row(extent.min_y) + 1);
   if (c0 > c1 || r0 > r1) return std::nullopt;
