@@ -133,14 +133,40 @@ std::map<std::string, std::string> tilesOf(const fs::path& layer) {
   return tiles;
 }
 
-void expectSameTiles(const fs::path& a, const fs::path& b) {
+// The largest difference between two PNGs' samples, channel by channel.
+int largestStep(const fs::path& a, const fs::path& b) {
+  const auto samples = [](const fs::path& path) {
+    std::unique_ptr<GDALDataset> png(GDALDataset::Open(path.c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+    std::vector<int> values;
+    if (!png) return values;
+    const int w = png->GetRasterXSize(), h = png->GetRasterYSize(), bands = png->GetRasterCount();
+    values.resize(std::size_t(w) * std::size_t(h) * std::size_t(bands));
+    if (png->RasterIO(GF_Read, 0, 0, w, h, values.data(), w, h, GDT_Int32, bands, nullptr, 0, 0, 0) != CE_None) {
+      values.clear();
+    }
+    return values;
+  };
+  const std::vector<int> va = samples(a), vb = samples(b);
+  if (va.empty() || va.size() != vb.size()) return std::numeric_limits<int>::max();
+  int largest = 0;
+  for (std::size_t k = 0; k < va.size(); ++k) largest = std::max(largest, std::abs(va[k] - vb[k]));
+  return largest;
+}
+
+// The same tiles, byte for byte; with `png_steps` above 0, normal maps
+// within that many steps and meshes of the same names only.
+void expectSameTiles(const fs::path& a, const fs::path& b, int png_steps = 0) {
   const auto tiles_a = tilesOf(a), tiles_b = tilesOf(b);
   ASSERT_FALSE(tiles_a.empty()) << a;
   ASSERT_EQ(tiles_a.size(), tiles_b.size());
   for (const auto& [name, bytes] : tiles_a) {
     const auto other = tiles_b.find(name);
     ASSERT_NE(other, tiles_b.end()) << name;
-    EXPECT_TRUE(bytes == other->second) << name << " differs";
+    if (png_steps == 0) {
+      EXPECT_TRUE(bytes == other->second) << name << " differs";
+    } else if (fs::path(name).extension() == ".png") {
+      EXPECT_LE(largestStep(a / name, b / name), png_steps) << name;
+    }
   }
 }
 
@@ -1004,6 +1030,36 @@ TEST(Inputs, LongitudesCountedTo360TileLikeTheSamePlaceCountedFromMinus180) {
   }
 }
 
+// Web Mercator DEMs stored past the map's edge, x = ±20,037,508 m (as
+// gdalwarp writes a DEM across the antimeridian): one wholly past it tiles
+// like the same place counted a turn west, and one across it like its twin
+// across the west edge, every tile with data, in both schemes. Their tiles
+// east of 180 degrees were once all empty, the reads never a turn round.
+TEST(Inputs, WebMercatorDemsPastTheMapsEdgeTileLikeTheSamePlaceATurnRound) {
+  const fs::path dir = caseDir();
+  constexpr double kHalfTurnM = 20037508.342789244, kPixelM = 1000, kNorthM = -1800000;
+  const std::vector<std::pair<std::string, double>> wests = {{"past", kHalfTurnM + 60000},
+                                                             {"turned_past", -kHalfTurnM + 60000},
+                                                             {"across", kHalfTurnM - 100000},
+                                                             {"turned_across", -kHalfTurnM - 100000}};
+  for (const auto& [name, west] : wests) {
+    const double gt[6] = {west, kPixelM, 0, kNorthM, 0, -kPixelM};
+    writeDem(dir / (name + ".tif"), kHillPixels, kHillPixels, gt, hill, 3857);
+  }
+  for (const std::string scheme : {"webmercator", "geodetic"}) {
+    for (const auto& [name, west] : wests) {
+      std::vector<std::string> args = tileArgs(dir / (name + ".tif"), dir / scheme, name, "5-8");
+      args.insert(args.end(), {"--scheme", scheme});
+      const RunResult r = run(args);
+      ASSERT_EQ(r.exit_code, kExitOk) << scheme << " " << name << ": " << describe(r);
+      EXPECT_TRUE(contains(r.out + r.err, "(0 skipped, 0 empty, 0 failed)"))
+          << scheme << " " << name << ": " << describe(r);
+    }
+    expectSameTiles(dir / scheme / "past", dir / scheme / "turned_past");
+    expectSameTiles(dir / scheme / "across", dir / scheme / "turned_across");
+  }
+}
+
 // 0.2 degrees across the antimeridian at 50 N, stored from 179.9 to 180.1:
 // zoom 12 has 4 tiles a side there (1 or 2 columns each side), not 4096.
 TEST(Inputs, DemAcrossTheAntimeridianPlansOnlyItsTiles) {
@@ -1224,9 +1280,9 @@ float broadWorldHeight(double lon_from_west_deg, double colat_deg) {
   return float(1500 * std::sin(3 * lon + 1) * std::sin(colat) + 800 * std::cos(2 * colat + std::cos(lon)));
 }
 
-// Expects DEMs `a` and `b` (.tif files in `dir`) to make the same bytes at
-// zooms 0-2 in the Web Mercator and geodetic schemes.
-void expectSameWorldTiles(const fs::path& dir, const std::string& a, const std::string& b) {
+// Expects DEMs `a` and `b` (.tif files in `dir`) to make the same tiles at
+// zooms 0-2 in the Web Mercator and geodetic schemes (see expectSameTiles).
+void expectSameWorldTiles(const fs::path& dir, const std::string& a, const std::string& b, int png_steps = 0) {
   for (const std::string scheme : {"webmercator", "geodetic"}) {
     SCOPED_TRACE(scheme);
     for (const std::string& name : {a, b}) {
@@ -1235,7 +1291,7 @@ void expectSameWorldTiles(const fs::path& dir, const std::string& a, const std::
       const RunResult r = run(args);
       ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
     }
-    expectSameTiles(dir / scheme / a, dir / scheme / b);
+    expectSameTiles(dir / scheme / a, dir / scheme / b, png_steps);
   }
 }
 
@@ -1252,6 +1308,27 @@ TEST(Inputs, AWholeGlobeDemMakesTheSameTilesWhereverItsColumnsStart) {
   const double from_zero[6] = {0, 1, 0, 90, 0, -1};
   writeDem(dir / "zero.tif", 360, 180, from_zero, [&](int c, int r) { return world((c + 180) % 360, r); });
   expectSameWorldTiles(dir, "minus180", "zero");
+}
+
+// The same for a Web Mercator world, 40,075 km wide, to 85 degrees north
+// and south: counted from the map's west edge or from 0 m (to 40,075 km,
+// half of it past the map's east edge), it makes the same tiles. Its pixels
+// of 111,319.49 m, counted a turn apart, round differently in the last
+// bits, which may move a texel across a step. (Counted from 0 m, its
+// longitudes once came out as 0 to 0: the job tiled half the world in Web
+// Mercator and stopped on SIGFPE in the geodetic scheme; and the tiles
+// either side of the antimeridian were read only to the DEM's edge there.)
+TEST(Inputs, AWholeWebMercatorWorldMakesTheSameTilesWhereverItsColumnsStart) {
+  constexpr int kRoundingSteps = 1;
+  const fs::path dir = caseDir();
+  constexpr double kHalfTurnM = 20037508.342789244, kPixelM = 2 * kHalfTurnM / 360;
+  const auto world = [](int c, int r) { return broadWorldHeight(c + 0.5, 5 + r / 2.0); };
+  const double from_west[6] = {-kHalfTurnM, kPixelM, 0, kHalfTurnM, 0, -kPixelM};
+  writeDem(dir / "west.tif", 360, 360, from_west, world, 3857);
+  const double from_zero[6] = {0, kPixelM, 0, kHalfTurnM, 0, -kPixelM};
+  writeDem(
+      dir / "zero.tif", 360, 360, from_zero, [&](int c, int r) { return world((c + 180) % 360, r); }, 3857);
+  expectSameWorldTiles(dir, "west", "zero", kRoundingSteps);
 }
 
 // A world DEM of pixel centres from -180 to 180 (ETOPO1's grid-registered

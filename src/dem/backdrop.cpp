@@ -102,7 +102,7 @@ Backdrop::Backdrop(const DemSource& dem, const std::string& crs, const std::opti
         e.min_x = -180, e.max_x = 180;
       }
     }
-    if (isLonLatCrs(crs)) e = turnedIntoRange(e);
+    if (globe) e = turnedIntoRange(e, globe->min_x, m_turn);
     const double margin = kMargin * std::max(e.width(), e.height());
     const double span = std::max(e.width(), e.height()) + 2 * margin;
     double cell = span / cells;

@@ -64,9 +64,9 @@ double turnWidthOf(const std::string& crs) {
 
 double turnTowards(double from, double to, double turn) { return turn * std::round((to - from) / turn); }
 
-Extent turnedIntoRange(const Extent& lon_lat) {
-  const double turn_deg = 360 * std::floor((lon_lat.min_x + 180) / 360);
-  return {lon_lat.min_x - turn_deg, lon_lat.min_y, lon_lat.max_x - turn_deg, lon_lat.max_y};
+Extent turnedIntoRange(const Extent& extent, double west, double turn) {
+  const double turns = turn * std::floor((extent.min_x - west) / turn);
+  return {extent.min_x - turns, extent.min_y, extent.max_x - turns, extent.max_y};
 }
 
 Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to) {

@@ -38,9 +38,11 @@ double turnWidthOf(const std::string& crs);
 // x `from` nearest `to`.
 double turnTowards(double from, double to, double turn = 360);
 
-// `lon_lat` moved by whole turns of 360 degrees so that its west edge lies in
-// [-180, 180): a DEM counted 0 to 360 is the same place.
-Extent turnedIntoRange(const Extent& lon_lat);
+// `extent` moved by whole turns of `turn` so that its west edge lies in
+// [west, west + turn): a DEM counted 0 to 360 degrees is the same place as
+// one counted from -180, and one in Web Mercator past x = 20,037,508 m the
+// same place a turn west.
+Extent turnedIntoRange(const Extent& extent, double west = -180, double turn = 360);
 
 // The smallest extent of CRS `to` that holds `extent` of CRS `from`, edges
 // densified so curved edges stay inside. Throws InputError.

@@ -24,6 +24,7 @@
 
 #include "core/error.hpp"
 #include "core/log.hpp"
+#include "dem/crs_transform.hpp"
 #include "dem/dataset_views.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/gdal_util.hpp"
@@ -448,16 +449,37 @@ Extent FileMeta::partBoundsIn(std::size_t part, const std::string& crs) const {
 std::vector<Extent> FileMeta::boxesIn(const std::vector<Extent>& boxes, const std::string& crs) const {
   const OGRSpatialReference target = spatialReference(crs);
   std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&m_srs, &target));
+  // A box a whole turn wide where x runs round the globe (a Web Mercator
+  // world counted from 0 m) is every longitude, between the latitudes of its
+  // edges: PROJ would put its east edge, a turn on, on its west one (a
+  // world from 0 to 0 degrees). It goes to another CRS as that box of
+  // longitudes and latitudes.
+  const double turn = target.IsSame(&m_srs) ? 0 : turnWidthOf(srsWkt());
+  const OGRSpatialReference lon_lat = spatialReference("EPSG:4326");
+  std::unique_ptr<OGRCoordinateTransformation> to_lon_lat, from_lon_lat;
+  if (turn > 0) {
+    to_lon_lat.reset(OGRCreateCoordinateTransformation(&m_srs, &lon_lat));
+    from_lon_lat.reset(OGRCreateCoordinateTransformation(&lon_lat, &target));
+  }
   std::vector<Extent> transformed;
   for (const Extent& box : boxes) {
-    const double west = box.min_x, east = box.max_x;
+    double west = box.min_x, east = box.max_x;
     double north = box.max_y, south = box.min_y;
     if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
+    OGRCoordinateTransformation* through = ct.get();
+    if (turn > 0 && east - west >= turn - EdgeExtension::kWholeGlobeSlack * m_info.grid.cell_w && to_lon_lat &&
+        from_lon_lat) {
+      double x[2] = {west, west}, y[2] = {south, north};
+      if (to_lon_lat->Transform(2, x, y)) {
+        west = -180, east = 180, south = y[0], north = y[1];
+        through = from_lon_lat.get();
+      }
+    }
     Extent out;
     constexpr int kDensifyPoints = 21;
     CPLErrorReset();
-    if (!ct || !ct->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
-                                    kDensifyPoints)) {
+    if (!through || !through->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
+                                              kDensifyPoints)) {
       // PROJ often gives no reason: a geotransform far outside the CRS's area
       // (metres for a geographic CRS, say) is the usual one.
       char extent[160];

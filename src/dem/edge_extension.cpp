@@ -51,17 +51,19 @@ std::optional<float> extrapolated(const PixelGrid& grid, int c, int r) {
 }
 
 // The columns of one turn round the globe of a `file` in CRS `crs_wkt` that
-// spans it (its width, or its width less the repeated column), else 0.
+// spans it (its width, or its width less the repeated column), else 0: a
+// geographic raster 360 degrees wide, a Web Mercator one 40,075 km wide.
 int pixelsInATurn(GDALDataset& file, const std::string& crs_wkt) {
   const int width = file.GetRasterXSize();
   double gt[6];
-  if (crs_wkt.empty() || !isLonLatCrs(crs_wkt) || file.GetGeoTransform(gt) != CE_None || gt[1] == 0 ||
+  const double turn = crs_wkt.empty() ? 0 : turnWidthOf(crs_wkt);
+  if (turn == 0 || file.GetGeoTransform(gt) != CE_None || gt[1] == 0 ||
       3.0 * width > double(std::numeric_limits<int>::max())) {
     return 0;
   }
   const double cell = std::abs(gt[1]);
   for (const int turn_px : {width, width - 1}) {
-    if (turn_px > 0 && std::abs(turn_px * cell - 360) <= EdgeExtension::kWholeGlobeSlack * cell) return turn_px;
+    if (turn_px > 0 && std::abs(turn_px * cell - turn) <= EdgeExtension::kWholeGlobeSlack * cell) return turn_px;
   }
   return 0;
 }

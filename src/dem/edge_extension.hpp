@@ -36,16 +36,16 @@ class EdgeExtension {
   // behind the second ring.
   static constexpr int kSourceExtra = kPixels + 3;
 
-  // A geographic raster within this share of a pixel of 360 degrees wide
-  // spans the whole globe, its last pixel next to its first; so does one a
-  // pixel wider, a grid of pixel centres from -180 to 180 whose last column
-  // repeats its first.
+  // A raster within this share of a pixel of a turn wide (360 degrees
+  // geographic, turnWidthOf its CRS) spans the whole globe, its last pixel
+  // next to its first; so does one a pixel wider, a grid of pixel centres
+  // from -180 to 180 whose last column repeats its first.
   static constexpr double kWholeGlobeSlack = 1e-6;
 
   // `file` (band `band`, as Float32) inside a border of kPixels void pixels, as a
   // new in-memory VRT over it that the caller closes: beyond the file's edge
-  // a read then finds pixels that extendIntoVoids can fill. Where a
-  // geographic `file` spans the whole globe, its east and west borders are
+  // a read then finds pixels that extendIntoVoids can fill. Where `file`
+  // spans the whole globe, its east and west borders are
   // a whole turn of it each instead (without a repeated last column). `file`
   // must outlive it. Returns nullptr when GDAL cannot make it.
   //

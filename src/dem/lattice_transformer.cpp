@@ -50,10 +50,10 @@ LatticeTransformer::LatticeTransformer(GDALDatasetH source, const std::string& t
     throw InputError("dem: no transformation from the DEM to the tiling CRS (no georeferencing)");
   }
   m_to_source_crs = reprojections.between(source_wkt, target_wkt);
-  if (isLonLatCrs(source_wkt)) {
-    m_pixels_a_turn = 360 / std::abs(gt[1]);
+  if (const double turn = turnWidthOf(source_wkt); turn > 0) {
+    m_pixels_a_turn = turn / std::abs(gt[1]);
     m_source_middle_px = GDALGetRasterXSize(source) / 2.0;
-    if (isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * m_source_middle_px;
+    if (isLonLatCrs(source_wkt) && isLonLatCrs(target_wkt)) m_source_centre_lon = gt[0] + gt[1] * m_source_middle_px;
   }
 }
 

@@ -93,14 +93,16 @@ class LatticeTransformer {
 
   void* m_to_source_crs = nullptr;   // target CRS <-> source CRS coordinates, shared
   double m_source_from_crs[6] = {};  // source CRS coordinates -> source pixels
-  // A geographic source: its pixels in 360 degrees. Where the reprojection
-  // takes longitudes the short way round the antimeridian (a tile's apron
-  // past it), a row of nodes would jump a whole turn; unwrapRows keeps each
-  // row continuous from its middle, so the pixels past the DEM's edge are
-  // those beyond it (EdgeExtension's border), not the far side's. A row
-  // whose middle falls off the raster it then turns whole turns round to
-  // meet it: a whole-globe source counted 0 to 360 gets longitudes from -180
-  // for a tile west of 0.
+  // A source whose x runs round the globe (geographic, or a projection whose
+  // x is longitude scaled: Web Mercator, Plate Carree): its pixels in a
+  // turn. Where the reprojection takes longitudes the short way round the
+  // antimeridian (a tile's apron past it), a row of nodes would jump a whole
+  // turn; unwrapRows keeps each row continuous from its middle, so the
+  // pixels past the DEM's edge are those beyond it (EdgeExtension's border),
+  // not the far side's. A row whose middle falls off the raster it then
+  // turns whole turns round to meet it: a whole-globe source counted 0 to
+  // 360 gets longitudes from -180 for a tile west of 0, and a Web Mercator
+  // DEM stored past x = 20,037,508 m is read by the tiles east of 180.
   std::optional<double> m_pixels_a_turn;
   double m_source_middle_px = 0;  // the source raster's middle column
   void unwrapRows();
