@@ -187,13 +187,19 @@ TEST(ServeOnDemandTileset, RegionsHoldTheMeshesRoundAPole) {
 // from zoom 0 in the webmercator scheme: a zoom 0 tile spans 10^9 of the
 // backdrop's cells and 10^10 of the height bounds' (counts that once
 // overflowed, or were walked a cell at a time). The root's region holds the
-// DEM and its heights.
+// DEM and its heights, and the tileset names the tiles a batch run makes,
+// each baked where it puts it, and one tile each of zooms 18 and 19, which
+// bake empty: the plan leaves out only the tiles that a file's area
+// overlaps by under a quarter of a texel each way, and the DEM's 1.28 m are
+// 0.39 and 0.77 of their texels, which no texel has half of. (Every tile
+// of zooms 0-17 was once planned, and answered 404.)
 TEST(ServeOnDemandTileset, ADemOfACentimetreIsPlannedFromZoomZero) {
   const fs::path dem = sharedFixture("drone_1cm_32632.tif", [](const fs::path& path) {
     test_support::writeFloatDem(path, 32632, {500000, 0.01, 0, 5100000, 0, -0.01}, 128, 128,
                                 [](double x, double) { return 300 + 0.1 * std::sin(x / 0.09); });
   });
-  const config::ServeConfig config = onDemandConfig(caseDir(), "drone", jobText(dem, "drone", true, 0, 24, 32));
+  constexpr int kDeepest = 24;
+  const config::ServeConfig config = onDemandConfig(caseDir(), "drone", jobText(dem, "drone", true, 0, kDeepest, 32));
   ServerThread running(config);
   const auto tileset = get(running.port(), "/drone/tileset.json");
   ASSERT_TRUE(tileset);
@@ -209,6 +215,22 @@ TEST(ServeOnDemandTileset, ADemOfACentimetreIsPlannedFromZoomZero) {
   EXPECT_GE(region[3].get<double>(), kNorthRad);
   EXPECT_LE(region[4].get<double>(), 299.9);
   EXPECT_GE(region[5].get<double>(), 300.1);
+
+  TilesetWalk walk = httpWalk(running, config, "drone", kDeepest);
+  walk.unresolved_allowed = true;
+  walk.run();  // every content the tileset names is baked, inside its tile's region
+  std::set<int> empty_zooms;
+  for (const TileId& id : walk.unresolved) empty_zooms.insert(id.z);
+  EXPECT_EQ(empty_zooms, (std::set<int>{18, 19}));
+  EXPECT_EQ(walk.unresolved.size(), 2u);
+  config::TileJob batch = tileJob(dem, "server_tileset/drone_batch", SchemeKind::kWebMercator, 0, kDeepest);
+  batch.tile_size = 32;
+  batch.backend = Backend::kCpu;
+  fs::remove_all(layerDir(batch));
+  ASSERT_EQ(pipeline::runTileJob(batch).failed, 0);
+  std::set<TileId> named;
+  for (const auto& [id, count] : walk.meshes_seen) named.insert(id);
+  EXPECT_EQ(named, meshesOnDisk(layerDir(batch)));
 }
 
 // The first external tileset a tileset's tile names, depth first.

@@ -31,6 +31,12 @@ constexpr double kFillOvershootShare = 0.3;
 // Points along each tile edge taken to longitude and latitude: a native
 // CRS's edges curve there, between the points by far less than a texel.
 constexpr int kEdgePoints = 16;
+// A texel holds a sample only where half of it lies on data, so a tile
+// whose overlap with every file's area is under half a texel across holds
+// none, and a batch run writes no file of it. Half of that half is asked
+// for: the areas are boxes round the files' edges densified into the
+// scheme's CRS, whose curves between the points may bulge past them.
+constexpr double kTexelShareOnData = 0.25;
 
 struct LonLatBox {
   double west = 0, south = 0, east = 0, north = 0;  // radians; west > east across the antimeridian
@@ -74,6 +80,17 @@ LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
   return {glm::radians(west), glm::radians(south), glm::radians(east), glm::radians(north)};
 }
 
+// Whether the DEM's files, `areas` in the scheme's CRS, overlap `extent` by
+// kTexelShareOnData of a texel each way somewhere (a DEM of a metre under a
+// zoom 0 tile, a sliver of one past a tile's edge do not).
+bool overlapsATexel(const std::vector<Extent>& areas, const Extent& extent, double texel_w, double texel_h) {
+  return std::any_of(areas.begin(), areas.end(), [&](const Extent& area) {
+    if (!area.intersects(extent)) return false;
+    const Extent overlap = area.intersection(extent);
+    return overlap.width() >= kTexelShareOnData * texel_w && overlap.height() >= kTexelShareOnData * texel_h;
+  });
+}
+
 // Where the tile's meshes will lie, or nullopt when it holds no DEM sample.
 // Every vertex of a low-poly mesh is a height sample of the tile (or the
 // mean of samples across its edge), so its heights are the terrain's; the
@@ -84,9 +101,10 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
   const tiling::Scheme& scheme = *plan.scheme;
   const TileSettings& settings = plan.settings;
   const Extent extent = scheme.tileExtent(tile);
+  const double texel = extent.width() / scheme.tileSize();
+  if (!overlapsATexel(plan.file_areas, extent, texel, extent.height() / scheme.tileSize())) return std::nullopt;
   std::optional<HeightRange> heights = bounds.over(extent);
   if (!heights) return std::nullopt;
-  const double texel = extent.width() / scheme.tileSize();
   if (heights->holes) {
     // The surface carried into the tile's holes starts from data samples up
     // to the fill's reach away, at their heights and with their slopes.
