@@ -820,6 +820,7 @@ TEST(Gdal, TheBlockCacheIsSizedForTheWorkersWithinItsBounds) {
 TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
   GDALAllRegister();
   constexpr int kWidth = 1100, kHeight = 1030;  // two levels: 550 and 275 wide
+  constexpr std::size_t kCoarserLevelBytes = sizeof(float) * 275 * 258;  // the 275 x 258 level alone
   // Blocks 48 rows high: the build reads bands of whole blocks, the last one cut short.
   const std::string path = "/vsimem/reduced_levels_plane.tif";
   const char* tiling[] = {"TILED=YES", "BLOCKXSIZE=64", "BLOCKYSIZE=48", nullptr};
@@ -845,6 +846,7 @@ TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
   };
   dem::VoidRule voids;  // -32768 is a void marker, declared or not
   const auto levels = dem::ReducedLevels::build(open_band, voids, "plane");
+  const auto coarser = dem::ReducedLevels::build(open_band, voids, "plane", kCoarserLevelBytes);
   VSIUnlink(path.c_str());
   ASSERT_TRUE(levels);
   ASSERT_GE(levels->count(), 2u);
@@ -882,10 +884,18 @@ TEST(ReducedLevels, EachPixelIsTheMeanOfTheValidPixelsBelowAndAllFitTheBudget) {
     }
   }
   EXPECT_LE(bytes, dem::ReducedLevels::kMaxBytes);
+  EXPECT_EQ(dem::ReducedLevels::widthsFor(kWidth, kHeight, dem::ReducedLevels::kMaxBytes),
+            (std::vector<int>{550, 275}));
+  // A share of the budget that holds only the coarser level keeps it alone.
+  EXPECT_EQ(dem::ReducedLevels::widthsFor(kWidth, kHeight, kCoarserLevelBytes), (std::vector<int>{275}));
+  EXPECT_EQ(dem::ReducedLevels::widthsFor(kWidth, kHeight, kCoarserLevelBytes - 1), (std::vector<int>{}));
+  ASSERT_TRUE(coarser);
+  ASSERT_EQ(coarser->count(), 1u);
+  EXPECT_EQ(coarser->widthOf(0), 275);
 }
 
-// Coarse zooms of one file without overviews read its reduced levels; a
-// list of files of several rasters reads full resolution. Averaging blocks first widens the
+// Coarse zooms of a file without overviews read its reduced levels, against
+// a plan of the file itself at full resolution. Averaging blocks first widens the
 // footprint's kernel by up to a block, which on the analytic hills moves
 // heights by up to 1.3 % of a texel's size (0.45 % on average; 2.1 m at
 // 300 m texels): a slope changes by well under a degree.
@@ -897,20 +907,18 @@ TEST(DemSource, CoarseZoomsOfOneFileWithoutOverviewsReadReducedLevels) {
     ts::writeUtmDem(p, 15.3, 60.0, 30.0, 1024, 1024);
   });
   const dem::DemSource reduced({path.string()});
-  // With a file of another raster (far away, in another CRS): never reduced.
-  const auto elsewhere = test::sharedFixture("elsewhere_epsg4326_4.tif", [](const auto& p) {
-    ts::writeFloatDem(p, 4326, {0, 0.01, 0, 0.04, 0, -0.01}, 4, 4, [](double, double) { return 100.0; });
-  });
-  const dem::DemSource full({path.string(), elsewhere.string()});
   const auto scheme = tiling::makeScheme(SchemeKind::kWebMercator, 64);
   // Texels of about 2.5, 5 and 10 DEM pixels.
   for (int zoom : {12, 11, 10}) {
     const std::vector<TileId> tiles = scheme->tilesCovering(reduced.boundsIn(scheme->crs()), zoom);
     const GridSpec grid = scheme->texelGrid(tiles[tiles.size() / 2], 2);
-    const dem::ReadPlan reduced_plan = reduced.planFor(grid), full_plan = full.planFor(grid);
+    const dem::ReadPlan reduced_plan = reduced.planFor(grid);
     EXPECT_GE(reduced_plan.files.front().overview, 0) << "zoom " << zoom;
-    EXPECT_EQ(full_plan.files.front().overview, -1) << "zoom " << zoom;
-    const Raster<float> a = reduced.read(grid, reduced_plan), b = full.read(grid, full_plan);
+    EXPECT_GT(reduced_plan.files.front().reduce_bytes, 0u) << "zoom " << zoom;
+    dem::ReadPlan full_plan = reduced_plan;
+    full_plan.files.front().overview = -1;
+    full_plan.files.front().reduce_bytes = 0;
+    const Raster<float> a = reduced.read(grid, reduced_plan), b = reduced.read(grid, full_plan);
     double worst = 0, total = 0;
     std::size_t compared = 0;
     for (std::size_t k = 0; k < a.data.size(); ++k) {

@@ -1218,6 +1218,44 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   EXPECT_TRUE(contains(info.out, "webmercator  0-11,")) << describe(info);
 }
 
+// At zooms whose texels span several of their pixels, files of two rasters
+// listed together each read the reduced levels their own jobs read (they
+// share the levels' memory by their pixels, and together hold far less
+// than a file alone may): the bytes of their own jobs. (Only a DEM read as
+// one raster once got levels, so such a file, listed with another, averaged
+// its own pixels: the same heights to a few centimetres, other bytes.)
+TEST(Inputs, FilesOfTwoRastersListedTogetherReadTheReducedLevelsOfTheirOwnJobs) {
+  const fs::path dir = caseDir();
+  constexpr int kPixels = 1024;
+  const double alps_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "alps.tif", kPixels, kPixels, alps_gt, hill);
+  const double fiji_gt[6] = {178.0, kHillPixelDeg / 2, 0, -17.0, 0, -kHillPixelDeg / 2};
+  writeDem(dir / "fiji.tif", kPixels, kPixels, fiji_gt, hill);
+  const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
+    std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "7-9");
+    for (std::size_t i = 1; i < names.size(); ++i) {
+      args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
+    }
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+    return r;
+  };
+  for (const std::string name : {"alps", "fiji"}) {
+    SCOPED_TRACE(name);
+    const RunResult alone = job(name, {name});
+    EXPECT_TRUE(contains(alone.err, "reduced levels of")) << describe(alone);
+    // Each listed first: max_error_texels is judged in the first file's area.
+    const RunResult listed = job(name + "_listed", {name, name == "alps" ? "fiji" : "alps"});
+    const auto own = tilesOf(dir / "out" / name), together = tilesOf(dir / "out" / (name + "_listed"));
+    ASSERT_FALSE(own.empty());
+    for (const auto& [tile, bytes] : own) {
+      const auto it = together.find(tile);
+      ASSERT_NE(it, together.end()) << tile;
+      EXPECT_TRUE(it->second == bytes) << tile << " differs from its own job's";
+    }
+  }
+}
+
 // Hundreds of files far apart (islands' tiles) each get a part of the
 // backdrop, and a coarse tile among them takes each texel's from the part
 // nearest to it by comparing only the parts near its block: comparing every

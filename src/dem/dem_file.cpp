@@ -500,12 +500,12 @@ void FileMeta::northUpGeoTransform(double* gt) const {
   std::copy(north_up, north_up + 6, gt);
 }
 
-std::shared_ptr<const ReducedLevels> FileMeta::makeReducedLevels() const {
+std::shared_ptr<const ReducedLevels> FileMeta::reducedLevels(std::size_t max_bytes) const {
   std::lock_guard<std::mutex> lock(m_reduced_mutex);
   if (m_reduced_tried) return m_reduced;
   m_reduced_tried = true;
   const auto start = std::chrono::steady_clock::now();
-  m_reduced = ReducedLevels::build([this] { return openNorthUp(*this); }, m_voids, m_info.path);
+  m_reduced = ReducedLevels::build([this] { return openNorthUp(*this); }, m_voids, m_info.path, max_bytes);
   if (m_reduced) {
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     char text[200];
@@ -516,12 +516,7 @@ std::shared_ptr<const ReducedLevels> FileMeta::makeReducedLevels() const {
   return m_reduced;
 }
 
-std::shared_ptr<const ReducedLevels> FileMeta::reducedLevels() const {
-  std::lock_guard<std::mutex> lock(m_reduced_mutex);
-  return m_reduced;
-}
-
-FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file, bool may_reduce) const {
+FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to_file, std::size_t reduce_bytes) const {
   // Size of one grid cell in DEM pixels, measured at (cx, cy) of the grid: a
   // cell east and south, or west and north where that leaves the CRS (a
   // grid's centre within a cell of the South Pole).
@@ -552,17 +547,15 @@ FilePlan FileMeta::planFor(const GridSpec& grid, OGRCoordinateTransformation& to
   FilePlan plan;
   plan.average = pixels_per_cell > 1.0;
   std::vector<int> level_widths = m_overview_widths;
-  if (level_widths.empty() && may_reduce && pixels_per_cell >= 2) {
-    if (const auto reduced = makeReducedLevels()) {
-      for (std::size_t i = 0; i < reduced->count(); ++i) level_widths.push_back(reduced->widthOf(i));
-    }
-  }
+  const bool reduced = level_widths.empty() && reduce_bytes > 0 && pixels_per_cell >= 2;
+  if (reduced) level_widths = ReducedLevels::widthsFor(m_info.grid.width, m_info.grid.height, reduce_bytes);
   // The coarsest overview still at least as fine as a cell.
   double level_factor = 1;
   for (std::size_t i = 0; i < level_widths.size(); ++i) {
     const double factor = double(m_info.grid.width) / level_widths[i];
     if (factor <= pixels_per_cell) plan.overview = int(i), level_factor = factor;
   }
+  if (reduced && plan.overview >= 0) plan.reduce_bytes = reduce_bytes;
   const double level_pixels =
       double(m_info.grid.width) / level_factor * (double(m_info.grid.height) / level_factor);
   const double level_ratio = pixels_per_cell / level_factor;
@@ -578,8 +571,9 @@ struct DemFile::Impl {
   // Built on first use, per (overview level, decimation, target CRS).
   std::map<std::tuple<int, int, std::string>, LevelReader> readers;
 
-  LevelReader& readerFor(const FileMeta& meta, int overview, int decimate, const std::string& crs,
+  LevelReader& readerFor(const FileMeta& meta, const FilePlan& plan, const std::string& crs,
                          Reprojections& reprojections) {
+    const int overview = plan.overview, decimate = plan.decimate;
     const auto key = std::make_tuple(overview, decimate, crs);
     auto it = readers.find(key);
     if (it != readers.end()) return it->second;
@@ -588,11 +582,16 @@ struct DemFile::Impl {
     reader.voids = meta.voids();
     GDALDataset* level = dataset.get();
     int level_band = band;
-    const std::shared_ptr<const ReducedLevels> reduced = meta.reducedLevels();
-    if (overview >= 0 && reduced) {
+    if (plan.reduce_bytes > 0) {
+      std::shared_ptr<const ReducedLevels> reduced;
+      try {
+        reduced = meta.reducedLevels(plan.reduce_bytes);
+      } catch (const InputError& e) {
+        throw UnreadableDemError(e.what());  // as a window it cannot read: every tile over it would fail
+      }
       double gt[6];
       meta.northUpGeoTransform(gt);
-      reader.file.reset(reduced->open(std::size_t(overview), gt, meta.srsWkt()));
+      reader.file.reset(reduced ? reduced->open(std::size_t(overview), gt, meta.srsWkt()) : nullptr);
       if (!reader.file) throw InputError("dem: cannot read '" + shortened(path) + "' (" + lastGdalError() + ")");
       level = reader.file.get();
       level_band = 1;
@@ -632,7 +631,7 @@ int DemFile::handles() const {
 
 void DemFile::readIntoMissing(const GridSpec& grid, const FilePlan& plan, Raster<float>& heights,
                               Reprojections& reprojections) {
-  LevelReader& reader = m_impl->readerFor(*m_meta, plan.overview, plan.decimate, grid.crs, reprojections);
+  LevelReader& reader = m_impl->readerFor(*m_meta, plan, grid.crs, reprojections);
   reader.transformer->prepare(grid);
   CPLErrorReset();
   const VoidRule& voids = reader.voids;

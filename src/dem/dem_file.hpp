@@ -59,20 +59,21 @@ class FileMeta {
   Extent partBoundsIn(std::size_t part, const std::string& crs) const;
 
   // How to read this file onto grids of the cell size `representative` has;
-  // `to_file` maps the grid's CRS to the file's. With `may_reduce`, a file
-  // without overviews whose cells span two pixels or more gets reduced
-  // levels (reduced_levels.hpp), made on the first such plan, and the plan
-  // reads them as overviews.
-  FilePlan planFor(const GridSpec& representative, OGRCoordinateTransformation& to_file, bool may_reduce) const;
+  // `to_file` maps the grid's CRS to the file's. With `reduce_bytes` above
+  // 0, a file without overviews whose cells span two pixels or more reads
+  // the reduced levels (reduced_levels.hpp) that fit it as overviews
+  // (reducedLevels makes them).
+  FilePlan planFor(const GridSpec& representative, OGRCoordinateTransformation& to_file,
+                   std::size_t reduce_bytes) const;
 
-  // The reduced levels made for this file; null when none were.
-  std::shared_ptr<const ReducedLevels> reducedLevels() const;
+  // The reduced levels of this file within `max_bytes` (the same for every
+  // call of a job), made on the first call; null when the file gains none.
+  // Throws InputError when GDAL cannot read the file.
+  std::shared_ptr<const ReducedLevels> reducedLevels(std::size_t max_bytes) const;
 
  private:
   // `boxes` (in the file's CRS) in another CRS, edges densified.
   std::vector<Extent> boxesIn(const std::vector<Extent>& boxes, const std::string& crs) const;
-  // Makes the reduced levels on the first call; null when the file gains none.
-  std::shared_ptr<const ReducedLevels> makeReducedLevels() const;
 
  private:
   DemInfo m_info;

@@ -18,6 +18,7 @@
 #include "dem/dem_file.hpp"
 #include "dem/gdal_util.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/reduced_levels.hpp"
 
 namespace terrabake::dem {
 namespace {
@@ -370,11 +371,28 @@ ReadPlan DemSource::planFor(const std::function<const GridSpec&(std::size_t file
       throw InputError("dem: cannot transform from the tiling CRS to the CRS of '" +
                        shortened(file->info().path) + "'");
     }
-    // Reduced levels for one file only: a mosaic's files are many, and a
-    // job may reach a few of them.
-    plan.files.push_back(file->planFor(representative, *ct, m_shared->read_files.size() == 1));
+    plan.files.push_back(file->planFor(representative, *ct, reduceBytesOf(*file)));
+    // One raster's levels are made now, before any tile, while the cores are
+    // free: every read of the plan needs them. A list's are made by the
+    // first read of each file that needs them: a job may reach few of its files.
+    const FilePlan& made = plan.files.back();
+    if (m_shared->read_files.size() == 1 && made.reduce_bytes > 0) file->reducedLevels(made.reduce_bytes);
   }
   return plan;
+}
+
+std::size_t DemSource::reduceBytesOf(const FileMeta& file) const {
+  // The files' share of ReducedLevels::kMaxBytes by their pixels, among
+  // those not too large for levels: while they hold kMaxSourcePixels
+  // together, each gets the levels it gets alone.
+  const auto pixelsOf = [](const FileMeta& meta) {
+    const double pixels = double(meta.info().grid.width) * double(meta.info().grid.height);
+    return pixels > ReducedLevels::kMaxSourcePixels ? 0.0 : pixels;
+  };
+  double all = 0;
+  for (const auto& read : m_shared->read_files) all += pixelsOf(*read);
+  if (all == 0) return 0;
+  return std::size_t(double(ReducedLevels::kMaxBytes) * pixelsOf(file) / all);
 }
 
 ReadPlan DemSource::onlyFiles(ReadPlan plan, const std::function<bool(std::size_t file)>& keep) const {

@@ -45,6 +45,9 @@ struct FilePlan {
   int overview = -1;  // -1: full resolution, else GDAL overview index
   int decimate = 1;   // read every decimate-th pixel of that level
   bool skip = false;  // not read at all (DemSource::onlyFiles)
+  // Above 0: `overview` is a level of the file's reduced levels within this
+  // many bytes (reduced_levels.hpp), not a GDAL overview.
+  std::size_t reduce_bytes = 0;
 };
 
 // Heights of terrain on Earth, in metres: the deepest trench is 10,935 m
@@ -146,6 +149,8 @@ class DemSource {
   DemSource() = default;
   // read() on a grid within the poles.
   Raster<float> readOnEarth(const GridSpec& grid, const ReadPlan& plan) const;
+  // The bytes of reduced levels `file` (one of the files reads go to) may hold.
+  std::size_t reduceBytesOf(const FileMeta& file) const;
   DemFile& open(std::size_t index) const;
   void closeLeastRecent() const;
   void recount(DemFile& file, int before) const;

@@ -29,6 +29,23 @@ constexpr double kMaxBandBytes = 64.0 * (1 << 20);
 
 int reduced(int size, int factor) { return (size + factor - 1) / factor; }
 
+// The halvings k (factor 2^k) of the levels a file of width x height gets
+// within max_bytes: k = 1.. while a level stays at least kMinLevelSide
+// across, the finest kept the first from which all the coarser ones fit.
+// Empty when none does, or the file is over kMaxSourcePixels.
+std::vector<int> halvingsFor(int width, int height, std::size_t max_bytes) {
+  if (double(width) * double(height) > ReducedLevels::kMaxSourcePixels) return {};
+  std::vector<std::size_t> bytes;
+  for (int k = 1; std::max(reduced(width, 1 << k), reduced(height, 1 << k)) >= kMinLevelSide; ++k) {
+    bytes.push_back(sizeof(float) * std::size_t(reduced(width, 1 << k)) * std::size_t(reduced(height, 1 << k)));
+  }
+  std::size_t first = bytes.size(), total = 0;
+  while (first > 0 && total + bytes[first - 1] <= max_bytes) total += bytes[--first];
+  std::vector<int> halvings;
+  for (std::size_t k = first; k < bytes.size(); ++k) halvings.push_back(int(k) + 1);
+  return halvings;
+}
+
 // Each pixel the mean of the valid pixels of `finer` below it (2 x 2), NaN where none is.
 std::vector<float> halved(const std::vector<float>& finer, int width, int height, int half_width, int half_height) {
   std::vector<float> out(std::size_t(half_width) * std::size_t(half_height));
@@ -71,25 +88,23 @@ void addBlockColumns(const float* masked, const int* valid, double* sums, int* c
 // rounding up at odd sizes), four bytes each.
 static_assert(double(ReducedLevels::kMaxBytes) >= 1.01 * ReducedLevels::kMaxSourcePixels * sizeof(float) / 3);
 
+std::vector<int> ReducedLevels::widthsFor(int width, int height, std::size_t max_bytes) {
+  std::vector<int> widths;
+  for (const int k : halvingsFor(width, height, max_bytes)) widths.push_back(reduced(width, 1 << k));
+  return widths;
+}
+
 std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open_band, const VoidRule& voids,
-                                                          const std::string& path) {
+                                                          const std::string& path, std::size_t max_bytes) {
   const std::pair<DatasetPtr, int> first_handle = open_band();
   GDALRasterBand& first_band = *first_handle.first->GetRasterBand(first_handle.second);
   const int width = first_band.GetXSize(), height = first_band.GetYSize();
-  if (double(width) * double(height) > kMaxSourcePixels) return nullptr;
-  // Halvings k = 1.. while a level stays at least kMinLevelSide across; the
-  // finest kept is the first from which all the coarser ones fit kMaxBytes.
-  std::vector<std::size_t> bytes;
-  for (int k = 1; std::max(reduced(width, 1 << k), reduced(height, 1 << k)) >= kMinLevelSide; ++k) {
-    bytes.push_back(sizeof(float) * std::size_t(reduced(width, 1 << k)) * std::size_t(reduced(height, 1 << k)));
-  }
-  std::size_t first = bytes.size(), total = 0;
-  while (first > 0 && total + bytes[first - 1] <= kMaxBytes) total += bytes[--first];
-  if (first == bytes.size()) return nullptr;
+  const std::vector<int> halvings = halvingsFor(width, height, max_bytes);
+  if (halvings.empty()) return nullptr;
 
   auto levels = std::make_shared<ReducedLevels>();
   Level finest;
-  finest.factor = 1 << (first + 1);
+  finest.factor = 1 << halvings.front();
   finest.width = reduced(width, finest.factor);
   finest.height = reduced(height, finest.factor);
   finest.heights.resize(std::size_t(finest.width) * std::size_t(finest.height));
@@ -191,7 +206,7 @@ std::shared_ptr<const ReducedLevels> ReducedLevels::build(const BandOpener& open
   // Zooms that read the levels alone still report what the file holds.
   voids.count(implausible);
   levels->m_levels.push_back(std::move(finest));
-  for (std::size_t k = first + 1; k < bytes.size(); ++k) {
+  for (std::size_t k = 1; k < halvings.size(); ++k) {
     const Level& finer = levels->m_levels.back();
     Level next;
     next.factor = finer.factor * 2;
