@@ -455,22 +455,21 @@ std::vector<Extent> FileMeta::boxesIn(const std::vector<Extent>& boxes, const st
   // world from 0 to 0 degrees). It goes to another CRS as that box of
   // longitudes and latitudes.
   const double turn = target.IsSame(&m_srs) ? 0 : turnWidthOf(srsWkt());
-  const OGRSpatialReference lon_lat = spatialReference("EPSG:4326");
-  std::unique_ptr<OGRCoordinateTransformation> to_lon_lat, from_lon_lat;
-  if (turn > 0) {
-    to_lon_lat.reset(OGRCreateCoordinateTransformation(&m_srs, &lon_lat));
-    from_lon_lat.reset(OGRCreateCoordinateTransformation(&lon_lat, &target));
-  }
+  std::unique_ptr<OGRCoordinateTransformation> to_lon_lat, from_lon_lat;  // made for the first such box
   std::vector<Extent> transformed;
   for (const Extent& box : boxes) {
     double west = box.min_x, east = box.max_x;
     double north = box.max_y, south = box.min_y;
     if (m_srs.IsGeographic()) north = std::min(north, 90.0), south = std::max(south, -90.0);
     OGRCoordinateTransformation* through = ct.get();
-    if (turn > 0 && east - west >= turn - EdgeExtension::kWholeGlobeSlack * m_info.grid.cell_w && to_lon_lat &&
-        from_lon_lat) {
+    if (turn > 0 && east - west >= turn - EdgeExtension::kWholeGlobeSlack * m_info.grid.cell_w) {
+      if (!to_lon_lat) {
+        const OGRSpatialReference lon_lat = spatialReference("EPSG:4326");
+        to_lon_lat.reset(OGRCreateCoordinateTransformation(&m_srs, &lon_lat));
+        from_lon_lat.reset(OGRCreateCoordinateTransformation(&lon_lat, &target));
+      }
       double x[2] = {west, west}, y[2] = {south, north};
-      if (to_lon_lat->Transform(2, x, y)) {
+      if (to_lon_lat && from_lon_lat && to_lon_lat->Transform(2, x, y)) {
         west = -180, east = 180, south = y[0], north = y[1];
         through = from_lon_lat.get();
       }
