@@ -54,8 +54,9 @@ std::vector<Extent> areasOf(const tiling::Scheme& scheme, const std::function<Ex
   // (the native scheme's grid is the DEM's own, counted as the DEM counts).
   Extent area = bounds_in(scheme.crs());
   if (scheme.kind() == SchemeKind::kNative) return {area};
-  if (const std::optional<Extent> globe = scheme.globe())
-    area = dem::turnedIntoRange(area, globe->min_x, globe->width());
+  if (const std::optional<Extent> globe = scheme.globe()) {
+    area = dem::turnedIntoRange(area, globe->min_x, globe->width());  // counted past the globe's east edge
+  }
   // Within the scheme's latitudes: a DEM reaching nearer a pole than Web
   // Mercator's 85.05 degrees runs far past its map (to infinity at the
   // pole), which would put the area's centre, where auto's zoom and the
