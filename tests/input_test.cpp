@@ -1223,14 +1223,16 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
 // share the levels' memory by their pixels, and together hold far less
 // than a file alone may): the bytes of their own jobs. (Only a DEM read as
 // one raster once got levels, so such a file, listed with another, averaged
-// its own pixels: the same heights to a few centimetres, other bytes.)
+// its own pixels: the same heights to a few centimetres, other bytes.) A
+// job whose tiles lie inside one file, with no hole to fill from the
+// backdrop (which reads every file), makes no levels of the other.
 TEST(Inputs, FilesOfTwoRastersListedTogetherReadTheReducedLevelsOfTheirOwnJobs) {
   const fs::path dir = caseDir();
-  constexpr int kPixels = 1024;
+  // 2 degrees of the Alps, so that whole tiles of zoom 9 lie inside it, and 0.5 of Fiji.
   const double alps_gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
-  writeDem(dir / "alps.tif", kPixels, kPixels, alps_gt, hill);
+  writeDem(dir / "alps.tif", 2048, 2048, alps_gt, hill);
   const double fiji_gt[6] = {178.0, kHillPixelDeg / 2, 0, -17.0, 0, -kHillPixelDeg / 2};
-  writeDem(dir / "fiji.tif", kPixels, kPixels, fiji_gt, hill);
+  writeDem(dir / "fiji.tif", 1024, 1024, fiji_gt, hill);
   const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
     std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "7-9");
     for (std::size_t i = 1; i < names.size(); ++i) {
@@ -1254,6 +1256,14 @@ TEST(Inputs, FilesOfTwoRastersListedTogetherReadTheReducedLevelsOfTheirOwnJobs) 
       EXPECT_TRUE(it->second == bytes) << tile << " differs from its own job's";
     }
   }
+  // A tile of zoom 9, with its apron, inside the Alps.
+  std::vector<std::string> args = tileArgs(dir / "alps.tif", dir / "out", "alps_box", "9");
+  args.insert(args.end(), {"--dem", (dir / "fiji.tif").string(), "--bbox", "10.6,45.1,11.2,45.5"});
+  const RunResult box = run(args);
+  EXPECT_EQ(box.exit_code, kExitOk) << describe(box);
+  EXPECT_TRUE(contains(box.out + box.err, "wrote 1 tiles")) << describe(box);
+  EXPECT_TRUE(contains(box.err, "reduced levels of '" + (dir / "alps.tif").string())) << describe(box);
+  EXPECT_FALSE(contains(box.err, "reduced levels of '" + (dir / "fiji.tif").string())) << describe(box);
 }
 
 // Hundreds of files far apart (islands' tiles) each get a part of the

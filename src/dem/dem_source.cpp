@@ -374,7 +374,7 @@ ReadPlan DemSource::planFor(const std::function<const GridSpec&(std::size_t file
     plan.files.push_back(file->planFor(representative, *ct, reduceBytesOf(*file)));
     // One raster's levels are made now, before any tile, while the cores are
     // free: every read of the plan needs them. A list's are made by the
-    // first read of each file that needs them: a job may reach few of its files.
+    // first read of each file that needs them: a job may read few of its files.
     const FilePlan& made = plan.files.back();
     if (m_shared->read_files.size() == 1 && made.reduce_bytes > 0) file->reducedLevels(made.reduce_bytes);
   }
