@@ -1166,6 +1166,30 @@ TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   EXPECT_TRUE(contains(between.err, "tiling.bbox: lon 60 to 61, lat 0 to 1 lies between the files of")) << describe(between);
 }
 
+// `tile` of the files `names` (.tif in `dir`, in that order) into
+// dir/out/`layer` at zooms `zoom`, expected to succeed.
+RunResult tileFiles(const fs::path& dir, const std::string& layer, const std::vector<std::string>& names,
+                    const std::string& zoom) {
+  std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, zoom);
+  for (std::size_t i = 1; i < names.size(); ++i) {
+    args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
+  }
+  const RunResult r = run(args);
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  return r;
+}
+
+// Expects every tile of the layer `own` in the layer `listed`, byte for byte.
+void expectOwnTilesAmong(const fs::path& own, const fs::path& listed) {
+  const auto own_tiles = tilesOf(own), listed_tiles = tilesOf(listed);
+  ASSERT_FALSE(own_tiles.empty()) << own;
+  for (const auto& [name, bytes] : own_tiles) {
+    const auto it = listed_tiles.find(name);
+    ASSERT_NE(it, listed_tiles.end()) << name;
+    EXPECT_TRUE(it->second == bytes) << name << " differs from its own job's";
+  }
+}
+
 // A file listed with others far away makes the bytes of its own job: its
 // reads and auto's zoom are judged in the middle of its own area, its
 // backdrop covers its own area, and files that are tiles of one raster are
@@ -1184,13 +1208,7 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   const double fiji_gt[6] = {178.0, kHillPixelDeg / 2, 0, -17.0, 0, -kHillPixelDeg / 2};
   writeDem(dir / "fiji.tif", 300, 300, fiji_gt, hill);
   const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
-    std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "10-auto");
-    for (std::size_t i = 1; i < names.size(); ++i) {
-      args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
-    }
-    const RunResult r = run(args);
-    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
-    return r;
+    return tileFiles(dir, layer, names, "10-auto");
   };
   const RunResult alps = job("alps", {"west", "east"});
   const RunResult fiji = job("fiji", {"fiji"});
@@ -1199,18 +1217,8 @@ TEST(Inputs, FilesFarApartMakeTheBytesOfTheirOwnJobs) {
   // max_error_texels is judged in the first file's group: each group listed first.
   const RunResult alps_first = job("alps_first", {"west", "east", "fiji"});
   const RunResult fiji_first = job("fiji_first", {"fiji", "west", "east"});
-  const std::map<std::string, std::string> own_job = {{"alps_first", "alps"}, {"fiji_first", "fiji"}};
-  for (const auto& [layer, alone] : own_job) {
-    SCOPED_TRACE(layer);
-    const auto listed = tilesOf(dir / "out" / layer);
-    const auto own = tilesOf(dir / "out" / alone);
-    ASSERT_FALSE(own.empty());
-    for (const auto& [name, bytes] : own) {
-      const auto it = listed.find(name);
-      ASSERT_NE(it, listed.end()) << name;
-      EXPECT_TRUE(it->second == bytes) << name << " differs from its own job's";
-    }
-  }
+  expectOwnTilesAmong(dir / "out" / "alps", dir / "out" / "alps_first");
+  expectOwnTilesAmong(dir / "out" / "fiji", dir / "out" / "fiji_first");
   // Auto's zoom suits every group: Fiji's, the deeper.
   EXPECT_TRUE(contains(alps_first.err, "zoom 11:")) << describe(alps_first);
   const RunResult info =
@@ -1233,28 +1241,13 @@ TEST(Inputs, FilesOfTwoRastersListedTogetherReadTheReducedLevelsOfTheirOwnJobs) 
   writeDem(dir / "alps.tif", 2048, 2048, alps_gt, hill);
   const double fiji_gt[6] = {178.0, kHillPixelDeg / 2, 0, -17.0, 0, -kHillPixelDeg / 2};
   writeDem(dir / "fiji.tif", 1024, 1024, fiji_gt, hill);
-  const auto job = [&](const std::string& layer, const std::vector<std::string>& names) {
-    std::vector<std::string> args = tileArgs(dir / (names.front() + ".tif"), dir / "out", layer, "7-9");
-    for (std::size_t i = 1; i < names.size(); ++i) {
-      args.insert(args.end(), {"--dem", (dir / (names[i] + ".tif")).string()});
-    }
-    const RunResult r = run(args);
-    EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
-    return r;
-  };
   for (const std::string name : {"alps", "fiji"}) {
     SCOPED_TRACE(name);
-    const RunResult alone = job(name, {name});
+    const RunResult alone = tileFiles(dir, name, {name}, "7-9");
     EXPECT_TRUE(contains(alone.err, "reduced levels of")) << describe(alone);
     // Each listed first: max_error_texels is judged in the first file's area.
-    const RunResult listed = job(name + "_listed", {name, name == "alps" ? "fiji" : "alps"});
-    const auto own = tilesOf(dir / "out" / name), together = tilesOf(dir / "out" / (name + "_listed"));
-    ASSERT_FALSE(own.empty());
-    for (const auto& [tile, bytes] : own) {
-      const auto it = together.find(tile);
-      ASSERT_NE(it, together.end()) << tile;
-      EXPECT_TRUE(it->second == bytes) << tile << " differs from its own job's";
-    }
+    tileFiles(dir, name + "_listed", {name, name == "alps" ? "fiji" : "alps"}, "7-9");
+    expectOwnTilesAmong(dir / "out" / name, dir / "out" / (name + "_listed"));
   }
   // A tile of zoom 9, with its apron, inside the Alps.
   std::vector<std::string> args = tileArgs(dir / "alps.tif", dir / "out", "alps_box", "9");
