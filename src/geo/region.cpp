@@ -38,9 +38,6 @@ bool spanWithin(double west, double east, double start, double width) {
   return from + eastwardRad(west, east) <= width + kLongitudeSlackRad;
 }
 
-// The largest radius of curvature of the WGS84 ellipsoid, a^2 / b, at the poles.
-constexpr double kMaxCurvatureRadiusM = 6399593.626;
-
 }  // namespace
 
 Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& frame, double longest_edge_m) {

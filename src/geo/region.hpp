@@ -17,6 +17,9 @@ namespace terrabake::geo {
 // the meridian at the equator: the earth bends no tighter than this, so what
 // a straight edge does computed with it is an upper bound.
 inline constexpr double kMinCurvatureRadiusM = 6335439.327;
+// The largest, a^2 / b, across the meridian at the poles: an angle spans no
+// more ground than with it.
+inline constexpr double kMaxCurvatureRadiusM = 6399593.626;
 
 // How far a straight edge `length_m` long sags below its ends on the curved
 // earth, at most: a chord of length L sags L^2 / (8 R).

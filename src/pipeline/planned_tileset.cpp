@@ -19,10 +19,6 @@ namespace terrabake::pipeline {
 namespace {
 
 constexpr double kHalfPi = 1.57079632679489661923;
-// The WGS84 ellipsoid's largest radius of curvature (across the meridian at
-// the poles): an angle spans no more ground than with it (the smallest,
-// geo::kMinCurvatureRadiusM, bounds how a chord sags).
-constexpr double kMaxCurvatureRadiusM = 6399593.626;
 // How far the surface carried into a hole (dem/fill_holes.hpp) rises or
 // falls beyond the edge sample it starts from, in texel steps times its
 // reach: the edge's slope carried on, faded out by a smoothstep, goes
@@ -74,10 +70,9 @@ LonLatBox lonLatOf(const Extent& e, const dem::ToLonLat& to_lon_lat) {
     return {-M_PI, glm::radians(south), M_PI, glm::radians(north)};
   }
   // The west edge turned into [-180, 180); an east edge past 180 lies across the antimeridian.
-  const double turns = 360 * std::floor((west + 180) / 360);
-  west -= turns, east -= turns;
-  if (east > 180) east -= 360;
-  return {glm::radians(west), glm::radians(south), glm::radians(east), glm::radians(north)};
+  const Extent turned = dem::turnedIntoRange({west, south, east, north});
+  const double turned_east = turned.max_x > 180 ? turned.max_x - 360 : turned.max_x;
+  return {glm::radians(turned.min_x), glm::radians(south), glm::radians(turned_east), glm::radians(north)};
 }
 
 // Whether the DEM's files, `areas` in the scheme's CRS, overlap `extent` by
@@ -129,8 +124,8 @@ std::optional<io::GlbPlacement> placementOf(const LayerPlan& plan, const HeightB
 
   const LonLatBox box = lonLatOf(extent, to_lon_lat);
   const double widest_cos = box.south <= 0 && box.north >= 0 ? 1.0 : std::max(std::cos(box.south), std::cos(box.north));
-  const double width_m = geo::eastwardRad(box.west, box.east) * widest_cos * kMaxCurvatureRadiusM;
-  const double height_m = (box.north - box.south) * kMaxCurvatureRadiusM;
+  const double width_m = geo::eastwardRad(box.west, box.east) * widest_cos * geo::kMaxCurvatureRadiusM;
+  const double height_m = (box.north - box.south) * geo::kMaxCurvatureRadiusM;
   const double texel_m = std::max(width_m, height_m) / scheme.tileSize();
   // No mesh edge is longer than the tile's diagonal with its relief.
   const double longest_edge_m = std::hypot(width_m, height_m, relief_m);
