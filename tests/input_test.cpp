@@ -894,6 +894,40 @@ TEST(Inputs, ADroneDemOfACentimetreTilesInEveryScheme) {
   }
 }
 
+// A whole world in Mollweide, voids beyond its ellipse: the corners of its
+// extent lie outside the projection's domain, which once made its bounds
+// untransformable ("cannot transform the extent", exit 3) in every scheme.
+// In webmercator and geodetic it makes every tile of the world.
+TEST(Inputs, AMollweideWorldTilesTheWholeGlobe) {
+  const fs::path dir = caseDir();
+  constexpr double kHalfWidthM = 18040095.7, kHalfHeightM = 9020047.85;  // the ellipse's semi-axes, WGS84
+  constexpr int kWidth = 200, kHeight = 100;
+  const double gt[6] = {-kHalfWidthM, 2 * kHalfWidthM / kWidth, 0, kHalfHeightM, 0, -2 * kHalfHeightM / kHeight};
+  const auto inside_ellipse = [&](int c, int r) {
+    const double x = (c + 0.5) / kWidth * 2 - 1, y = (r + 0.5) / kHeight * 2 - 1;
+    return x * x + y * y <= 1 ? float(1000 + 800 * std::sin(6 * x) * std::cos(3 * y)) : NAN;
+  };
+  const fs::path dem = dir / "mollweide.tif";
+  writeDem(dem, kWidth, kHeight, gt, inside_ellipse);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(dem.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    OGRSpatialReference mollweide;
+    ASSERT_EQ(mollweide.SetFromUserInput("+proj=moll +datum=WGS84 +units=m +no_defs"), OGRERR_NONE);
+    ASSERT_TRUE(ds && ds->SetSpatialRef(&mollweide) == CE_None);
+  }
+  const RunResult info = run({"info", dem.string()});
+  EXPECT_TRUE(contains(info.out, "west -180.000000, south -90.000000, east 180.000000, north 90.000000"))
+      << describe(info);
+  for (const auto& [scheme, world_tiles] : {std::pair<std::string, std::size_t>{"webmercator", 4}, {"geodetic", 8}}) {
+    std::vector<std::string> args = tileArgs(dem, dir / "out", scheme, "1");
+    args.insert(args.end(), {"--scheme", scheme});
+    const RunResult r = run(args);
+    EXPECT_EQ(r.exit_code, kExitOk) << scheme << ": " << describe(r);
+    EXPECT_TRUE(contains(r.out + r.err, " 0 empty, 0 failed)")) << scheme << ": " << describe(r);
+    EXPECT_EQ(tilesOf(dir / "out" / scheme).size(), 2 * world_tiles) << scheme << ": " << describe(r);
+  }
+}
+
 // A UTM DEM tiled in the geodetic scheme from zoom 0: the middle tile of the
 // coarse zooms reaches 80 degrees of longitude past the UTM zone, where the
 // projection has no inverse. The read plan is then judged inside the DEM;

@@ -69,16 +69,83 @@ Extent turnedIntoRange(const Extent& extent, double west, double turn) {
   return {extent.min_x - turns, extent.min_y, extent.max_x - turns, extent.max_y};
 }
 
+namespace {
+
+bool isFinite(const Extent& e) {
+  return std::isfinite(e.min_x) && std::isfinite(e.min_y) && std::isfinite(e.max_x) && std::isfinite(e.max_y);
+}
+
+// The bounds of the points of `box` that `ct` transforms: a lattice of points
+// over the box and, along each of its rows and columns, the domain's edge
+// between a point that transforms and its neighbour that does not.
+std::optional<Extent> boundsOfTransformablePart(OGRCoordinateTransformation& ct, const Extent& box) {
+  constexpr int kLines = 65;         // each way: a world's outline is found every 1/64 of it
+  constexpr int kEdgeHalvings = 40;  // the edge to 1e-12 of a line's length
+  Extent bounds{INFINITY, INFINITY, -INFINITY, -INFINITY};
+  auto add = [&](double x, double y) {
+    bounds.min_x = std::min(bounds.min_x, x), bounds.max_x = std::max(bounds.max_x, x);
+    bounds.min_y = std::min(bounds.min_y, y), bounds.max_y = std::max(bounds.max_y, y);
+  };
+  // Where (x, y) goes, or nullopt outside the domain.
+  auto transformed = [&](double x, double y) -> std::optional<glm::dvec2> {
+    int ok = 0;
+    if (!ct.Transform(1, &x, &y, nullptr, &ok) || !ok || !std::isfinite(x) || !std::isfinite(y)) return std::nullopt;
+    return glm::dvec2(x, y);
+  };
+  constexpr double kStep = 1.0 / (kLines - 1);
+  for (const bool rows : {true, false}) {
+    for (int line = 0; line < kLines; ++line) {
+      // The point `along` a line of the lattice, both in [0, 1] of the box.
+      auto pointAt = [&](double along) {
+        const double fx = rows ? along : line * kStep, fy = rows ? line * kStep : along;
+        return glm::dvec2(box.min_x + fx * (box.max_x - box.min_x), box.min_y + fy * (box.max_y - box.min_y));
+      };
+      std::optional<glm::dvec2> previous;
+      for (int k = 0; k < kLines; ++k) {
+        const glm::dvec2 at = pointAt(k * kStep);
+        const std::optional<glm::dvec2> here = transformed(at.x, at.y);
+        if (here) add(here->x, here->y);
+        if (k > 0 && bool(here) != bool(previous)) {
+          double inside = here ? k * kStep : (k - 1) * kStep, outside = here ? (k - 1) * kStep : k * kStep;
+          glm::dvec2 edge = here ? *here : *previous;
+          for (int halving = 0; halving < kEdgeHalvings; ++halving) {
+            const double middle = (inside + outside) / 2;
+            const glm::dvec2 m = pointAt(middle);
+            if (const std::optional<glm::dvec2> there = transformed(m.x, m.y)) {
+              inside = middle, edge = *there;
+            } else {
+              outside = middle;
+            }
+          }
+          add(edge.x, edge.y);
+        }
+        previous = here;
+      }
+    }
+  }
+  if (!isFinite(bounds)) return std::nullopt;
+  return bounds;
+}
+
+}  // namespace
+
+std::optional<Extent> transformedBox(OGRCoordinateTransformation& ct, const Extent& box) {
+  constexpr int kDensifyPoints = 21;
+  Extent out;
+  if (ct.TransformBounds(box.min_x, box.min_y, box.max_x, box.max_y, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
+                         kDensifyPoints) &&
+      isFinite(out)) {
+    return out;
+  }
+  return boundsOfTransformablePart(ct, box);
+}
+
 Extent transformExtent(const Extent& extent, const std::string& from, const std::string& to) {
   const OGRSpatialReference source = spatialReference(from), target = spatialReference(to);
   std::unique_ptr<OGRCoordinateTransformation> ct(OGRCreateCoordinateTransformation(&source, &target));
-  Extent out;
-  constexpr int kDensifyPoints = 21;
-  if (!ct || !ct->TransformBounds(extent.min_x, extent.min_y, extent.max_x, extent.max_y, &out.min_x, &out.min_y,
-                                  &out.max_x, &out.max_y, kDensifyPoints)) {
-    throw InputError("dem: cannot transform an extent to '" + to.substr(0, 80) + "'");
-  }
-  return out;
+  const std::optional<Extent> out = ct ? transformedBox(*ct, extent) : std::nullopt;
+  if (!out) throw InputError("dem: cannot transform an extent to '" + to.substr(0, 80) + "'");
+  return *out;
 }
 
 }  // namespace terrabake::dem

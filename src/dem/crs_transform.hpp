@@ -1,12 +1,15 @@
 #pragma once
 // Points of a CRS to geographic longitude / latitude on WGS84.
 #include <memory>
+#include <optional>
 #include <string>
 #include <vector>
 
 #include <glm/vec2.hpp>
 
 #include "core/types.hpp"
+
+class OGRCoordinateTransformation;
 
 namespace terrabake::dem {
 
@@ -43,6 +46,13 @@ double turnTowards(double from, double to, double turn = 360);
 // one counted from -180, and one in Web Mercator past x = 20,037,508 m the
 // same place a turn west.
 Extent turnedIntoRange(const Extent& extent, double west = -180, double turn = 360);
+
+// The box that `ct` maps `box` into, edges densified so curved edges stay
+// inside. Where part of the box lies outside the source CRS's domain (the
+// corners of a Mollweide, Equal Earth or sinusoidal world, beyond its
+// outline), the bounds of the part inside it. nullopt when no point of the
+// box transforms.
+std::optional<Extent> transformedBox(OGRCoordinateTransformation& ct, const Extent& box);
 
 // The smallest extent of CRS `to` that holds `extent` of CRS `from`, edges
 // densified so curved edges stay inside. Throws InputError.

@@ -474,11 +474,9 @@ std::vector<Extent> FileMeta::boxesIn(const std::vector<Extent>& boxes, const st
         through = from_lon_lat.get();
       }
     }
-    Extent out;
-    constexpr int kDensifyPoints = 21;
     CPLErrorReset();
-    if (!through || !through->TransformBounds(west, south, east, north, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
-                                              kDensifyPoints)) {
+    const std::optional<Extent> out = through ? transformedBox(*through, {west, south, east, north}) : std::nullopt;
+    if (!out) {
       // PROJ often gives no reason: a geotransform far outside the CRS's area
       // (metres for a geographic CRS, say) is the usual one.
       char extent[160];
@@ -488,7 +486,7 @@ std::vector<Extent> FileMeta::boxesIn(const std::vector<Extent>& boxes, const st
                        " in its CRS) to the tiling CRS" + (*reason ? " (" + oneLine(reason) + ")" : std::string()) +
                        "; check its geotransform and CRS");
     }
-    transformed.push_back(out);
+    transformed.push_back(*out);
   }
   return transformed;
 }
