@@ -898,7 +898,7 @@ TEST(Inputs, ADroneDemOfACentimetreTilesInEveryScheme) {
 // extent lie outside the projection's domain, which once made its bounds
 // untransformable ("cannot transform the extent", exit 3) in every scheme.
 // In webmercator and geodetic it makes every tile of the world.
-TEST(Inputs, AMollweideWorldTilesTheWholeGlobe) {
+TEST(Inputs, AWorldInMollweideTilesTheWholeGlobe) {
   const fs::path dir = caseDir();
   constexpr double kHalfWidthM = 18040095.7, kHalfHeightM = 9020047.85;  // the ellipse's semi-axes, WGS84
   constexpr int kWidth = 200, kHeight = 100;
@@ -926,6 +926,31 @@ TEST(Inputs, AMollweideWorldTilesTheWholeGlobe) {
     EXPECT_TRUE(contains(r.out + r.err, " 0 empty, 0 failed)")) << scheme << ": " << describe(r);
     EXPECT_EQ(tilesOf(dir / "out" / scheme).size(), 2 * world_tiles) << scheme << ": " << describe(r);
   }
+}
+
+// A geostationary satellite's full disk: only the middles of its extent's
+// edges touch the globe, and its bounds were once theirs alone, latitude 0
+// to 0 ("nothing to make", exit 5). They are the disk's, 81.3 degrees each
+// way from the satellite's nadir.
+TEST(Inputs, AGeostationaryFullDiskIsBoundedByTheDisk) {
+  const fs::path dir = caseDir();
+  constexpr double kHalfWidthM = 5434177.8;  // the disk's edge, seen from 35,786 km
+  const double gt[6] = {-kHalfWidthM, 2 * kHalfWidthM / 60, 0, kHalfWidthM, 0, -2 * kHalfWidthM / 60};
+  const fs::path dem = dir / "disk.tif";
+  writeDem(dem, 60, 60, gt, hill);
+  {
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(dem.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    OGRSpatialReference geostationary;
+    ASSERT_EQ(geostationary.SetFromUserInput("+proj=geos +h=35785831 +lon_0=0 +sweep=y +datum=WGS84 +no_defs"),
+              OGRERR_NONE);
+    ASSERT_TRUE(ds && ds->SetSpatialRef(&geostationary) == CE_None);
+  }
+  const RunResult info = run({"info", dem.string()});
+  EXPECT_TRUE(contains(info.out, "west -81.299477, south -81.328194, east 81.299477, north 81.328194"))
+      << describe(info);
+  const RunResult r = run(tileArgs(dem, dir / "out", "disk", "2"));
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out + r.err, "wrote 8 tiles")) << describe(r);  // the middle two columns of zoom 2
 }
 
 // A UTM DEM tiled in the geodetic scheme from zoom 0: the middle tile of the

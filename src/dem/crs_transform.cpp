@@ -127,12 +127,33 @@ std::optional<Extent> boundsOfTransformablePart(OGRCoordinateTransformation& ct,
   return bounds;
 }
 
+// Whether every point of `box`'s outline, `per_edge` a side, transforms:
+// TransformBounds leaves out those that do not, and a box that reaches past
+// the domain (a geostationary disk's corners) would be bounded by the few
+// that do.
+bool outlineTransforms(OGRCoordinateTransformation& ct, const Extent& box, int per_edge) {
+  std::vector<double> x, y;
+  for (int k = 0; k < per_edge; ++k) {
+    const double f = double(k) / per_edge;
+    const double along_x = box.min_x + f * (box.max_x - box.min_x), along_y = box.min_y + f * (box.max_y - box.min_y);
+    x.insert(x.end(), {along_x, box.max_x, box.max_x - (along_x - box.min_x), box.min_x});
+    y.insert(y.end(), {box.min_y, along_y, box.max_y, box.max_y - (along_y - box.min_y)});
+  }
+  std::vector<int> ok(x.size());
+  ct.Transform(int(x.size()), x.data(), y.data(), nullptr, ok.data());
+  for (std::size_t k = 0; k < x.size(); ++k) {
+    if (!ok[k] || !std::isfinite(x[k]) || !std::isfinite(y[k])) return false;
+  }
+  return true;
+}
+
 }  // namespace
 
 std::optional<Extent> transformedBox(OGRCoordinateTransformation& ct, const Extent& box) {
   constexpr int kDensifyPoints = 21;
   Extent out;
-  if (ct.TransformBounds(box.min_x, box.min_y, box.max_x, box.max_y, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
+  if (outlineTransforms(ct, box, kDensifyPoints + 1) &&
+      ct.TransformBounds(box.min_x, box.min_y, box.max_x, box.max_y, &out.min_x, &out.min_y, &out.max_x, &out.max_y,
                          kDensifyPoints) &&
       isFinite(out)) {
     return out;

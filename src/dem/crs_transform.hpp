@@ -49,9 +49,9 @@ Extent turnedIntoRange(const Extent& extent, double west = -180, double turn = 3
 
 // The box that `ct` maps `box` into, edges densified so curved edges stay
 // inside. Where part of the box lies outside the source CRS's domain (the
-// corners of a Mollweide, Equal Earth or sinusoidal world, beyond its
-// outline), the bounds of the part inside it. nullopt when no point of the
-// box transforms.
+// corners of a Mollweide, Equal Earth or sinusoidal world, or of a
+// geostationary full disk), the bounds of the part inside it. nullopt when
+// no point of the box transforms.
 std::optional<Extent> transformedBox(OGRCoordinateTransformation& ct, const Extent& box);
 
 // The smallest extent of CRS `to` that holds `extent` of CRS `from`, edges

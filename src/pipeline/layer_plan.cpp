@@ -38,7 +38,7 @@ std::vector<Extent> lonLatCover(const config::TileJob& job, const tiling::Scheme
     std::snprintf(lat, sizeof lat, "lat %.8g to %.8g", bounds.min_y, bounds.max_y);
     throw NothingToMake("nothing to make: '" + shortened(dem.info().path) + "' (" + lat + ") lies beyond the " +
                         "latitudes " + scheme.name() + " tiles reach (" + std::to_string(scheme.maxLatDeg()) +
-                        " north and south); use --scheme geodetic or native");
+                        " north and south)" + (scheme.maxLatDeg() < 90 ? "; use --scheme geodetic or native" : ""));
   }
   if (job.bbox.empty()) return cover;
   const Extent box{job.bbox[0], job.bbox[1], job.bbox[2], job.bbox[3]};
