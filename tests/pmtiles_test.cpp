@@ -440,6 +440,21 @@ TEST(Pmtiles, ResumeAndShardsAreRefused) {
   EXPECT_THROW(pipeline::runTileJob(job, shard), UsageError);
 }
 
+// PMTiles' tile ids hold 2^z columns a zoom; geodetic tiles 1/0/y and 1/2/y
+// once shared an id, one overwriting the other.
+TEST(Pmtiles, TheGeodeticSchemeIsRefused) {
+  config::TileJob job = coastJob("pmtiles_geodetic", OutputFormat::kPmtiles);
+  job.scheme = SchemeKind::kGeodetic;
+  job.elevation = Elevation::kNone;  // webmercator's alone
+  try {
+    pipeline::runTileJob(job);
+    ADD_FAILURE() << "a geodetic PMTiles layer was made";
+  } catch (const UsageError& e) {
+    EXPECT_NE(std::string(e.what()).find("a PMTiles archive holds 2^z columns"), std::string::npos) << e.what();
+  }
+  EXPECT_TRUE(test::filesUnder(job.output_dir).empty());
+}
+
 // A layer's archives are all written before any replaces its old one: a
 // finished archive stays hidden until published, and one dropped unpublished
 // (a later archive of the layer failed) leaves the old file and no temporary.

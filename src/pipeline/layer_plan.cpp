@@ -195,6 +195,13 @@ void checkOutputs(const config::TileJob& job) {
     throw UsageError("output.tileset: a PMTiles layer holds no tileset (3D Tiles viewers fetch each file by its "
                      "URL); use output.format files or mbtiles");
   }
+  if (job.format == OutputFormat::kPmtiles && job.scheme == SchemeKind::kGeodetic) {
+    // A tile id is a place on a Hilbert curve over 2^z x 2^z tiles; a
+    // geodetic zoom has twice as many columns, which no id tells apart.
+    throw UsageError(
+        "output.format: a PMTiles archive holds 2^z columns of tiles at zoom z and the geodetic scheme "
+        "makes twice as many; use output.format files or mbtiles, or tiling.scheme webmercator");
+  }
   if (job.format == OutputFormat::kPmtiles && io::isPmtilesCompanion(job.layer + io::kPmtilesExtension)) {
     throw UsageError("output.layer: '" + job.layer + "' ends like the name of a layer's companion archive "
                      "(.meshes, .hires, .elevation); choose another name for a pmtiles layer");
