@@ -423,6 +423,21 @@ TEST(Bbox, LimitsTheRunToTilesThatIntersectIt) {
   for (int i = 0; i < 4; ++i) EXPECT_DOUBLE_EQ(bounds[i].get<double>(), box[i]) << i;
 }
 
+// A box with west above east runs across the antimeridian; over a DEM far
+// from it, it leaves a piece of the DEM either side of its gap. The layer's
+// bounds hold both pieces, west below east; they once ran from the east
+// piece round the globe to the west one, centred on the far side of it.
+TEST(Bbox, AGapInsideTheDemLeavesBoundsAroundBothSidesOfIt) {
+  config::TileJob job = cpuJob(dem60North(), "bbox_gap", SchemeKind::kWebMercator, 10, 10);
+  job.bbox = {kCentreLon + 0.01, -80, kCentreLon - 0.01, 80};
+  const pipeline::LayerPlan plan = pipeline::planLayer(job);
+  const nlohmann::json tilejson = nlohmann::json::parse(plan.tilejson);
+  const nlohmann::json& bounds = tilejson.at("bounds");
+  EXPECT_LT(bounds[0].get<double>(), kCentreLon - 0.01) << bounds;
+  EXPECT_GT(bounds[2].get<double>(), kCentreLon + 0.01) << bounds;
+  EXPECT_NEAR(tilejson.at("center")[0].get<double>(), kCentreLon, 0.5) << tilejson.at("center");
+}
+
 TEST(Bbox, BesideTheDemMakesNothingNamingTheKey) {
   config::TileJob job = cpuJob(dem60North(), "bbox_beside", SchemeKind::kWebMercator, 10, 10);
   job.bbox = {20, 40, 21, 41};

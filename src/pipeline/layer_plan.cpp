@@ -177,6 +177,29 @@ std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Sch
   return bounds;
 }
 
+// The narrowest run of longitudes that holds every piece, west above east
+// where it runs across the antimeridian (the pieces of a DEM across it), and
+// their latitudes. Pieces that a box with west above east leaves either
+// side of its gap, both east of the antimeridian, are bounded between them.
+Extent lonLatBoundsOf(std::vector<Extent> pieces) {
+  std::sort(pieces.begin(), pieces.end(), [](const Extent& a, const Extent& b) { return a.min_x < b.min_x; });
+  Extent bounds = pieces.front();
+  double east_so_far = bounds.max_x;
+  double widest_gap = 0, west_past_it = 0, east_before_it = 0;  // between two pieces
+  for (const Extent& piece : pieces) {
+    bounds.min_y = std::min(bounds.min_y, piece.min_y), bounds.max_y = std::max(bounds.max_y, piece.max_y);
+    if (piece.min_x - east_so_far > widest_gap) {
+      widest_gap = piece.min_x - east_so_far, west_past_it = piece.min_x, east_before_it = east_so_far;
+    }
+    east_so_far = std::max(east_so_far, piece.max_x);
+  }
+  bounds.max_x = east_so_far;
+  // A gap between pieces wider than the one round the back of the globe:
+  // the bounds run across the antimeridian instead.
+  if (widest_gap > bounds.min_x + 360 - east_so_far) bounds.min_x = west_past_it, bounds.max_x = east_before_it;
+  return bounds;
+}
+
 // What the settings cannot do together, said before the DEM is opened.
 void checkOutputs(const config::TileJob& job) {
   if (job.elevation != Elevation::kNone) {
@@ -281,9 +304,7 @@ LayerPlan planLayer(const config::TileJob& job) {
   plan.location = io::layerLocation(job.output_dir, job.layer, job.format);
   plan.fingerprint = config::layerFingerprint(job);
   plan.tileset = job.tileset;
-  Extent bounds = lon_lat.front();
-  if (lon_lat.size() > 1) bounds.max_x = lon_lat.back().max_x;  // west > east: across the antimeridian
-  const io::TileJsonInfo info = tileJsonInfo(job, plan, bounds);
+  const io::TileJsonInfo info = tileJsonInfo(job, plan, lonLatBoundsOf(lon_lat));
   plan.tilejson = io::tileJson(info);
   if (job.elevation != Elevation::kNone) plan.elevation_tilejson = io::elevationTileJson(info);
   return plan;
