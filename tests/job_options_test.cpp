@@ -170,6 +170,10 @@ TEST(JobOptionKeys, BadValuesNameTheFlagAndKey) {
   EXPECT_EQ(message("tiling.bbox", "12,46,10,47", "--bbox"), "no error");  // across the antimeridian
   EXPECT_EQ(message("tiling.bbox", "10,46,10,47", "--bbox"),
             "--bbox: tiling.bbox: west and east must differ, got [10, 46, 10, 47]");
+  EXPECT_EQ(message("tiling.bbox", "180,46,-180,47", "--bbox"),
+            "--bbox: tiling.bbox: west and east must differ, got [180, 46, -180, 47]");
+  EXPECT_EQ(message("tiling.bbox", "190,46,12,47", "--bbox"),
+            "--bbox: tiling.bbox: longitudes must be between -180 and 180, got [190, 46, 12, 47]");
   EXPECT_EQ(message("tiling.bbox", "10,47,12,46", "--bbox"),
             "--bbox: tiling.bbox: south 47 must be less than north 46");
   EXPECT_EQ(message("tiling.bbox", "10,46,12,91", "--bbox"),

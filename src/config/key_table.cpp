@@ -545,10 +545,13 @@ std::string zoomProblem(int min_zoom, int max_zoom, bool max_auto) {
 std::string boxProblem(const std::vector<double>& box) {
   if (box.empty()) return {};
   const double west = box[0], south = box[1], east = box[2], north = box[3];
-  if (west < -180 || east > 180) return "longitudes must be between -180 and 180, got " + boxText(box);
+  for (const double lon : {west, east}) {
+    if (lon < -180 || lon > 180) return "longitudes must be between -180 and 180, got " + boxText(box);
+  }
   if (south < -90 || north > 90) return "latitudes must be between -90 and 90, got " + boxText(box);
-  // West above east: a box across the antimeridian.
-  if (west == east) return "west and east must differ, got " + boxText(box);
+  // West above east: a box across the antimeridian, whose two numbers of
+  // longitude are one meridian.
+  if (west == east || (west == 180 && east == -180)) return "west and east must differ, got " + boxText(box);
   if (south >= north) return "south " + numberText(south) + " must be less than north " + numberText(north);
   return {};
 }
