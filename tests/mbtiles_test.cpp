@@ -460,6 +460,14 @@ TEST(Mbtiles, ForeignFilesAreRefusedAndLeftAlone) {
             "CREATE TABLE meshes (zoom_level integer, tile_column integer, tile_row integer, tile_data blob);");
   }
   expectRefused();
+
+  // A database without tables yet, which terrabake once took for its own.
+  fs::remove(file);
+  {
+    Database db(file);
+    db.exec("PRAGMA user_version=7");
+  }
+  expectRefused();
 }
 
 TEST(Mbtiles, ServedWithTheFolderLayersBytes) {

@@ -4,12 +4,12 @@
 
 #include <array>
 #include <chrono>
+#include <filesystem>
+#include <nlohmann/json.hpp>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
-
-#include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
 #include "core/log.hpp"
@@ -270,12 +270,16 @@ MbtilesFile::MbtilesFile(std::unique_ptr<Impl> impl) : m_impl(std::move(impl)) {
 MbtilesFile::~MbtilesFile() = default;
 
 std::unique_ptr<MbtilesFile> MbtilesFile::openForWriting(const std::string& path, bool high_res_meshes) {
+  // A file that was not there or empty is new; one with bytes but no table
+  // is someone's database, refused below.
+  std::error_code no_size;
+  const bool new_file = std::filesystem::file_size(path, no_size) == 0 || no_size;
   auto file =
       std::unique_ptr<MbtilesFile>(new MbtilesFile(Impl::open(path, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE)));
   Impl& impl = *file->m_impl;
   Impl::Transaction transaction(impl);  // so two processes opening a new file create it once
   std::set<std::string> names = impl.tables();
-  if (names.empty()) {
+  if (names.empty() && new_file) {
     impl.exec("PRAGMA application_id=" + std::to_string(kMbtilesApplicationId) +
                   ";"
                   "CREATE TABLE metadata (name text, value text);"
