@@ -482,6 +482,24 @@ TEST(Pmtiles, AFinishedArchiveReplacesTheOldOneOnlyWhenPublished) {
   EXPECT_EQ(test::filesUnder(dir), std::set<std::string>{"layer.pmtiles"});
 }
 
+// The header's bounds are the tilejson's, but for bounds across the
+// antimeridian, which it cannot say: they were once west 179.7 to east
+// -179.7, which readers take for no box.
+TEST(Pmtiles, HeaderBoundsAcrossTheAntimeridianAreEveryLongitude) {
+  const fs::path path = test::caseDir() / "across.pmtiles";
+  {
+    io::PmtilesWriter writer(path.string(), io::PmtilesTileType::kPng);
+    writer.add({1, 0, 0}, std::vector<std::uint8_t>{1, 2, 3});
+    writer.finish(R"({"tilejson": "3.0.0", "minzoom": 1, "maxzoom": 1, "bounds": [179.7, -17, -179.7, -16],
+                      "center": [180, -16.5, 1]})",
+                  "job");
+    writer.publish();
+  }
+  const std::array<double, 4> expected = {-180, -17, 180, -16};
+  const io::PmtilesHeader& h = io::PmtilesReader(path.string()).header();
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(h.bounds_deg[i], expected[i], 1e-7) << i;
+}
+
 TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {
   const fs::path path = test::caseDir() / "many.pmtiles";
   constexpr int kZoom = 8;  // 65536 tiles: their root directory alone would be far above 16 KiB

@@ -343,6 +343,9 @@ void PmtilesWriter::finish(const std::string& tilejson, const std::string& job) 
     h.min_zoom = doc.at("minzoom").get<int>();
     h.max_zoom = doc.at("maxzoom").get<int>();
     h.bounds_deg = doc.at("bounds").get<std::array<double, 4>>();
+    // West above east runs across the antimeridian, which the header's
+    // bounds cannot say (readers take them for a box west to east).
+    if (h.bounds_deg[0] > h.bounds_deg[2]) h.bounds_deg[0] = -180, h.bounds_deg[2] = 180;
     const auto center = doc.at("center").get<std::array<double, 3>>();
     h.center_lon_deg = center[0];
     h.center_lat_deg = center[1];
