@@ -345,9 +345,13 @@ void readYamlText(const std::string& text, const std::string& yaml_path, const s
   readMap(context, root, "");
 }
 
-// Nearest key or section within a small edit distance, else a key with the
-// same last part (a leaf written in the wrong section).
-std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>& specs) {
+// The key spelt with '_' where the name has '-' (tile-size), else the
+// nearest key or section within a small edit distance, else a key with the
+// same last part (a leaf written in the wrong section), else one the name
+// begins (a key cut short: nodata.max_fill).
+std::string unknownKeyProblem(std::string_view typed, const std::vector<KeySpec>& specs) {
+  std::string name(typed);
+  std::replace(name.begin(), name.end(), '-', '_');
   std::vector<std::string_view> candidates;
   for (const KeySpec& key : specs) {
     candidates.push_back(key.name);
@@ -355,10 +359,17 @@ std::string unknownKeyProblem(std::string_view name, const std::vector<KeySpec>&
       candidates.push_back(key.name.substr(0, dot));
     }
   }
-  std::string best = nearestName(name, candidates);
+  std::string best = name != typed && std::count(candidates.begin(), candidates.end(), name) > 0
+                         ? name
+                         : nearestName(name, candidates);
   if (best.empty()) {
     for (const KeySpec& key : specs) {
       if (lastPart(key.name) == lastPart(name) && key.name != name) best = key.name;
+    }
+  }
+  if (best.empty() && name.find('.') != std::string::npos) {
+    for (const KeySpec& key : specs) {
+      if (key.name.size() > name.size() && key.name.substr(0, name.size()) == name) best = key.name;
     }
   }
   if (best.empty()) return "unknown key";
