@@ -180,6 +180,30 @@ TEST(ServeHttp, StaticTilesWithTypesValidatorsAndCaching) {
   }
 }
 
+// A layer that is a symlink to a folder, switched to another (a new version
+// put in place whole): its tiles and tilejson are the new folder's within a
+// second or two. The old folder's were once served for as long as it stayed.
+TEST(ServeHttp, ALayerThatIsASymlinkFollowsItWhenSwitched) {
+  const Case c = makeCase();
+  const TileId tile = c.someTile();
+  for (const char* version : {"v1", "v2"}) fs::copy(c.tiles / "static", c.tiles / version, fs::copy_options::recursive);
+  const std::string v2_png = "not the png of v1";
+  writeText(c.tiles / "v2" / (tile.str() + ".png"), v2_png);
+  fs::create_symlink("v1", c.tiles / "current");
+  ServerThread running(c.config);
+  const std::string url = tileUrl("current", tile, "png");
+  const auto before = get(running.port(), url);
+  ASSERT_TRUE(before);
+  EXPECT_EQ(before->body, readBytes(c.tiles / "v1" / (tile.str() + ".png")));
+
+  fs::create_symlink("v2", c.tiles / "next");
+  fs::rename(c.tiles / "next", c.tiles / "current");
+  EXPECT_TRUE(waitFor([&] {
+    const auto reply = get(running.port(), url);
+    return reply && reply->status == 200 && reply->body == v2_png;
+  }));
+}
+
 // Tile files are renamed into place without a sync, so a power cut may
 // leave one empty: that is no tile, and an on-demand layer bakes it again.
 TEST(ServeHttp, AnEmptyTileFileIsNoTile) {

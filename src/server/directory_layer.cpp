@@ -35,6 +35,9 @@ DirectoryLayer::DirectoryLayer(std::string name, const std::filesystem::path& fo
       m_description(
           "layer " + m_name + ": " + (folder / io::kTileJsonFile).string(),
           [this]() -> std::optional<std::string> {
+            // A layer's symlink switched to another folder: this one is gone,
+            // and the next look for layers finds the new one.
+            if (!m_folder.stillNamed()) return std::nullopt;
             // Both are written by renaming a new file into place: their ETags tell a change.
             const std::optional<std::string> tilejson = m_folder.etag(io::kTileJsonFile);
             if (!tilejson) return std::nullopt;

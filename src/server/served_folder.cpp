@@ -77,13 +77,23 @@ std::optional<std::string> OpenedFile::read(std::size_t first, std::size_t count
   return bytes;
 }
 
-ServedFolder::ServedFolder(const std::filesystem::path& folder) {
+namespace {
+
+// The real path of `folder`, ending in '/'; empty when it is no folder.
+std::string realFolder(const std::filesystem::path& folder) {
   std::error_code ec;
   const std::filesystem::path real = std::filesystem::canonical(folder, ec);
-  if (ec || !std::filesystem::is_directory(real, ec)) return;
-  m_root = real.string();
-  if (m_root.back() != '/') m_root += '/';
+  if (ec || !std::filesystem::is_directory(real, ec)) return {};
+  std::string root = real.string();
+  if (root.back() != '/') root += '/';
+  return root;
 }
+
+}  // namespace
+
+ServedFolder::ServedFolder(const std::filesystem::path& folder) : m_named(folder), m_root(realFolder(folder)) {}
+
+bool ServedFolder::stillNamed() const { return realFolder(m_named) == m_root; }
 
 std::optional<std::string> ServedFolder::resolve(const std::string& relative) const {
   if (m_root.empty() || relative.empty() || relative.front() == '/') return std::nullopt;

@@ -84,11 +84,16 @@ class ServedFolder {
   // the folder; a tag that matches names that very file.
   bool stillHas(const std::string& relative, const std::string& etag) const;
 
+  // Whether the path it was made from still leads to the same folder (a
+  // symlink to a layer may be switched to another folder).
+  bool stillNamed() const;
+
  private:
   // The real path of `relative` when it lies inside the folder.
   std::optional<std::string> resolve(const std::string& relative) const;
 
-  std::string m_root;  // real path, ending in '/'; empty when the folder does not exist
+  std::filesystem::path m_named;  // as it was given
+  std::string m_root;             // real path, ending in '/'; empty when the folder does not exist
 };
 
 }  // namespace terrabake::server
