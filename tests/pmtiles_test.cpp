@@ -187,6 +187,13 @@ TEST(Pmtiles, ServedAtTheFolderLayersUrlsAndWholeWithRanges) {
   const auto past = test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=" + std::to_string(archive.size()) + "-"}});
   ASSERT_TRUE(past);
   EXPECT_EQ(past->status, 416);
+  // Two Range lines are a list of two ranges: the whole archive, as for one
+  // line listing both.
+  const auto two_lines =
+      test::get(port, "/packed/packed.meshes.pmtiles", {{"Range", "bytes=0-3"}, {"Range", "bytes=5-6"}});
+  ASSERT_TRUE(two_lines);
+  EXPECT_EQ(two_lines->status, 200);
+  EXPECT_EQ(two_lines->body.size(), archive.size());
   // A range costs its own bytes, not the archive's: grown (sparse) far past
   // any machine's memory, the archive still answers ranges at both ends.
   constexpr std::uintmax_t kHugeArchiveBytes = std::uintmax_t(1) << 40;

@@ -134,12 +134,16 @@ namespace {
 
 // Decimal digits as a number; false when empty, not digits, or more than 18
 // of them (so the value fits).
+// Decimal digits, however many: a count past 10^18, beyond any file's
+// length, is taken as 10^18 (RFC 9110 14.1.2: a last position past the
+// end means the end).
 bool parseCount(std::string_view text, std::size_t& value) {
-  if (text.empty() || text.size() > 18) return false;
+  constexpr std::size_t kLargest = 1000000000000000000;
+  if (text.empty()) return false;
   value = 0;
   for (const char c : text) {
     if (c < '0' || c > '9') return false;
-    value = value * 10 + std::size_t(c - '0');
+    value = std::min(kLargest, value * 10 + std::size_t(c - '0'));
   }
   return true;
 }

@@ -357,7 +357,8 @@ class Session : public std::enable_shared_from_this<Session> {
     in.local_address = m_local_address;
     in.if_match = listField(request, http::field::if_match);
     in.if_none_match = listField(request, http::field::if_none_match);
-    in.range = std::string(request[http::field::range]);
+    // Two Range lines are two ranges, answered whole like a list of them.
+    in.range = listField(request, http::field::range);
     in.if_range = std::string(request[http::field::if_range]);
     in.cors_request_headers = listField(request, http::field::access_control_request_headers);
     const auto length = m_parser->content_length();
