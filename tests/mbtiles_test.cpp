@@ -37,6 +37,7 @@
 #include "pipeline/tile_job_runner.hpp"
 #include "server/http_rules.hpp"
 #include "server/layer_catalog.hpp"
+#include "server/mbtiles_layer.hpp"
 #include "server/server.hpp"
 #include "server_helpers.hpp"
 #include "support/analytic_terrain.hpp"
@@ -586,6 +587,41 @@ TEST(Mbtiles, ServedWithTheFolderLayersBytes) {
     const auto listed = client.Get("/layers.json");
     return listed && listed->status == 200 && Json::parse(listed->body).at("layers") == Json::array();
   }));
+}
+
+// A tile read when the process has no file descriptor left for a new
+// connection to the file may be read later: it is answered 503 (the read
+// says so), not 500 as a tile that failed.
+TEST(Mbtiles, ATileReadWithNoFileDescriptorLeftIsBusyNotFailed) {
+  const fs::path dir = caseDir();
+  const config::TileJob job = smallJob(dir, "layer", OutputFormat::kMbtiles);
+  ASSERT_EQ(pipeline::runTileJob(job).failed, 0);
+  std::optional<TileId> stored;
+  io::MbtilesFile::openForReading(mbtilesPath(job).string())
+      ->forEachTile(io::MbtilesTable::kTiles, [&](const io::MbtilesKey& key, const std::vector<std::uint8_t>&) {
+        stored = io::tileOfKey(key, false);
+      });
+  ASSERT_TRUE(stored);
+  const TileId tile = *stored;
+  server::MbtilesLayer layer("layer", mbtilesPath(job).string());
+  std::exception_ptr error;
+  {
+    const test::AllFilesOpen taken;
+    try {
+      layer.tile(tile, io::TileFormat::kPng, {});
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  ASSERT_TRUE(error) << "no error with no file descriptor left";
+  try {
+    std::rethrow_exception(error);
+  } catch (const server::UnreadableFile& e) {
+    EXPECT_TRUE(e.temporary) << e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "not UnreadableFile: " << e.what();
+  }
+  EXPECT_EQ(layer.tile(tile, io::TileFormat::kPng, {}).status, server::TileAnswer::Status::kFound);
 }
 
 // The server keeps an MBTiles layer's tiles in memory, and a row another

@@ -48,6 +48,7 @@ using server::FileContent;
 using server::Route;
 using server::TileCache;
 using io::TileFormat;
+using test::AllFilesOpen;
 using test::caseDir;
 using test::readBytes;
 using test::startsWith;
@@ -414,29 +415,6 @@ TEST(ServedFiles, PartsOfAFileAreReadWhereAskedAndNowhereElse) {
   EXPECT_FALSE(folder.open("../file.bin"));
   EXPECT_FALSE(folder.open("")) << "the folder itself is no file";
 }
-
-// Every file descriptor the process may open taken, as many connections at
-// once take them; released, with the limit as it was, at the end of scope.
-class AllFilesOpen {
- public:
-  AllFilesOpen() {
-    ::getrlimit(RLIMIT_NOFILE, &m_limit);
-    rlimit lower = m_limit;
-    lower.rlim_cur = std::min<rlim_t>(m_limit.rlim_cur, 4096);  // a bounded number to fill
-    ::setrlimit(RLIMIT_NOFILE, &lower);
-    for (int fd; (fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC)) >= 0;) m_fds.push_back(fd);
-  }
-  ~AllFilesOpen() {
-    for (const int fd : m_fds) ::close(fd);
-    ::setrlimit(RLIMIT_NOFILE, &m_limit);
-  }
-  AllFilesOpen(const AllFilesOpen&) = delete;
-  AllFilesOpen& operator=(const AllFilesOpen&) = delete;
-
- private:
-  rlimit m_limit{};
-  std::vector<int> m_fds;
-};
 
 // The server (its connections) and tile (its workers' files) raise the
 // soft limit as far as the hard one allows, and never lower it.

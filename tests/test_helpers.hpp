@@ -1,12 +1,15 @@
 #pragma once
 // Helpers every test may use: the test output folder, a fresh folder per test
-// case, shared generated inputs, reading and writing files, and waiting with a
-// deadline. Standard library and GoogleTest only; tests of the server add
+// case, shared generated inputs, reading and writing files, waiting with a
+// deadline, and every file descriptor taken. Standard library and GoogleTest only; tests of the server add
 // server_helpers.hpp, tests that judge layers layer_check.hpp.
 #include <gtest/gtest.h>
 
+#include <fcntl.h>
+#include <sys/resource.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cstdint>
 #include <filesystem>
@@ -118,5 +121,28 @@ inline bool waitUntil(const std::function<bool()>& condition, std::chrono::milli
   }
   return true;
 }
+
+// Every file descriptor the process may open taken, as many connections at
+// once take them; released, with the limit as it was, at the end of scope.
+class AllFilesOpen {
+ public:
+  AllFilesOpen() {
+    ::getrlimit(RLIMIT_NOFILE, &m_limit);
+    rlimit lower = m_limit;
+    lower.rlim_cur = std::min<rlim_t>(m_limit.rlim_cur, 4096);  // a bounded number to fill
+    ::setrlimit(RLIMIT_NOFILE, &lower);
+    for (int fd; (fd = ::open("/dev/null", O_RDONLY | O_CLOEXEC)) >= 0;) m_fds.push_back(fd);
+  }
+  ~AllFilesOpen() {
+    for (const int fd : m_fds) ::close(fd);
+    ::setrlimit(RLIMIT_NOFILE, &m_limit);
+  }
+  AllFilesOpen(const AllFilesOpen&) = delete;
+  AllFilesOpen& operator=(const AllFilesOpen&) = delete;
+
+ private:
+  rlimit m_limit{};
+  std::vector<int> m_fds;
+};
 
 }  // namespace terrabake::test

@@ -3,13 +3,16 @@
 #include <sqlite3.h>
 
 #include <array>
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <filesystem>
-#include <nlohmann/json.hpp>
 #include <set>
 #include <stdexcept>
 #include <string>
 #include <thread>
+
+#include <nlohmann/json.hpp>
 
 #include "core/error.hpp"
 #include "core/log.hpp"
@@ -88,6 +91,10 @@ struct MbtilesFile::Impl {
     const std::string reason = db ? sqlite3_errmsg(db) : "out of memory";
     if (db && sqlite3_errcode(db) == SQLITE_NOTADB) notOurs(reason);
     const std::string message = "'" + path + "': " + what + ": " + reason;
+    if (db && sqlite3_errcode(db) == SQLITE_CANTOPEN &&
+        (sqlite3_system_errno(db) == EMFILE || sqlite3_system_errno(db) == ENFILE)) {
+      throw MbtilesShortOfFiles(message + " (" + std::strerror(sqlite3_system_errno(db)) + ")");
+    }
     // A refused write (SQLITE_IOERR_WRITE: a file past ulimit -f, a failing
     // disk) comes without its errno, which later calls have overwritten.
     if (db && (sqlite3_errcode(db) == SQLITE_FULL || sqlite3_extended_errcode(db) == SQLITE_IOERR_WRITE)) {

@@ -24,6 +24,12 @@ struct ForeignMbtilesFile : InputError {
   using InputError::InputError;
 };
 
+// A file that could not be opened because the process may open no more
+// files now (EMFILE, ENFILE): a later try may work.
+struct MbtilesShortOfFiles : InputError {
+  using InputError::InputError;
+};
+
 enum class MbtilesTable { kTiles, kMeshes, kHighResMeshes };
 
 // The table that holds a tile's file of `format`; throws std::logic_error for

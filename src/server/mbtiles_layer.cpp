@@ -104,6 +104,8 @@ TileAnswer MbtilesLayer::tile(const TileId& tile, io::TileFormat format, const L
     std::unique_ptr<io::MbtilesFile> file = borrow(description->file);
     bytes = file->readTile(io::mbtilesTable(format), io::mbtilesKey(tile, description->tms_rows));
     giveBack(description->file, std::move(file));  // not after a failure: that connection may be broken
+  } catch (const UnreadableFile&) {
+    throw;
   } catch (const std::exception& e) {
     return unreadableTileAnswer(m_name, tile, e);
   }
@@ -136,7 +138,11 @@ std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow(const std::string& file) {
       return connection;
     }
   }
-  return io::MbtilesFile::openForReading(m_path);
+  try {
+    return io::MbtilesFile::openForReading(m_path);
+  } catch (const io::MbtilesShortOfFiles& e) {
+    throw UnreadableFile(e.what(), true);  // answered 503, never as a failed tile
+  }
 }
 
 void MbtilesLayer::giveBack(const std::string& file, std::unique_ptr<io::MbtilesFile> connection) {
