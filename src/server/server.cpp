@@ -404,8 +404,12 @@ class Session : public std::enable_shared_from_this<Session> {
   void sendSome(std::shared_ptr<Outgoing> out, bool keep) {
     const std::optional<std::array<net::const_buffer, 2>> buffers = out->unwritten();
     if (!buffers) {
-      // A file that cannot be read: answered 500 if nothing was sent yet, else cut short.
-      if (!out->started()) return answerAndClose(m_server.handler.refusal(500, "the file could not be read"));
+      // A file that gives fewer bytes than it had when opened (changed while
+      // read, as a copy in progress does): answered 503 if nothing was sent
+      // yet, as a whole read is, else cut short.
+      if (!out->started()) {
+        return answerAndClose(m_server.handler.refusal(503, "busy: the file changed while read"));
+      }
       return onWritten(make_error_code(boost::system::errc::io_error), keep);
     }
     m_stream.expires_after(m_server.read_timeout);
