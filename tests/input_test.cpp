@@ -44,6 +44,7 @@ using test::writeText;
 constexpr int kExitOk = 0;
 constexpr int kExitUsage = 2;
 constexpr int kExitInput = 3;
+constexpr int kExitTilesFailed = 4;
 constexpr int kExitNothingMade = 5;
 
 struct RunResult {
@@ -926,6 +927,15 @@ TEST(Inputs, AWorldInMollweideTilesTheWholeGlobe) {
     EXPECT_TRUE(contains(r.out + r.err, " 0 empty, 0 failed)")) << scheme << ": " << describe(r);
     EXPECT_EQ(tilesOf(dir / "out" / scheme).size(), 2 * world_tiles) << scheme << ": " << describe(r);
   }
+  // Native tiles reach past the ellipse, where points have no longitude and
+  // latitude: each fails saying so (README, limitations).
+  std::vector<std::string> args = tileArgs(dem, dir / "out", "native", "auto");
+  args.insert(args.end(), {"--scheme", "native"});
+  const RunResult native = run(args);
+  EXPECT_EQ(native.exit_code, kExitTilesFailed) << describe(native);
+  EXPECT_TRUE(contains(native.err, "part of the tile lies outside the CRS's domain; tile such a DEM in the "
+                                   "webmercator or geodetic scheme"))
+      << describe(native);
 }
 
 // A geostationary satellite's full disk: only the middles of its extent's

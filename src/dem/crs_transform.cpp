@@ -29,7 +29,8 @@ void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
   for (std::size_t i = 0; i < points.size(); ++i) x[i] = points[i].x, y[i] = points[i].y;
   std::vector<int> ok(points.size());
   if (!m_impl->transform->Transform(int(points.size()), x.data(), y.data(), nullptr, ok.data())) {
-    throw InputError("dem: cannot transform tile coordinates to longitude/latitude");
+    throw InputError("dem: cannot transform tile coordinates to longitude/latitude: part of the tile lies outside "
+                     "the CRS's domain; tile such a DEM in the webmercator or geodetic scheme");
   }
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};
 }
