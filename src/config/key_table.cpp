@@ -198,12 +198,29 @@ void checkQuoteCloses(const FileContext& context, const KeySpec& key, const YAML
   fail(where, key.name, std::string("the value opens with ") + quote + " and the file ends before it closes");
 }
 
+// A tag that asks for a type no key reads (!!binary, !custom) is refused
+// rather than the text after it read as if it were not there; the core
+// schema's own (!!str, !!int, ...) and none at all are fine.
+void checkTag(const KeySpec& key, const YAML::Node& node, const std::string& where) {
+  constexpr std::string_view kCore = "tag:yaml.org,2002:";
+  const std::string& tag = node.Tag();
+  if (tag.empty() || tag == "?" || tag == "!") return;
+  const bool core = tag.rfind(kCore, 0) == 0;
+  const std::string type = core ? tag.substr(kCore.size()) : tag;
+  if (core && (type == "str" || type == "int" || type == "float" || type == "bool" || type == "null" ||
+               type == "seq")) {
+    return;
+  }
+  fail(where, key.name, "the YAML tag '" + (core ? "!!" + type : tag) + "' is not understood; write the value alone");
+}
+
 Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::Node& node,
                     const std::string& key_where) {
   Value value;
   // yaml-cpp marks an absent value where the next token starts, often a later line.
   value.where = node.IsNull() ? key_where : at(context, node.Mark(), key_where);
   value.base_dir = context.base_dir;
+  checkTag(key, node, value.where);
   if (node.IsScalar()) {
     checkQuoteCloses(context, key, node, value.where);
     checkScalar(key, node.Scalar(), value.where);
@@ -215,6 +232,7 @@ Value valueFromNode(const FileContext& context, const KeySpec& key, const YAML::
       if (!item.IsScalar()) {
         fail(item_where, key.name, "list items must be plain values, got " + describe(item));
       }
+      checkTag(key, item, item_where);
       checkQuoteCloses(context, key, item, item_where);
       checkScalar(key, item.Scalar(), item_where);
       value.items.push_back({item.Scalar(), item_where});
