@@ -204,6 +204,40 @@ TEST(ServeHttp, ALayerThatIsASymlinkFollowsItWhenSwitched) {
   }));
 }
 
+// A layer added while the server may open no more files is no absent layer
+// (a 404 a cache would keep): the look for it fails, and its name is busy
+// (503) until a look once descriptors are back finds it.
+TEST(ServeHttp, ALayerLookedForWithNoFileDescriptorLeftIsBusyNotAbsent) {
+  const Case c = makeCase();
+  const fs::path dir = c.dir / "served";
+  fs::create_directories(dir);
+  const server::LayerSet layers({}, server::lookForStoredLayers(dir.string()));
+  fs::copy(c.tiles / "static", dir / "added", fs::copy_options::recursive);
+  std::this_thread::sleep_for(server::LayerSet::kLookInterval);  // so that the next find looks
+  std::exception_ptr error;
+  {
+    const test::AllFilesOpen taken;
+    try {
+      layers.find("added");
+    } catch (...) {
+      error = std::current_exception();
+    }
+  }
+  ASSERT_TRUE(error) << "the layer was not looked for, or was taken for absent";
+  try {
+    std::rethrow_exception(error);
+  } catch (const server::UnreadableFile& e) {
+    EXPECT_TRUE(e.temporary) << e.what();
+  }
+  EXPECT_TRUE(waitFor([&] {
+    try {
+      return layers.find("added") != nullptr;
+    } catch (const server::UnreadableFile&) {
+      return false;
+    }
+  }));
+}
+
 // Tile files are renamed into place without a sync, so a power cut may
 // leave one empty: that is no tile, and an on-demand layer bakes it again.
 TEST(ServeHttp, AnEmptyTileFileIsNoTile) {

@@ -1,6 +1,7 @@
 #include "server/layer_catalog.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -20,21 +21,30 @@ namespace {
 
 namespace fs = std::filesystem;
 
-std::vector<std::string> folderNames(const std::string& tiles_dir) {
+// A folder that cannot be listed now for want of file descriptors is no
+// empty folder: a later look (`retried`) is given up, to be made again
+// (LayerSet); the first, when the server starts, is an error.
+[[noreturn]] void throwUnlisted(const std::string& tiles_dir, const std::error_code& ec, bool retried) {
+  const std::string message = "tiles: cannot read folder '" + tiles_dir + "': " + ec.message();
+  if (retried && (ec.value() == EMFILE || ec.value() == ENFILE)) throw UnreadableFile(message, true);
+  throw InputError(message);
+}
+
+std::vector<std::string> folderNames(const std::string& tiles_dir, bool retried) {
   std::error_code ec;
   std::vector<std::string> names;
   for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
     std::error_code ignored;
     if (it->is_directory(ignored)) names.push_back(it->path().filename().string());
   }
-  if (ec) throw InputError("tiles: cannot read folder '" + tiles_dir + "': " + ec.message());
+  if (ec) throwUnlisted(tiles_dir, ec, retried);
   std::sort(names.begin(), names.end());
   return names;
 }
 
 // "<name>" of each "<name><extension>" file in the tiles folder, sorted;
 // PMTiles companions (<name>.meshes.pmtiles, ...) belong to their layer.
-std::vector<std::string> layerFileNames(const std::string& tiles_dir, const std::string& extension) {
+std::vector<std::string> layerFileNames(const std::string& tiles_dir, const std::string& extension, bool retried) {
   std::error_code ec;
   std::vector<std::string> names;
   for (fs::directory_iterator it(tiles_dir, ec), end; !ec && it != end; it.increment(ec)) {
@@ -44,7 +54,7 @@ std::vector<std::string> layerFileNames(const std::string& tiles_dir, const std:
       names.push_back(it->path().stem().string());
     }
   }
-  if (ec) throw InputError("tiles: cannot read folder '" + tiles_dir + "': " + ec.message());
+  if (ec) throwUnlisted(tiles_dir, ec, retried);
   std::sort(names.begin(), names.end());
   return names;
 }
@@ -63,7 +73,7 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
       log::debug(message);
     }
   };
-  for (const std::string& name : folderNames(tiles_dir)) {
+  for (const std::string& name : folderNames(tiles_dir, !first_look)) {
     if (names.count(name) || name.front() == '.') continue;
     const fs::path folder = fs::path(tiles_dir) / name;
     if (!fs::exists(folder / io::kTileJsonFile)) continue;  // not a layer, or not finished yet
@@ -75,6 +85,10 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
       layers.push_back(std::make_unique<DirectoryLayer>(name, folder));
       names.insert(name);
       log::info("layer " + name + ": tiles from " + folder.string());
+    } catch (const UnreadableFile& e) {
+      // No descriptor left: the layer is there, and a later look finds it.
+      if (e.temporary && !first_look) throw;
+      skipped("layer folder '" + folder.string() + "' skipped: " + oneLine(e.what()));
     } catch (const std::exception& e) {
       skipped("layer folder '" + folder.string() + "' skipped: " + std::string(io::kTileJsonFile) + ": " +
               oneLine(e.what()));
@@ -83,7 +97,7 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
 
   // One file per layer: MBTiles, or the PMTiles archive of its normal maps.
   const auto openFileLayer = [&](const std::string& extension, const auto& open) {
-    for (const std::string& name : layerFileNames(tiles_dir, extension)) {
+    for (const std::string& name : layerFileNames(tiles_dir, extension, !first_look)) {
       if (name.front() == '.') continue;
       const fs::path file = fs::path(tiles_dir) / (name + extension);
       if (names.count(name)) {
@@ -101,6 +115,12 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
         layers.push_back(open(name, file.string()));
         names.insert(name);
         log::info("layer " + name + ": tiles from " + file.string());
+      } catch (const io::MbtilesShortOfFiles& e) {
+        if (!first_look) throw UnreadableFile(e.what(), true);
+        skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
+      } catch (const UnreadableFile& e) {
+        if (e.temporary && !first_look) throw;
+        skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
       } catch (const std::exception& e) {
         skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
       }

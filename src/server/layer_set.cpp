@@ -24,7 +24,10 @@ LayerSource* LayerSet::find(const std::string& name) const {
     const Names& names = *m_names.load(std::memory_order_acquire);
     const auto found = names.find(name);
     if (found != names.end() && !found->second->isGone()) return found->second;
-    if (looked) return nullptr;
+    if (looked) {
+      if (m_short_of_files) throw UnreadableFile("tiles: cannot look for layers: no file descriptor left", true);
+      return nullptr;
+    }
     lookForNewLayers();
   }
 }
@@ -61,8 +64,14 @@ void LayerSet::lookForNewLayers() const {
   std::vector<std::unique_ptr<LayerSource>> found;
   try {
     found = m_look_for_new(known);
-  } catch (const std::exception& e) {
+    m_short_of_files = false;
+  } catch (const UnreadableFile& e) {
     // The layers held are still served.
+    m_short_of_files = e.temporary;
+    log::warning("tiles: cannot look for new layers: " + oneLine(e.what()));
+    return;
+  } catch (const std::exception& e) {
+    m_short_of_files = false;
     log::warning("tiles: cannot look for new layers: " + oneLine(e.what()));
     return;
   }

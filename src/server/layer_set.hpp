@@ -31,7 +31,9 @@ class LayerSet {
   // The layer named `name`, or null (also for a layer whose files were
   // removed). A name the set does not hold sends it looking for new layers
   // first, at most once every kLookInterval, so requests for a layer that
-  // does not exist cost a look now and then.
+  // does not exist cost a look now and then. Throws UnreadableFile
+  // (temporary) for a name it does not hold while the last look could not
+  // open files (no file descriptor left): the layer may be there.
   LayerSource* find(const std::string& name) const;
 
   // Every layer in name order, after a look for new ones (as find's), but
@@ -60,6 +62,7 @@ class LayerSet {
   LookForNew m_look_for_new;
   mutable std::mutex m_look_mutex;  // one look at a time; guards the three above for writing, and m_last_look
   mutable std::chrono::steady_clock::time_point m_last_look;
+  mutable std::atomic<bool> m_short_of_files{false};  // the last look could not open files
 };
 
 }  // namespace terrabake::server
