@@ -1006,6 +1006,21 @@ TEST(Inputs, PolarDemsTileInTheGeodeticScheme) {
   }
 }
 
+// A polar stereographic DEM 30 km across, on the south pole, at a zoom whose
+// texels are coarser than its pixels: the geodetic texels on the pole have
+// no neighbour south of them, and once never held data, so this DEM, all of
+// it within one texel row of the pole, made nothing (exit 5, 32 tiles empty).
+TEST(Inputs, TexelsOnAPoleHoldTheDataAroundIt) {
+  const fs::path dir = caseDir();
+  const double gt[6] = {-15000, 1000, 0, 15000, 0, -1000};
+  writeDem(dir / "pole.tif", 30, 30, gt, hill, 3031);
+  std::vector<std::string> args = tileArgs(dir / "pole.tif", dir / "out", "pole", "4");
+  args.insert(args.end(), {"--scheme", "geodetic", "--tile-size", "64", "--alpha", "true"});
+  const RunResult r = run(args);
+  EXPECT_EQ(r.exit_code, kExitOk) << describe(r);
+  EXPECT_TRUE(contains(r.out + r.err, "wrote 32 tiles")) << describe(r);  // every longitude of the pole's row
+}
+
 // A lon/lat DEM from 80 degrees north to the pole, in Web Mercator, whose map
 // stops at 85.05: auto's zoom is judged at the middle of the part on the
 // map, and a box of the part beyond it is refused saying so. Its 0.05-degree pixels are 1,650 m on the ground at the DEM's centre;

@@ -1,16 +1,15 @@
-#include "dem/resampling.hpp"
-
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <vector>
-
 #include <glm/vec2.hpp>
+#include <optional>
+#include <vector>
 
 #include "core/floor.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
+#include "dem/resampling.hpp"
 #include "dem/source_window.hpp"
 #include "dem/void_samples.hpp"
 
@@ -95,21 +94,32 @@ double widthAlong(double eastward, double southward) {
 // wide along each pixel axis as the texel spreads along it (the rows of the
 // local Jacobian, from the centres of its neighbours), so a texel turned or
 // sheared against the pixel grid keeps its size. `centres`: with one texel
-// beyond each side.
+// beyond each side. A neighbour with no position (past a pole, outside the
+// DEM CRS's domain) leaves the step to the one on the other side: the texels
+// of a geodetic row on a pole have none south of them (north at the north
+// pole), and would otherwise never hold data.
 std::vector<Footprint> footprintsOf(const LatticeTransformer::SourcePositions& centres, const GridSpec& grid) {
   const int wide = centres.width;
   const std::vector<double>& x = centres.x;
   const std::vector<double>& y = centres.y;
   const std::vector<int>& known = centres.known;
   const auto centre = [&](std::size_t k) { return glm::dvec2(x[k], y[k]); };
+  // How far the centre moves a texel on, from `before` to `after` around k.
+  const auto step = [&](std::size_t k, std::size_t before, std::size_t after) -> std::optional<glm::dvec2> {
+    if (known[before] && known[after]) return (centre(after) - centre(before)) / 2.0;
+    if (known[after]) return centre(after) - centre(k);
+    if (known[before]) return centre(k) - centre(before);
+    return std::nullopt;
+  };
   std::vector<Footprint> footprints(std::size_t(grid.width) * std::size_t(grid.height));
   for (int r = 0; r < grid.height; ++r) {
     for (int c = 0; c < grid.width; ++c) {
       const std::size_t k = std::size_t(r + 1) * std::size_t(wide) + std::size_t(c + 1);
-      const std::size_t west = k - 1, east = k + 1, north = k - std::size_t(wide), south = k + std::size_t(wide);
-      if (!(known[k] && known[west] && known[east] && known[north] && known[south])) continue;
-      const glm::dvec2 eastward = (centre(east) - centre(west)) / 2.0;
-      const glm::dvec2 southward = (centre(south) - centre(north)) / 2.0;
+      if (!known[k]) continue;
+      const std::optional<glm::dvec2> east_step = step(k, k - 1, k + 1);
+      const std::optional<glm::dvec2> south_step = step(k, k - std::size_t(wide), k + std::size_t(wide));
+      if (!east_step || !south_step) continue;
+      const glm::dvec2 eastward = *east_step, southward = *south_step;
       Footprint& f = footprints[std::size_t(r) * std::size_t(grid.width) + std::size_t(c)];
       f.x = Span(x[k], widthAlong(eastward.x, southward.x));
       f.y = Span(y[k], widthAlong(eastward.y, southward.y));
