@@ -1,15 +1,17 @@
+#include "dem/resampling.hpp"
+
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
 #include <cstring>
-#include <glm/vec2.hpp>
 #include <optional>
 #include <vector>
+
+#include <glm/vec2.hpp>
 
 #include "core/floor.hpp"
 #include "dem/edge_extension.hpp"
 #include "dem/lattice_transformer.hpp"
-#include "dem/resampling.hpp"
 #include "dem/source_window.hpp"
 #include "dem/void_samples.hpp"
 
