@@ -86,7 +86,7 @@ TEST(Region, HoldsEveryPointOfAStraightEdgeAlongAParallel) {
       double half_lon = glm::degrees(length_m / (2 * 6378137.0 * std::cos(glm::radians(lat))));
       half_lon = std::min(half_lon, 179.0);
       const glm::dvec3 a = frame.toLocal(10.0 - half_lon, lat, 0), b = frame.toLocal(10.0 + half_lon, lat, 0);
-      const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, frame, glm::distance(a, b));
+      const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, {0, 1, 1}, frame, glm::distance(a, b));
       for (int k = 0; k <= 64; ++k) {
         const glm::dvec3 at = frame.toGeodetic(a + (b - a) * (k / 64.0));
         EXPECT_LE(glm::radians(at.y), region.north) << "point " << k;
@@ -111,12 +111,37 @@ TEST(Region, CountsLongitudesFromMinus180PastTheAntimeridian) {
     SCOPED_TRACE("origin " + std::to_string(c.origin_lon));
     const geo::LocalFrame frame(c.origin_lon, 50.0);
     const glm::dvec3 a = frame.toLocal(c.west_lon, 50.0, 0), b = frame.toLocal(c.east_lon, 50.1, 0);
-    const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, frame, 0);
+    const geo::Region region = geo::regionOfMesh({glm::vec3(a), glm::vec3(b)}, {0, 1, 1}, frame, 0);
     constexpr double kFloat32PositionDeg = 1e-6;  // a float32 vertex tens of kilometres from its origin
     EXPECT_NEAR(glm::degrees(region.west), c.west_deg, kFloat32PositionDeg);
     EXPECT_NEAR(glm::degrees(region.east), c.east_deg, kFloat32PositionDeg);
     EXPECT_GE(region.west, -M_PI);
     EXPECT_LE(region.east, M_PI);
+  }
+}
+
+// A mesh round a pole (a polar CRS's native tile) passes round the earth's
+// axis between vertices whose longitudes leave wide gaps: its region holds
+// every longitude and reaches the pole. (The vertices' span alone once left
+// a gap out, with triangles tens of kilometres outside the region.) A
+// triangle beside the pole covers the longitudes between its vertices.
+TEST(Region, AMeshRoundAPoleHoldsEveryLongitudeAndThePole) {
+  for (const double pole : {90.0, -90.0}) {
+    SCOPED_TRACE("pole " + std::to_string(pole));
+    const double lat = pole * 0.995;  // 50 km from the pole
+    const geo::LocalFrame frame(0.0, lat);
+    const auto region = [&](std::initializer_list<double> lons) {
+      std::vector<glm::vec3> points;
+      for (const double lon : lons) points.emplace_back(frame.toLocal(lon, lat, 0));
+      return geo::regionOfMesh(points, {0, 1, 2}, frame, glm::distance(points[0], points[1]));
+    };
+    const geo::Region round = region({0, 100, 250});
+    EXPECT_EQ(round.west, -M_PI);
+    EXPECT_EQ(round.east, M_PI);
+    EXPECT_EQ(pole > 0 ? round.north : round.south, glm::radians(pole));
+    const geo::Region beside = region({0, 60, 120});
+    EXPECT_NEAR(glm::degrees(beside.west), 0, 1e-3);
+    EXPECT_NEAR(glm::degrees(beside.east), 120, 1e-3);
   }
 }
 

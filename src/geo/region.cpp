@@ -1,10 +1,14 @@
 #include "geo/region.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <limits>
+#include <utility>
+#include <vector>
 
 #include <glm/common.hpp>
+#include <glm/geometric.hpp>
 #include <glm/matrix.hpp>
 #include <glm/trigonometric.hpp>
 
@@ -38,16 +42,52 @@ bool spanWithin(double west, double east, double start, double width) {
   return from + eastwardRad(west, east) <= width + kLongitudeSlackRad;
 }
 
+// Whether the axis passes through triangle (a, b, c), seen from above the
+// pole along it (ECEF x and y), by more than float32 placement from its edges.
+bool holdsTheAxis(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+  const glm::dvec2 corners[] = {{a.x, a.y}, {b.x, b.y}, {c.x, c.y}};
+  int positive = 0, negative = 0;
+  for (int k = 0; k < 3; ++k) {
+    const glm::dvec2 from = corners[k], to = corners[(k + 1) % 3];
+    const double length = glm::length(to - from);
+    if (length == 0) return false;
+    // Distance of the axis from the edge's line, signed by its side.
+    const double side = ((to.x - from.x) * (0 - from.y) - (to.y - from.y) * (0 - from.x)) / length;
+    if (std::abs(side) <= kFloat32PlacementM) return false;
+    (side > 0 ? positive : negative) += 1;
+  }
+  return positive == 3 || negative == 3;
+}
+
+// The narrowest arc east from one of the `count` longitudes `d` that holds
+// them all (each in [-180, 180]): the circle less its widest gap between
+// neighbours.
+std::pair<double, double> narrowestArc(std::array<double, 3> d, int count) {
+  std::sort(d.begin(), d.begin() + count);
+  double widest_gap = d[0] + 360 - d[std::size_t(count - 1)];
+  int after_gap = 0;
+  for (int k = 1; k < count; ++k) {
+    const double gap = d[std::size_t(k)] - d[std::size_t(k - 1)];
+    if (gap > widest_gap) widest_gap = gap, after_gap = k;
+  }
+  const double from = d[std::size_t(after_gap)];
+  const double to = after_gap == 0 ? d[std::size_t(count - 1)] : d[std::size_t(after_gap - 1)] + 360;
+  return {from, to};
+}
+
 }  // namespace
 
-Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& frame, double longest_edge_m) {
+Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std::uint32_t>& triangles,
+                    const LocalFrame& frame, double longest_edge_m) {
   const double origin_lon = frame.originLonDeg();
-  double min_d = std::numeric_limits<double>::max(), max_d = std::numeric_limits<double>::lowest();
   double least_from_axis_m = kEquatorialRadiusM;  // of the vertices whose longitudes count
   double south = 90, north = -90;
   double low = std::numeric_limits<double>::max(), high = std::numeric_limits<double>::lowest();
-  for (const glm::vec3& p : points) {
-    const glm::dvec3 g = frame.toGeodetic(glm::dvec3(p));
+  std::vector<double> along(points.size(), NAN);  // longitude from the origin's; NaN on the axis
+  std::vector<glm::dvec3> ecef(points.size());
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    const glm::dvec3 g = frame.toGeodetic(glm::dvec3(points[i]));
+    ecef[i] = geodeticToEcef(g.x, g.y, g.z);
     south = std::min(south, g.y);
     north = std::max(north, g.y);
     low = std::min(low, g.z);
@@ -57,9 +97,55 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const LocalFrame& fram
     least_from_axis_m = std::min(least_from_axis_m, from_axis_m);
     // Longitudes relative to the origin, so a tile's edge on the antimeridian
     // stays on its own side whichever sign the conversion gives it.
-    const double d = wrapDegrees(g.x - origin_lon);
-    min_d = std::min(min_d, d);
-    max_d = std::max(max_d, d);
+    along[i] = wrapDegrees(g.x - origin_lon);
+  }
+  // Each triangle's arc of longitudes; their union, less its widest gap, is
+  // the mesh's. A mesh round a pole (a polar CRS's native tile) holds it.
+  std::vector<std::pair<double, double>> arcs;
+  bool round_the_axis = false;
+  for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
+    const std::uint32_t a = triangles[t], b = triangles[t + 1], c = triangles[t + 2];
+    if (holdsTheAxis(ecef[a], ecef[b], ecef[c])) {
+      round_the_axis = true;
+      if (ecef[a].z > 0) {
+        north = 90;
+      } else {
+        south = -90;
+      }
+      continue;
+    }
+    std::array<double, 3> d{};
+    int count = 0;
+    for (const std::uint32_t v : {a, b, c}) {
+      if (!std::isnan(along[v])) d[std::size_t(count++)] = along[v];
+    }
+    if (count > 0) arcs.push_back(narrowestArc(d, count));
+  }
+  // The arcs' union, each arc past 180 degrees split there, and the circle
+  // less its widest gap; none left: every longitude.
+  std::vector<std::pair<double, double>> pieces;
+  for (const auto& [from, to] : arcs) {
+    pieces.emplace_back(from, std::min(to, 180.0));
+    if (to > 180) pieces.emplace_back(-180, to - 360);
+  }
+  std::sort(pieces.begin(), pieces.end());
+  std::vector<std::pair<double, double>> merged;
+  for (const auto& [from, to] : pieces) {
+    if (!merged.empty() && from <= merged.back().second) {
+      merged.back().second = std::max(merged.back().second, to);
+    } else {
+      merged.emplace_back(from, to);
+    }
+  }
+  double min_d = 1, max_d = 0;  // every longitude: round a pole, or on it alone
+  if (!round_the_axis && !merged.empty()) {
+    double widest_gap = merged.front().first + 360 - merged.back().second;  // round the back, past 180
+    min_d = merged.front().first, max_d = merged.back().second;
+    for (std::size_t k = 1; k < merged.size(); ++k) {
+      const double gap = merged[k].first - merged[k - 1].second;
+      if (gap > widest_gap) widest_gap = gap, min_d = merged[k].first, max_d = merged[k - 1].second + 360;
+    }
+    if (!(widest_gap > 0)) min_d = 1, max_d = 0;
   }
   const double sag_m = chordSagM(longest_edge_m);
   const double bow_deg = glm::degrees(chordBowRad(longest_edge_m, glm::radians(std::max(-south, north))));

@@ -372,7 +372,7 @@ std::optional<io::TileFiles> TileMaker::make(const TileId& tile) {
   glb_info.origin_lat_deg = frame.originLatDeg();
   glb_info.enu_to_ecef = frame.localToEcef();
   glb_info.max_error_m = low_poly.max_error_m;
-  const geo::Region region = geo::regionOfMesh(low.position, frame, mesh::longestEdgeM(low));
+  const geo::Region region = geo::regionOfMesh(low.position, low.indices, frame, mesh::longestEdgeM(low));
   glb_info.region = {region.west, region.south, region.east, region.north, region.min_height_m, region.max_height_m};
   lap(s.times.meshes);
   io::TileFiles files;
