@@ -604,23 +604,7 @@ TEST(Mbtiles, ATileReadWithNoFileDescriptorLeftIsBusyNotFailed) {
   ASSERT_TRUE(stored);
   const TileId tile = *stored;
   server::MbtilesLayer layer("layer", mbtilesPath(job).string());
-  std::exception_ptr error;
-  {
-    const test::AllFilesOpen taken;
-    try {
-      layer.tile(tile, io::TileFormat::kPng, {});
-    } catch (...) {
-      error = std::current_exception();
-    }
-  }
-  ASSERT_TRUE(error) << "no error with no file descriptor left";
-  try {
-    std::rethrow_exception(error);
-  } catch (const server::UnreadableFile& e) {
-    EXPECT_TRUE(e.temporary) << e.what();
-  } catch (const std::exception& e) {
-    ADD_FAILURE() << "not UnreadableFile: " << e.what();
-  }
+  test::expectBusyWithAllFilesOpen([&] { layer.tile(tile, io::TileFormat::kPng, {}); }, "layer.mbtiles");
   EXPECT_EQ(layer.tile(tile, io::TileFormat::kPng, {}).status, server::TileAnswer::Status::kFound);
 }
 
