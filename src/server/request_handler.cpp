@@ -273,7 +273,8 @@ HttpReply RequestHandler::answerNow(const HttpRequest& request, const Route& rou
       std::optional<FileContent> content = layer->tilesetFile(route.file);
       if (!content) {
         return text(404, "not found: layer '" + route.layer + "' has no " + route.file +
-                             " (a layer has one when its job sets output.tileset: true)");
+                             " (a layer has one when its job sets output.tileset: true; for an on-demand layer "
+                             "whose tiles cannot be planned, the server's log says why)");
       }
       return validated(request, "application/json", std::move(content->bytes), content->etag, m_tile_cache_control);
     }
