@@ -503,8 +503,8 @@ TEST(Pmtiles, HeaderBoundsAcrossTheAntimeridianAreEveryLongitude) {
     writer.publish();
   }
   const std::array<double, 4> expected = {-180, -17, 180, -16};
-  const io::PmtilesHeader& h = io::PmtilesReader(path.string()).header();
-  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(h.bounds_deg[i], expected[i], 1e-7) << i;
+  const io::PmtilesReader reader(path.string());
+  for (std::size_t i = 0; i < 4; ++i) EXPECT_NEAR(reader.header().bounds_deg[i], expected[i], 1e-7) << i;
 }
 
 TEST(Pmtiles, ManyTilesGoToLeafDirectoriesAndReadBack) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cerrno>
+#include <cstring>
 #include <filesystem>
 #include <set>
 #include <string>
@@ -25,7 +26,9 @@ namespace fs = std::filesystem;
 // empty folder: a later look (`retried`) is given up, to be made again
 // (LayerSet); the first, when the server starts, is an error.
 [[noreturn]] void throwUnlisted(const std::string& tiles_dir, const std::error_code& ec, bool retried) {
-  const std::string message = "tiles: cannot read folder '" + tiles_dir + "': " + ec.message();
+  // strerror, not ec.message(): no virtual call, which a sanitizer checks
+  // with a file it may have no descriptor for.
+  const std::string message = "tiles: cannot read folder '" + tiles_dir + "': " + std::strerror(ec.value());
   if (retried && (ec.value() == EMFILE || ec.value() == ENFILE)) throw UnreadableFile(message, true);
   throw InputError(message);
 }
