@@ -24,7 +24,8 @@
 // 5. Across the antimeridian: the sample DEM set on a longitude/latitude grid
 //    from 179.85 to 180.15 degrees (gdal_translate) and tiled on its own
 //    grid, so that tiles and their parents span 180 degrees and the root is
-//    bounded by a box. Each viewer, looking down at the layer's centre (the
+//    bounded by a box; and tiled in Web Mercator from zoom 4, whose root box
+//    spans 45 degrees. Each viewer, looking down at the layer's centre (the
 //    middle of bounds that run across 180 degrees), must draw terrain over
 //    the whole view.
 //
@@ -57,6 +58,12 @@ const kCoarseErrorTexels = '6';
 // near ones (measured: 382 background pixels along their seams without skirts).
 const kCrackView = { ...kView, camEl: '35', camDist: '9000', sse: '16' };
 const kAntimeridianLayer = 'antimeridian';
+// The same DEM in Web Mercator from zoom 4, whose tiles span 22.5 degrees:
+// the root's box, across the antimeridian, has its centre hundreds of
+// kilometres below the surface (the view once looked at that depth in three.js
+// and drew nothing).
+const kWideAntimeridianLayer = 'antimeridian_wide';
+const kWideAntimeridianZooms = '4-9';
 // The sample's pixels on a 0.3 x 0.2 degree grid (23 x 22 km at 46.5 N).
 const kAntimeridianBounds = ['179.85', '46.6', '-179.85', '46.4'];
 const kAntimeridianView = { ...kView, camEl: '70', camDist: '6000' };
@@ -158,6 +165,8 @@ async function main() {
   if (translated.code !== 0) await t.abort(`gdal_translate ended with code ${translated.code}:\n${translated.output}`);
   await t.tile(terrabake, ['--dem', acrossDem, '--scheme', 'native', '--zoom', 'auto', '--tileset', 'true',
     '--out', tilesDir, '--layer', kAntimeridianLayer], kTileTimeoutMs);
+  await t.tile(terrabake, ['--dem', acrossDem, '--zoom', kWideAntimeridianZooms, '--tile-size', '64', '--tileset', 'true',
+    '--out', tilesDir, '--layer', kWideAntimeridianLayer], kTileTimeoutMs);
 
   const server = await t.serve(terrabake, tilesDir);
   await t.launchChromium({ viewport: kViewport });
@@ -178,15 +187,17 @@ async function main() {
   }
 
   const across = {};
-  for (const renderer of ['three', 'cesium']) {
-    const shot = await screenshot(server.url, out, `${renderer}_antimeridian`,
-      { layer: kAntimeridianLayer, renderer, ...kAntimeridianView });
-    if (!shot) continue;
-    const { width, height } = shot.image;
-    across[renderer] = 1 - countBackground(shot.image) / (width * height);
-    if (across[renderer] < kMinTerrainShare) {
-      fail(`${renderer}, across the antimeridian: terrain covers ${(100 * across[renderer]).toFixed(1)}% of the view ` +
-        `(at least ${100 * kMinTerrainShare}%)`);
+  for (const layer of [kAntimeridianLayer, kWideAntimeridianLayer]) {
+    for (const renderer of ['three', 'cesium']) {
+      const shot = await screenshot(server.url, out, `${renderer}_${layer}`, { layer, renderer, ...kAntimeridianView });
+      if (!shot) continue;
+      const { width, height } = shot.image;
+      const key = `${renderer} ${layer}`;
+      across[key] = 1 - countBackground(shot.image) / (width * height);
+      if (across[key] < kMinTerrainShare) {
+        fail(`${renderer}, ${layer} across the antimeridian: terrain covers ${(100 * across[key]).toFixed(1)}% of ` +
+          `the view (at least ${100 * kMinTerrainShare}%)`);
+      }
     }
   }
 
@@ -197,8 +208,11 @@ async function main() {
       `${r.bare.toFixed(2).padStart(21)}   ${(r.bare / r.normalMapped).toFixed(2)}`);
   }
   console.log(`  background pixels where levels meet: skirts on ${cracks.on ?? '-'}, skirts off ${cracks.off ?? '-'}`);
-  const share = (r) => (across[r] === undefined ? '-' : `${(100 * across[r]).toFixed(1)}%`);
-  console.log(`  terrain across the antimeridian: three ${share('three')}, cesium ${share('cesium')}`);
+  const share = (key) => (across[key] === undefined ? '-' : `${(100 * across[key]).toFixed(1)}%`);
+  for (const layer of [kAntimeridianLayer, kWideAntimeridianLayer]) {
+    console.log(`  terrain across the antimeridian, ${layer}: three ${share(`three ${layer}`)}, ` +
+      `cesium ${share(`cesium ${layer}`)}`);
+  }
   console.log('');
   if (cracks.on !== undefined && cracks.on > kMaxCrackPixelsWithSkirts) {
     fail(`cracks: ${cracks.on} background pixels show through with skirts (at most ${kMaxCrackPixelsWithSkirts})`);

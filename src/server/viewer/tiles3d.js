@@ -42,6 +42,9 @@ const view = {
 };
 const status = (text) => { document.getElementById('status').textContent = text; };
 const radians = (deg) => (deg * Math.PI) / 180;
+// Levels of a box-bounded root's descendants searched for regions (its own
+// children are one).
+const kTargetSearchDepth = 3;
 
 // East, north, up components of a direction at azimuth az (clockwise from north), elevation el.
 function enuDirection(azDeg, elDeg) {
@@ -77,16 +80,31 @@ async function layerTarget() {
   const tileset = await fetchJson(tilesetUrl);
   // tilejson's center is the middle of the bounds, across the antimeridian too.
   const center = params.has('center') ? params.get('center').split(',').map(Number) : tilejson.center;
-  return { tilesetUrl, lon: radians(center[0]), lat: radians(center[1]), height: middleHeight(tileset.root.boundingVolume) };
+  return { tilesetUrl, lon: radians(center[0]), lat: radians(center[1]), height: targetHeight(tileset.root) };
 }
 
-// The middle height of the root's region, or of the centre of its box (the
-// root has no transform: the box is in ECEF), above the WGS84 ellipsoid
-// along the radius, which differs from the height along the normal by
-// well under a metre near the surface.
-function middleHeight(volume) {
-  if (volume.region) return (volume.region[4] + volume.region[5]) / 2;
-  const [x, y, z] = volume.box;
+// The height to look at: the middle of the root's region. A root bounded by
+// a box (a layer across the antimeridian or round a pole) has its centre
+// below the surface by the sag of its width, hundreds of kilometres for a
+// wide layer, where a camera a few kilometres from it sees no terrain: the
+// highest top of the regions under it instead, or the box's centre's
+// height where none is.
+function targetHeight(root) {
+  if (root.boundingVolume.region) return (root.boundingVolume.region[4] + root.boundingVolume.region[5]) / 2;
+  const tops = [];
+  const visit = (tile, depth) => {
+    if (tile.boundingVolume.region) tops.push(tile.boundingVolume.region[5]);
+    else if (depth < kTargetSearchDepth) (tile.children ?? []).forEach((child) => visit(child, depth + 1));
+  };
+  visit(root, 0);
+  return tops.length > 0 ? Math.max(...tops) : boxCentreHeight(root.boundingVolume.box);
+}
+
+// The height of a box's centre (the root has no transform: the box is in
+// ECEF) above the WGS84 ellipsoid along the radius, which differs from the
+// height along the normal by well under a metre near the surface.
+function boxCentreHeight(box) {
+  const [x, y, z] = box;
   const a = 6378137.0;
   const b = 6356752.314245;
   const r = Math.hypot(x, y, z);
