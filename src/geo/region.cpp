@@ -1,7 +1,6 @@
 #include "geo/region.hpp"
 
 #include <algorithm>
-#include <array>
 #include <cmath>
 #include <limits>
 #include <utility>
@@ -59,22 +58,6 @@ bool holdsTheAxis(const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c)
   return positive == 3 || negative == 3;
 }
 
-// The narrowest arc east from one of the `count` longitudes `d` that holds
-// them all (each in [-180, 180]): the circle less its widest gap between
-// neighbours.
-std::pair<double, double> narrowestArc(std::array<double, 3> d, int count) {
-  std::sort(d.begin(), d.begin() + count);
-  double widest_gap = d[0] + 360 - d[std::size_t(count - 1)];
-  int after_gap = 0;
-  for (int k = 1; k < count; ++k) {
-    const double gap = d[std::size_t(k)] - d[std::size_t(k - 1)];
-    if (gap > widest_gap) widest_gap = gap, after_gap = k;
-  }
-  const double from = d[std::size_t(after_gap)];
-  const double to = after_gap == 0 ? d[std::size_t(count - 1)] : d[std::size_t(after_gap - 1)] + 360;
-  return {from, to};
-}
-
 }  // namespace
 
 Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std::uint32_t>& triangles,
@@ -99,9 +82,10 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
     // stays on its own side whichever sign the conversion gives it.
     along[i] = wrapDegrees(g.x - origin_lon);
   }
-  // Each triangle's arc of longitudes; their union, less its widest gap, is
-  // the mesh's. A mesh round a pole (a polar CRS's native tile) holds it.
-  std::vector<std::pair<double, double>> arcs;
+  // Each triangle's arc of longitudes, the narrowest run holding its
+  // vertices'; the mesh's, the narrowest holding those. A mesh round a pole
+  // (a polar CRS's native tile) holds every longitude.
+  std::vector<std::pair<double, double>> arcs, corners;
   bool round_the_axis = false;
   for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
     const std::uint32_t a = triangles[t], b = triangles[t + 1], c = triangles[t + 2];
@@ -114,38 +98,15 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
       }
       continue;
     }
-    std::array<double, 3> d{};
-    int count = 0;
+    corners.clear();
     for (const std::uint32_t v : {a, b, c}) {
-      if (!std::isnan(along[v])) d[std::size_t(count++)] = along[v];
+      if (!std::isnan(along[v])) corners.emplace_back(along[v], along[v]);
     }
-    if (count > 0) arcs.push_back(narrowestArc(d, count));
-  }
-  // The arcs' union, each arc past 180 degrees split there, and the circle
-  // less its widest gap; none left: every longitude.
-  std::vector<std::pair<double, double>> pieces;
-  for (const auto& [from, to] : arcs) {
-    pieces.emplace_back(from, std::min(to, 180.0));
-    if (to > 180) pieces.emplace_back(-180, to - 360);
-  }
-  std::sort(pieces.begin(), pieces.end());
-  std::vector<std::pair<double, double>> merged;
-  for (const auto& [from, to] : pieces) {
-    if (!merged.empty() && from <= merged.back().second) {
-      merged.back().second = std::max(merged.back().second, to);
-    } else {
-      merged.emplace_back(from, to);
-    }
+    if (const auto arc = narrowestRunHolding(corners)) arcs.push_back(*arc);
   }
   double min_d = 1, max_d = 0;  // every longitude: round a pole, or on it alone
-  if (!round_the_axis && !merged.empty()) {
-    double widest_gap = merged.front().first + 360 - merged.back().second;  // round the back, past 180
-    min_d = merged.front().first, max_d = merged.back().second;
-    for (std::size_t k = 1; k < merged.size(); ++k) {
-      const double gap = merged[k].first - merged[k - 1].second;
-      if (gap > widest_gap) widest_gap = gap, min_d = merged[k].first, max_d = merged[k - 1].second + 360;
-    }
-    if (!(widest_gap > 0)) min_d = 1, max_d = 0;
+  if (!round_the_axis) {
+    if (const auto run = narrowestRunHolding(std::move(arcs))) min_d = run->first, max_d = run->second;
   }
   const double sag_m = chordSagM(longest_edge_m);
   const double bow_deg = glm::degrees(chordBowRad(longest_edge_m, glm::radians(std::max(-south, north))));
@@ -171,6 +132,31 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
   r.min_height_m = low - sag_m;
   r.max_height_m = high;
   return r;
+}
+
+std::optional<std::pair<double, double>> narrowestRunHolding(std::vector<std::pair<double, double>> arcs) {
+  if (arcs.empty()) return std::nullopt;
+  // Each arc past 180 degrees split there, then their union in order.
+  for (std::size_t k = 0, n = arcs.size(); k < n; ++k) {
+    if (arcs[k].second > 180) arcs.emplace_back(-180, arcs[k].second - 360), arcs[k].second = 180;
+  }
+  std::sort(arcs.begin(), arcs.end());
+  std::vector<std::pair<double, double>> merged;
+  for (const auto& [from, to] : arcs) {
+    if (!merged.empty() && from <= merged.back().second) {
+      merged.back().second = std::max(merged.back().second, to);
+    } else {
+      merged.emplace_back(from, to);
+    }
+  }
+  double widest_gap = merged.front().first + 360 - merged.back().second;  // round the back, past 180
+  std::pair<double, double> run = {merged.front().first, merged.back().second};
+  for (std::size_t k = 1; k < merged.size(); ++k) {
+    const double gap = merged[k].first - merged[k - 1].second;
+    if (gap > widest_gap) widest_gap = gap, run = {merged[k].first, merged[k - 1].second + 360};
+  }
+  if (!(widest_gap > 0)) return std::nullopt;
+  return run;
 }
 
 double eastwardRad(double west, double east) {

@@ -5,6 +5,8 @@
 #include <array>
 #include <cmath>
 #include <cstdint>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <glm/mat4x4.hpp>
@@ -65,6 +67,13 @@ struct Region {
 // and the pole, for a mesh round a pole (a polar CRS's native tile).
 Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std::uint32_t>& triangles,
                     const LocalFrame& frame, double longest_edge_m);
+
+// The narrowest run of longitudes (degrees) east from `from` to `to` that
+// holds every arc, each an eastward [from, to] with `from` in [-180, 180] and
+// less than a turn wide: the circle less the widest gap the arcs leave,
+// `to` past 180 where the run crosses the antimeridian (the gap round the
+// back of the globe wins a tie). nullopt where they leave no gap.
+std::optional<std::pair<double, double>> narrowestRunHolding(std::vector<std::pair<double, double>> arcs);
 
 // Radians of longitude from `west` east to `east`: in [0, 2π), west > east
 // across the antimeridian, and 2π from -π to π.

@@ -10,6 +10,7 @@
 #include "core/log.hpp"
 #include "core/usable_cores.hpp"
 #include "dem/crs_transform.hpp"
+#include "geo/region.hpp"
 #include "io/layer_layout.hpp"
 #include "io/tile_files.hpp"
 #include "mesh/mesh.hpp"
@@ -181,22 +182,16 @@ std::vector<double> maxErrorByZoom(const config::TileJob& job, const tiling::Sch
 // where it runs across the antimeridian (the pieces of a DEM across it), and
 // their latitudes. Pieces that a box with west above east leaves either
 // side of its gap, both east of the antimeridian, are bounded between them.
-Extent lonLatBoundsOf(std::vector<Extent> pieces) {
-  std::sort(pieces.begin(), pieces.end(), [](const Extent& a, const Extent& b) { return a.min_x < b.min_x; });
+Extent lonLatBoundsOf(const std::vector<Extent>& pieces) {
   Extent bounds = pieces.front();
-  double east_so_far = bounds.max_x;
-  double widest_gap = 0, west_past_it = 0, east_before_it = 0;  // between two pieces
+  std::vector<std::pair<double, double>> arcs;
   for (const Extent& piece : pieces) {
     bounds.min_y = std::min(bounds.min_y, piece.min_y), bounds.max_y = std::max(bounds.max_y, piece.max_y);
-    if (piece.min_x - east_so_far > widest_gap) {
-      widest_gap = piece.min_x - east_so_far, west_past_it = piece.min_x, east_before_it = east_so_far;
-    }
-    east_so_far = std::max(east_so_far, piece.max_x);
+    arcs.emplace_back(piece.min_x, piece.max_x);
   }
-  bounds.max_x = east_so_far;
-  // A gap between pieces wider than the one round the back of the globe:
-  // the bounds run across the antimeridian instead.
-  if (widest_gap > bounds.min_x + 360 - east_so_far) bounds.min_x = west_past_it, bounds.max_x = east_before_it;
+  const auto run = geo::narrowestRunHolding(std::move(arcs));
+  bounds.min_x = run ? run->first : -180;
+  bounds.max_x = !run ? 180 : run->second > 180 ? run->second - 360 : run->second;
   return bounds;
 }
 
