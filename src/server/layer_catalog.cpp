@@ -118,9 +118,6 @@ std::vector<std::unique_ptr<LayerSource>> openStoredLayers(const std::string& ti
         layers.push_back(open(name, file.string()));
         names.insert(name);
         log::info("layer " + name + ": tiles from " + file.string());
-      } catch (const io::MbtilesShortOfFiles& e) {
-        if (!first_look) throw UnreadableFile(e.what(), true);
-        skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));
       } catch (const UnreadableFile& e) {
         if (e.temporary && !first_look) throw;
         skipped("layer file '" + file.string() + "' skipped: " + oneLine(e.what()));

@@ -64,7 +64,7 @@ std::optional<std::string> MbtilesLayer::stamp() {
   }
   if (!m_watch || *file != m_watch_file) {
     m_watch.reset();
-    std::unique_ptr<io::MbtilesFile> watch = io::MbtilesFile::openForReading(m_path);
+    std::unique_ptr<io::MbtilesFile> watch = openConnection();
     // A file renamed into place while this one opened is watched from the next look.
     if (fileIdentity(m_path) != file) throw std::runtime_error(m_path + " was replaced while it was opened");
     m_watch = std::move(watch);
@@ -138,6 +138,10 @@ std::unique_ptr<io::MbtilesFile> MbtilesLayer::borrow(const std::string& file) {
       return connection;
     }
   }
+  return openConnection();
+}
+
+std::unique_ptr<io::MbtilesFile> MbtilesLayer::openConnection() const {
   try {
     return io::MbtilesFile::openForReading(m_path);
   } catch (const io::MbtilesShortOfFiles&) {

@@ -53,6 +53,8 @@ class MbtilesLayer : public LayerSource {
   // Description's, which the connections kept must read.
   std::unique_ptr<io::MbtilesFile> borrow(const std::string& file);
   void giveBack(const std::string& file, std::unique_ptr<io::MbtilesFile> connection);
+  // A new connection; with no file descriptor left, UnreadableFile (temporary).
+  std::unique_ptr<io::MbtilesFile> openConnection() const;
 
   std::string m_name;
   std::string m_path;
