@@ -24,6 +24,7 @@
 #include <set>
 #include <sstream>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -695,6 +696,38 @@ TEST(Inputs, AnUndeclaredFillValueIsAVoidUnlessTheFileDeclaresItsNodata) {
   expectSameTiles(dir / "out" / "nan", dir / "out" / "fill");
   expectSameTiles(dir / "out" / "nan", dir / "out" / "nan_declared");
   EXPECT_NE(tilesOf(dir / "out" / "nan"), tilesOf(dir / "out" / "declared"));
+}
+
+// A declared nodata value marks the samples that hold it as they are read:
+// 0.1 declared by a Float64 file is no float, nor is 2147483647 by an Int32
+// one, and -1e300 lies beyond the floats. No warning calls them implausible.
+TEST(Inputs, ADeclaredNodataValueMarksItsSamplesWhateverTheBandsType) {
+  const fs::path dir = caseDir();
+  const auto in_block = [](int c, int r) { return c >= 60 && c < 80 && r >= 90 && r < 110; };
+  // Whole metres, which every type below holds exactly.
+  const auto whole_hill = [](int c, int r) { return std::round(hill(c, r)); };
+  writeHills(dir / "nan.tif", [&](int c, int r) { return in_block(c, r) ? NAN : whole_hill(c, r); });
+  const std::tuple<std::string, GDALDataType, double> cases[] = {
+      {"float64", GDT_Float64, 0.1},
+      {"int32", GDT_Int32, 2147483647.0},
+      {"float64_beyond_floats", GDT_Float64, -1e300}};
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  for (const auto& [name, type, nodata] : cases) {
+    const fs::path dem = dir / (name + ".tif");
+    writeDem(dem, kHillPixels, kHillPixels, gt, whole_hill, 4326, 1, type);
+    std::unique_ptr<GDALDataset> ds(GDALDataset::Open(dem.c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+    ASSERT_NE(ds, nullptr);
+    GDALRasterBand* band = ds->GetRasterBand(1);
+    std::vector<double> block(20 * 20, nodata);
+    ASSERT_EQ(band->RasterIO(GF_Write, 60, 90, 20, 20, block.data(), 20, 20, GDT_Float64, 0, 0), CE_None);
+    ASSERT_EQ(band->SetNoDataValue(nodata), CE_None);
+  }
+  for (const std::string name : {"nan", "float64", "int32", "float64_beyond_floats"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name));
+    ASSERT_EQ(r.exit_code, kExitOk) << name << "\n" << describe(r);
+    EXPECT_FALSE(contains(r.err, "warning")) << describe(r);
+    if (name != "nan") expectSameTiles(dir / "out" / "nan", dir / "out" / name);
+  }
 }
 
 // Heights stored in centimetres are all beyond the plausible range: the

@@ -409,7 +409,7 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
     m_warnings.push_back("dem: band " + std::to_string(m_band) + " of " + name + " is an image's " +
                          colourName(interp) + " channel (" + m_info.data_type + "); it is read as heights");
   }
-  m_voids.nodata = m_info.nodata;
+  if (m_info.nodata) m_voids.nodata = asReadInFloat32(*m_info.nodata);
   // NaN as nodata says no more than Float32 does: -9999 may still be the fill.
   m_voids.fill_value_void = !m_info.nodata || std::isnan(*m_info.nodata);
   m_voids.scale = band->GetScale();

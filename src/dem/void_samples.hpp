@@ -21,13 +21,23 @@ inline constexpr double kVoidMarkerMax = -32767.0;
 // nodata tag.
 inline constexpr float kUndeclaredFillValue = -9999.0f;
 
+// A value of a file's band as a read of it into Float32 gives it: the
+// nearest float, infinite beyond the float range. A declared nodata value is
+// compared as read, so that 0.1 declared by a Float64 file, or 2147483647
+// by an Int32 one, matches its samples.
+inline float asReadInFloat32(double value) {
+  constexpr double kLargest = std::numeric_limits<float>::max();
+  if (std::isfinite(value) && std::abs(value) > kLargest) return value > 0 ? INFINITY : -INFINITY;
+  return float(value);
+}
+
 // How one file's samples become heights, and which are voids: NaN,
 // infinities, the void markers, the declared nodata value (all three as
 // stored), and heights beyond the plausible range (1e30 in a Float32 file,
 // -3.4e38 undeclared: heights no terrain has, which would otherwise tip
 // every normal next to them).
 struct VoidRule {
-  std::optional<double> nodata;  // as the file declares it
+  std::optional<float> nodata;   // as a read into Float32 gives it (asReadInFloat32)
   bool fill_value_void = false;  // kUndeclaredFillValue is a void: the file declares no nodata, or NaN
   // The band's scale and offset: a stored sample s is the height
   // s * scale + offset (GDAL's convention; Int16 decimetres have 0.1).
@@ -61,13 +71,13 @@ struct VoidRule {
   bool isImplausible(float sample) const {
     const bool a_number = !std::isnan(sample), infinite = std::isinf(sample), unmarked = !isMarked(sample),
                undeclared_fill = isUndeclaredFill(sample), beyond_range = isBeyondRange(sample);
-    return a_number & (infinite | (unmarked & (undeclared_fill | beyond_range)));
+    return a_number & unmarked & (infinite | undeclared_fill | beyond_range);
   }
   // A void marker or the declared nodata value (a NaN nodata matches nothing here).
   bool isMarked(float sample) const {
     const bool at_least = sample >= kVoidMarkerMin, at_most = sample <= kVoidMarkerMax;
     const bool marker = at_least & at_most;
-    const bool declared = sample == nodata.value_or(std::numeric_limits<double>::quiet_NaN());
+    const bool declared = sample == nodata.value_or(NAN);
     return marker | declared;
   }
   bool isUndeclaredFill(float sample) const {
