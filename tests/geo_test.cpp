@@ -145,6 +145,21 @@ TEST(Region, AMeshRoundAPoleHoldsEveryLongitudeAndThePole) {
   }
 }
 
+// A mesh with `nodata.surface: cut` keeps the vertices of the triangles it
+// leaves out; its region holds them too.
+TEST(Region, HoldsTheVerticesNoTriangleUses) {
+  const geo::LocalFrame frame(10.0, 46.0);
+  // A triangle of three vertices, and a fourth 0.5 degrees east that no triangle uses.
+  std::vector<glm::vec3> points;
+  for (const glm::dvec2 lon_lat : {glm::dvec2(10, 46), glm::dvec2(10.01, 46), glm::dvec2(10, 46.01),
+                                   glm::dvec2(10.5, 46.01)}) {
+    points.emplace_back(frame.toLocal(lon_lat.x, lon_lat.y, 0));
+  }
+  const geo::Region region = geo::regionOfMesh(points, {0, 1, 2}, frame, glm::distance(points[0], points[1]));
+  EXPECT_NEAR(glm::degrees(region.east), 10.5, 1e-3);
+  EXPECT_NEAR(glm::degrees(region.west), 10.0, 1e-3);
+}
+
 geo::Region regionDeg(double west, double south, double east, double north, double low = 0, double high = 0) {
   return {glm::radians(west), glm::radians(south), glm::radians(east), glm::radians(north), low, high};
 }

@@ -104,6 +104,11 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
     }
     if (const auto arc = narrowestRunHolding(corners)) arcs.push_back(*arc);
   }
+  // Vertices of no triangle (those `nodata.surface: cut` leaves) are held
+  // too; the others already lie in their triangles' arcs.
+  for (const double lon : along) {
+    if (!std::isnan(lon)) arcs.emplace_back(lon, lon);
+  }
   double min_d = 1, max_d = 0;  // every longitude: round a pole, or on it alone
   if (!round_the_axis) {
     if (const auto run = narrowestRunHolding(std::move(arcs))) min_d = run->first, max_d = run->second;

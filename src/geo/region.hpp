@@ -60,7 +60,8 @@ struct Region {
 
 // The region that holds every triangle of a mesh whose vertices are
 // `points` (metres in `frame`), `triangles` three indices each, and whose
-// longest edge is `longest_edge_m`: the vertices' extent, widened by how far
+// longest edge is `longest_edge_m`: the vertices' extent (those of no
+// triangle included), widened by how far
 // a straight edge that long bows away from its ends on the curved earth
 // (below them, and towards a pole). Its longitudes are those the triangles
 // cover, each the short way round between its vertices; every longitude,
