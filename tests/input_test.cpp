@@ -1283,6 +1283,34 @@ TEST(Inputs, FilesFarApartPlanOnlyTheTilesRoundEach) {
   EXPECT_TRUE(contains(between.err, "tiling.bbox: lon 60 to 61, lat 0 to 1 lies between the files of")) << describe(between);
 }
 
+// gdalbuildvrt gives a VRT of sources without a nodata value none, and GDAL
+// reads 0 where no source reaches: no height there, as in a VRT that says
+// so (-vrtnodata nan), at the deepest zoom and the coarser ones.
+TEST(Inputs, AVrtWithoutNodataHasNoHeightsWhereNoneOfItsSourcesReaches) {
+  const fs::path dir = caseDir();
+  constexpr int kGapFrom = 90, kGapTo = 110;  // the columns no source covers
+  double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "west.tif", kGapFrom, kHillPixels, gt, hill);
+  gt[0] = kHillWest + kGapTo * kHillPixelDeg;
+  writeDem(dir / "east.tif", kHillPixels - kGapTo, kHillPixels, gt, [](int c, int r) { return hill(c + kGapTo, r); });
+  const std::string names[] = {(dir / "west.tif").string(), (dir / "east.tif").string()};
+  const char* const sources[] = {names[0].c_str(), names[1].c_str()};
+  const char* const say_nan[] = {"-vrtnodata", "nan", nullptr};
+  GDALBuildVRTOptions* nan_options = GDALBuildVRTOptionsNew(const_cast<char**>(say_nan), nullptr);
+  for (const auto& [name, options] :
+       {std::pair<std::string, GDALBuildVRTOptions*>{"plain", nullptr}, {"nan", nan_options}}) {
+    GDALDatasetH vrt = GDALBuildVRT((dir / (name + ".vrt")).c_str(), 2, nullptr, sources, options, nullptr);
+    ASSERT_NE(vrt, nullptr);
+    GDALClose(vrt);
+    const RunResult r = run(tileArgs(dir / (name + ".vrt"), dir / "out", name, "9-12"));
+    ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+  }
+  GDALBuildVRTOptionsFree(nan_options);
+  expectSameTiles(dir / "out" / "nan", dir / "out" / "plain");
+  const RunResult info = run({"info", (dir / "plain.vrt").string()});
+  EXPECT_TRUE(contains(info.out, "mask       no data where none of its sources reaches")) << describe(info);
+}
+
 // `tile` of the files `names` (.tif in `dir`, in that order) into
 // dir/out/`layer` at zooms `zoom`, expected to succeed.
 RunResult tileFiles(const fs::path& dir, const std::string& layer, const std::vector<std::string>& names,

@@ -88,7 +88,7 @@ void printInfo(const dem::DemSource& dem, std::size_t files, int tile_size) {
               info.overview_count, info.overview_count == 1 ? "" : "s");
   std::printf("nodata     %s%s\n", info.nodata ? format("%.10g", *info.nodata).c_str() : "none declared",
               files > 1 ? " (by the first file; each file is read with its own)" : "");
-  if (!info.mask.empty()) std::printf("mask       %s: no data where it is 0\n", info.mask.c_str());
+  if (!info.mask.empty()) std::printf("mask       %s\n", info.mask.c_str());
   if (info.scale != 1 || info.offset != 0) {
     std::printf("heights    samples x %s + %s (the band's scale and offset)\n", format("%.10g", info.scale).c_str(),
                 format("%.10g", info.offset).c_str());

@@ -103,7 +103,8 @@ MirroredDataset::MirroredDataset(DatasetPtr source, int band, bool flip_x, bool 
 // file.
 constexpr int kMaxMaskedBlockSide = 1024;
 
-// maskedView's: NaN where the mask band reads 0.
+// maskedView's: NaN where the mask band reads 0, or no covered box holds
+// the pixel's centre.
 class MaskedDataset final : public GDALDataset {
  public:
   MaskedDataset(DatasetPtr source, int band, NoDataMask mask);
@@ -116,7 +117,9 @@ class MaskedDataset final : public GDALDataset {
 
 class MaskedBand final : public GDALRasterBand {
  public:
-  MaskedBand(MaskedDataset* owner, GDALRasterBand* source, GDALRasterBand* mask) : m_source(source), m_mask(mask) {
+  // `mask`: null where only `covered` marks the voids.
+  MaskedBand(MaskedDataset* owner, GDALRasterBand* source, GDALRasterBand* mask, std::vector<Extent> covered)
+      : m_source(source), m_mask(mask), m_covered(std::move(covered)) {
     poDS = owner;
     nBand = 1;
     nRasterXSize = source->GetXSize();
@@ -136,11 +139,13 @@ class MaskedBand final : public GDALRasterBand {
     if (m_source->RasterIO(GF_Read, x, y, w, h, heights, w, h, GDT_Float32, sizeof(float), row, nullptr) != CE_None) {
       return CE_Failure;
     }
-    // An alpha band's partial transparency still holds data.
-    m_opacity.resize(std::size_t(w) * std::size_t(h));
-    if (m_mask->RasterIO(GF_Read, x, y, w, h, m_opacity.data(), w, h, GDT_Byte, 0, 0, nullptr) != CE_None) {
+    // Of each pixel, whether it holds data: an alpha band's partial
+    // transparency still does.
+    m_opacity.assign(std::size_t(w) * std::size_t(h), 255);
+    if (m_mask && m_mask->RasterIO(GF_Read, x, y, w, h, m_opacity.data(), w, h, GDT_Byte, 0, 0, nullptr) != CE_None) {
       return CE_Failure;
     }
+    if (!m_covered.empty()) keepCovered(x, y, w, h);
     for (int r = 0; r < h; ++r) {
       for (int c = 0; c < w; ++c) {
         if (m_opacity[std::size_t(r) * std::size_t(w) + std::size_t(c)] == 0) {
@@ -152,17 +157,39 @@ class MaskedBand final : public GDALRasterBand {
   }
 
  private:
+  // Zeroes the opacity of the block's pixels (at x, y, w by h) whose centres
+  // lie in no covered box.
+  void keepCovered(int x, int y, int w, int h) {
+    m_in_box.assign(m_opacity.size(), 0);
+    // The first pixel whose centre lies at or past `edge`, a fraction of `size` pixels.
+    const auto firstFrom = [](double edge, int size) { return int(std::ceil(edge * size - 0.5)); };
+    for (const Extent& box : m_covered) {
+      const int c0 = std::max(x, firstFrom(box.min_x, nRasterXSize)),
+                c1 = std::min(x + w, firstFrom(box.max_x, nRasterXSize));
+      const int r0 = std::max(y, firstFrom(box.min_y, nRasterYSize)),
+                r1 = std::min(y + h, firstFrom(box.max_y, nRasterYSize));
+      for (int r = r0; r < r1; ++r) {
+        std::fill_n(&m_in_box[std::size_t(r - y) * std::size_t(w) + std::size_t(c0 - x)], std::max(0, c1 - c0), 1);
+      }
+    }
+    for (std::size_t i = 0; i < m_opacity.size(); ++i) m_opacity[i] = m_in_box[i] ? m_opacity[i] : 0;
+  }
+
   GDALRasterBand* m_source;
   GDALRasterBand* m_mask;
+  std::vector<Extent> m_covered;
   std::vector<GByte> m_opacity;  // of the block being read
+  std::vector<GByte> m_in_box;   // of the block being read
 };
 
 MaskedDataset::MaskedDataset(DatasetPtr source, int band, NoDataMask mask) : m_source(std::move(source)) {
   nRasterXSize = m_source->GetRasterXSize();
   nRasterYSize = m_source->GetRasterYSize();
   GDALRasterBand* heights = m_source->GetRasterBand(band);
-  SetBand(1, new MaskedBand(this, heights,
-                            mask.alpha_band ? m_source->GetRasterBand(mask.alpha_band) : heights->GetMaskBand()));
+  GDALRasterBand* mask_band = mask.alpha_band  ? m_source->GetRasterBand(mask.alpha_band)
+                              : mask.mask_band ? heights->GetMaskBand()
+                                               : nullptr;
+  SetBand(1, new MaskedBand(this, heights, mask_band, std::move(mask.covered)));
 }
 
 }  // namespace

@@ -5,6 +5,9 @@
 #include <gdal_priv.h>
 
 #include <memory>
+#include <vector>
+
+#include "core/types.hpp"
 
 namespace terrabake::dem {
 
@@ -22,16 +25,21 @@ DatasetPtr mirroredView(DatasetPtr source, int band, bool flip_x, bool flip_y, c
 // VoidRule judges): an alpha band of its file, of any type (GDAL's own
 // masks know only Byte and UInt16 ones, but `gdalwarp -dstalpha` writes
 // Float32 beside Float32 heights), else a mask band GDAL gives it (an
-// internal TIFF mask, one its file's bands share, a .msk file).
+// internal TIFF mask, one its file's bands share, a .msk file); and, for a
+// VRT without a nodata value, which reads 0 where none of its sources
+// reaches, the boxes its sources cover.
 struct NoDataMask {
   int alpha_band = 0;      // of the file; 0: none
   bool mask_band = false;  // GDALRasterBand::GetMaskBand, when no alpha band
-  bool any() const { return alpha_band != 0 || mask_band; }
+  // Pixel boxes (x right, y down) as fractions of the raster's width and
+  // height, so that they hold at any overview; none: the whole raster.
+  std::vector<Extent> covered;
+  bool any() const { return alpha_band != 0 || mask_band || !covered.empty(); }
 };
 NoDataMask noDataMaskOf(GDALDataset& file, int band);
 
 // Band `band` of `source` as one Float32 band that reads NaN, a void,
-// where `mask` is 0, whatever height is stored there.
+// where `mask` is 0 or covers nothing, whatever height is stored there.
 DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask);
 
 // A level read every `factor`-th pixel (GDAL's nearest sampling), as a new

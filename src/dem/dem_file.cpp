@@ -118,8 +118,23 @@ std::optional<std::string> heightUnitWarning(GDALRasterBand& band, int band_numb
 
 // How `info` names a mask (DemInfo::mask); empty when there is none.
 std::string maskDescription(const NoDataMask& mask) {
-  if (mask.alpha_band) return "band " + std::to_string(mask.alpha_band) + " (alpha)";
-  return mask.mask_band ? "its mask band" : "";
+  std::string text = mask.alpha_band  ? "band " + std::to_string(mask.alpha_band) + " (alpha): no data where it is 0"
+                     : mask.mask_band ? "its mask band: no data where it is 0"
+                                      : "";
+  const std::string sources = mask.covered.empty() ? "" : "no data where none of its sources reaches";
+  return text + (text.empty() || sources.empty() ? "" : "; ") + sources;
+}
+
+// The boxes a VRT's sources cover, as fractions of the raster (NoDataMask::covered);
+// none where one source covers it all, or it is no VRT.
+std::vector<Extent> coveredBoxes(GDALDataset& ds, int band) {
+  std::vector<Extent> boxes = vrtSourceBoxes(ds, band);
+  const double width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
+  for (const Extent& box : boxes) {
+    if (box.min_x == 0 && box.min_y == 0 && box.max_x == width && box.max_y == height) return {};
+  }
+  for (Extent& box : boxes) box = {box.min_x / width, box.min_y / height, box.max_x / width, box.max_y / height};
+  return boxes;
 }
 
 // The file opened again, at GDAL overview `overview` (-1: full resolution),
@@ -369,6 +384,8 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   const double nodata = band->GetNoDataValue(&has_nodata);
   if (has_nodata) m_info.nodata = nodata;
   m_mask = noDataMaskOf(ds, m_band);
+  // A VRT without a nodata value reads 0 where no source reaches: no height.
+  if (!m_info.nodata) m_mask.covered = coveredBoxes(ds, m_band);
   m_info.mask = maskDescription(m_mask);
   // A mirrored file is read at full resolution: its overviews are stored flipped too.
   if (!m_flip_x && !m_flip_y) {

@@ -20,7 +20,7 @@ struct DemInfo {
   std::string path;              // the file, or the files joined by ", "
   GridSpec grid;                 // pixel grid and CRS (WKT); merged: the first file's, over all
   std::optional<double> nodata;  // as the (first) file declares it
-  std::string mask;              // what else marks no data, as `info` says it: "band 2 (alpha)"; empty: nothing
+  std::string mask;              // what else marks no data, as `info` says it; empty: nothing
   int overview_count = 0;
   std::string data_type;         // of the band read, as GDAL names it: "Int16", "Float32", ...
   double scale = 1, offset = 0;  // the band's: a height is a sample * scale + offset

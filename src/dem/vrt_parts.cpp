@@ -12,7 +12,7 @@
 
 namespace terrabake::dem {
 
-std::vector<Extent> vrtSourceParts(GDALDataset& dataset, int band) {
+std::vector<Extent> vrtSourceBoxes(GDALDataset& dataset, int band) {
   const GDALDriver* driver = dataset.GetDriver();
   double gt[6];
   if (!driver || !EQUAL(driver->GetDescription(), "VRT") || dataset.GetGeoTransform(gt) != CE_None) return {};
@@ -37,6 +37,15 @@ std::vector<Extent> vrtSourceParts(GDALDataset& dataset, int band) {
     const double top = std::clamp(y_off, 0.0, height), bottom = std::clamp(y_off + y_size, 0.0, height);
     if (left < right && top < bottom) boxes.push_back({left, top, right, bottom});  // else it shows nothing
   }
+  return boxes;
+}
+
+std::vector<Extent> vrtSourceParts(GDALDataset& dataset, int band) {
+  const std::vector<Extent> boxes = vrtSourceBoxes(dataset, band);
+  if (boxes.empty()) return {};
+  const double width = dataset.GetRasterXSize(), height = dataset.GetRasterYSize();
+  double gt[6];
+  dataset.GetGeoTransform(gt);
   // Merged in pixels, where sources that share an edge meet exactly.
   const std::vector<Extent> merged = mergeMeeting(boxes);
   if (merged.size() == 1 && merged.front().min_x == 0 && merged.front().min_y == 0 && merged.front().max_x == width &&

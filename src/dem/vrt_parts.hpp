@@ -10,6 +10,11 @@
 
 namespace terrabake::dem {
 
+// The box each of band `band`'s VRT sources covers within the raster, in
+// pixels (x right, y down), in the order drawn; none for a raster that is
+// not a VRT of sources that each say where they lie.
+std::vector<Extent> vrtSourceBoxes(GDALDataset& dataset, int band);
+
 // The boxes of band `band`'s VRT sources within the raster, in its
 // georeferenced coordinates, merged where they meet (mergeMeeting), the
 // largest first. None
