@@ -316,6 +316,23 @@ TEST(Resume, SighupStopsTheRunAndAClosedPipeDoesNot) {
   EXPECT_TRUE(fs::exists(dir / "layer" / "tilejson.json")) << "the run went on to its end";
 }
 
+// A stop signal ignored when the run starts stays ignored: `nohup` ignores
+// SIGHUP, so a run started under it outlives its terminal.
+TEST(Resume, ASignalIgnoredAtTheStartStaysIgnored) {
+  const fs::path dir = freshDir("nohup");
+  struct sigaction ignore {}, before {};
+  ignore.sa_handler = SIG_IGN;
+  ASSERT_EQ(::sigaction(SIGHUP, &ignore, &before), 0);
+  test::ChildProcess run(jobArgs(dir));  // inherits SIGHUP ignored, as under nohup
+  ::sigaction(SIGHUP, &before, nullptr);
+  test::waitUntil([&] { return countMeshes(dir) >= kMeshesBeforeCrash || !run.running(); }, kRunLimit,
+                  std::chrono::milliseconds(2));
+  ASSERT_TRUE(run.running()) << "the run ended before the signal: " << run.err();
+  run.signal(SIGHUP);
+  EXPECT_EQ(run.wait(kRunLimit), 0) << run.err();
+  EXPECT_TRUE(fs::exists(dir / "layer" / "tilejson.json")) << "the run went on to its end";
+}
+
 TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   const fs::path dir = freshDir("other_job");
   std::vector<std::string> args = jobArgs(dir);

@@ -34,7 +34,13 @@ void catchStopSignals() {
   action.sa_handler = onStopSignal;
   sigemptyset(&action.sa_mask);
   action.sa_flags = SA_RESTART;  // other threads' reads and writes go on
-  for (const int signal : kStopSignals) ::sigaction(signal, &action, nullptr);
+  for (const int signal : kStopSignals) {
+    // One ignored when we started stays so: `nohup` ignores SIGHUP, a shell
+    // SIGINT for a job it puts in the background.
+    struct sigaction before {};
+    if (::sigaction(signal, nullptr, &before) == 0 && before.sa_handler == SIG_IGN) continue;
+    ::sigaction(signal, &action, nullptr);
+  }
   // A parent may have started us with them blocked (the mask is inherited
   // across exec); unblocked here, the handler runs on this thread at least,
   // and on every thread started from now on.
