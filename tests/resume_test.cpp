@@ -269,7 +269,29 @@ TEST(Resume, ATileMissingAnyOfItsFilesIsMadeAgain) {
   EXPECT_TRUE(test::snapshot(layer) == expected) << "the resumed layer differs from the first run's";
 }
 
-// The same in an MBTiles file: a row deleted from one table makes its tile again.
+// A file where a zoom's folder goes stops the run at its first tile with
+// one error, as a full disk does, not one failure a tile.
+TEST(Resume, AFileWhereAFolderGoesStopsTheRunWithOneError) {
+  const fs::path dir = freshDir("file_for_folder");
+  std::vector<std::string> args = jobArgs(dir);
+  args[4] = "13-14";
+  test::ChildProcess first(args);
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  const fs::path zoom = dir / "layer" / "14";
+  fs::remove_all(zoom);
+  test::writeText(zoom, "not a folder\n");
+  args.push_back("--resume");
+  test::ChildProcess resumed(args);
+  EXPECT_EQ(resumed.wait(kRunLimit), kExitInput) << resumed.err();
+  const std::string err = resumed.err();
+  std::size_t errors = 0;
+  for (std::size_t at = err.find("error:"); at != std::string::npos; at = err.find("error:", at + 1)) ++errors;
+  EXPECT_EQ(errors, 1u) << err;
+  EXPECT_NE(err.find("move the file that stands where a folder of the layer goes"), std::string::npos) << err;
+  EXPECT_EQ(test::readBytes(zoom), "not a folder\n");
+}
+
+// The same in an MBTiles file: a row deleted from one table, or left empty, makes its tile again.
 TEST(Resume, AnMbtilesTileMissingARowIsMadeAgain) {
   const fs::path dir = freshDir("missing_row");
   std::vector<std::string> args = jobArgs(dir);
@@ -279,14 +301,18 @@ TEST(Resume, AnMbtilesTileMissingARowIsMadeAgain) {
   ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
   const fs::path file = dir / "layer.mbtiles";
   const int tiles = std::stoi(sqlite(file, "SELECT count(*) FROM tiles;"));
-  const std::string deleted = "DELETE FROM tiles WHERE rowid = (SELECT min(rowid) FROM tiles);";
-  ASSERT_EQ(std::system(("sqlite3 '" + file.string() + "' '" + deleted + "'").c_str()), 0);
+  // One tile loses its row, another is left with an empty one.
+  const std::string changed =
+      "DELETE FROM tiles WHERE rowid = (SELECT min(rowid) FROM tiles); "
+      "UPDATE tiles SET tile_data = x'' WHERE rowid = (SELECT max(rowid) FROM tiles);";
+  ASSERT_EQ(std::system(("sqlite3 '" + file.string() + "' \"" + changed + "\"").c_str()), 0);
   ASSERT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), tiles - 1);
   args.push_back("--resume");
   test::ChildProcess resumed(args);
   ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
-  EXPECT_EQ(summaryCount(resumed.out(), "wrote"), 1) << resumed.out();
+  EXPECT_EQ(summaryCount(resumed.out(), "wrote"), 2) << resumed.out();
   EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles;")), tiles);
+  EXPECT_EQ(std::stoi(sqlite(file, "SELECT count(*) FROM tiles WHERE length(tile_data) = 0;")), 0);
 }
 
 // A closed terminal stops a run as SIGTERM does (exit 128 + 1), and a

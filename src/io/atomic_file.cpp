@@ -52,7 +52,16 @@ const std::string& writerTag() {
   return tag;
 }
 
-[[noreturn]] void throwWriteError(const std::string& path, int error) { throwIoError("cannot write", path, error); }
+// A file where the layer needs a folder (or a folder where it needs a file)
+// stops the run as a full disk does: every tile under it would fail alike.
+[[noreturn]] void throwWriteError(const std::string& path, int error) {
+  if (error == ENOTDIR || error == EISDIR) {
+    throw OutputStorageError("cannot write '" + shortened(path) + "': " + std::generic_category().message(error),
+                             error == ENOTDIR ? "move the file that stands where a folder of the layer goes"
+                                              : "move the folder that stands where a file of the layer goes");
+  }
+  throwIoError("cannot write", path, error);
+}
 
 void writeAll(int fd, const std::vector<std::uint8_t>& bytes) {
   std::size_t done = 0;

@@ -365,8 +365,9 @@ std::string MbtilesFile::claimJob(const std::string& fingerprint) {
 
 bool MbtilesFile::hasTile(MbtilesTable table, const MbtilesKey& key) const {
   if (!m_impl->has_table[std::size_t(table)]) return false;
-  sqlite3_stmt* statement = m_impl->keyed(m_impl->tile_exists, table, "SELECT 1 FROM ",
-                                          " WHERE zoom_level = ?1 AND tile_column = ?2 AND tile_row = ?3", key);
+  sqlite3_stmt* statement =
+      m_impl->keyed(m_impl->tile_exists, table, "SELECT 1 FROM ",
+                    " WHERE zoom_level = ?1 AND tile_column = ?2 AND tile_row = ?3 AND length(tile_data) > 0", key);
   const ResetOnExit reset{statement};
   const int rc = sqlite3_step(statement);
   if (rc != SQLITE_ROW && rc != SQLITE_DONE) m_impl->fail("cannot read");

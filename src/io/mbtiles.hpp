@@ -92,6 +92,7 @@ class MbtilesFile {
   // when this call claimed the file).
   std::string claimJob(const std::string& fingerprint);
 
+  // Whether `table` holds the tile, and it is not empty.
   bool hasTile(MbtilesTable table, const MbtilesKey& key) const;
   // nullopt when the table or the row is missing.
   std::optional<std::string> readTile(MbtilesTable table, const MbtilesKey& key) const;
