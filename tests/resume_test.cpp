@@ -384,6 +384,50 @@ TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   EXPECT_GT(pngs, 0);
 }
 
+// A --force run stopped part way leaves a layer that holds both jobs'
+// tiles; resumed, it makes every tile again, and ends as an uninterrupted
+// run of the new job leaves it.
+TEST(Resume, AStoppedForcedRunResumesToTheNewJobsLayer) {
+  const fs::path whole_dir = freshDir("forced_whole"), dir = freshDir("forced_stopped");
+  std::vector<std::string> new_job = jobArgs(whole_dir);
+  new_job.insert(new_job.end(), {"--bits", "16"});
+  test::ChildProcess whole(new_job);
+  ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
+  const auto expected = test::snapshot(whole_dir / "layer");
+
+  test::ChildProcess old_job(jobArgs(dir));
+  ASSERT_EQ(old_job.wait(kRunLimit), 0) << old_job.err();
+  new_job = jobArgs(dir);
+  new_job.insert(new_job.end(), {"--bits", "16"});
+  std::vector<std::string> forced = new_job;
+  forced.push_back("--force");
+  {
+    // The meshes the forced run has written over the old ones.
+    const auto started = fs::file_time_type::clock::now();
+    const auto rewritten = [&] {
+      std::size_t count = 0;
+      std::error_code ec;
+      for (auto it = fs::recursive_directory_iterator(dir / "layer", ec);
+           !ec && it != fs::recursive_directory_iterator(); it.increment(ec)) {
+        count += it->path().extension() == ".glb" && it->last_write_time(ec) >= started;
+      }
+      return count;
+    };
+    test::ChildProcess stopped(forced);
+    test::waitUntil([&] { return rewritten() >= kMeshesBeforeCrash || !stopped.running(); }, kRunLimit,
+                    std::chrono::milliseconds(1));
+    ASSERT_TRUE(stopped.running()) << "the run ended before it could be stopped: " << stopped.err();
+    stopped.signal(SIGINT);
+    EXPECT_EQ(stopped.wait(kRunLimit), 130) << stopped.err();
+  }
+  new_job.push_back("--resume");
+  test::ChildProcess resumed(new_job);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_NE(resumed.err().find("every tile is made again"), std::string::npos) << resumed.err();
+  EXPECT_EQ(summaryCount(resumed.out(), "skipped"), 0) << resumed.out();
+  EXPECT_TRUE(test::snapshot(dir / "layer") == expected) << "the resumed layer differs from the new job's";
+}
+
 TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {
   const fs::path dir = freshDir("foreign");
   const fs::path layer = dir / "layer";

@@ -109,10 +109,13 @@ class FolderSink : public TileSink {
     }
     // Recorded already maybe, by a run that started at the same moment.
     const std::string recorded = io::recordJob(m_dir, fingerprint);
-    if (recorded == fingerprint) return !found;
-    const bool ours = claimFromDifferentJob(m_dir, recorded, fingerprint, force, true);
-    io::writeFileAtomically((fs::path(m_dir) / io::kJobFile).string(),
-                            std::vector<std::uint8_t>(fingerprint.begin(), fingerprint.end()));
+    const auto writeRecord = [&](const std::string& record) {
+      io::writeTextFileAtomically((fs::path(m_dir) / io::kJobFile).string(), record);
+    };
+    // Files no job recorded are taken over as another job's are.
+    if (found) writeRecord(fingerprint + kTakenOverLine);
+    const bool ours = !found && claimRecordedLayer(m_dir, recorded, fingerprint, force, writeRecord);
+    if (!ours) m_record_when_finished = fingerprint;
     return ours;
   }
 
@@ -156,6 +159,9 @@ class FolderSink : public TileSink {
   }
 
   void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    if (!m_record_when_finished.empty()) {
+      io::writeTextFileAtomically((fs::path(m_dir) / io::kJobFile).string(), m_record_when_finished);
+    }
     if (!elevation_tilejson.empty()) {
       io::writeTextFileAtomically((fs::path(m_dir) / io::kElevationTileJsonFile).string(), elevation_tilejson);
     }
@@ -191,6 +197,7 @@ class FolderSink : public TileSink {
   std::vector<io::TileFormat> m_tile_formats;
   const std::atomic<bool>* m_stop;  // ends the wait for the tileset's turn
   bool m_created = false;          // the folder did not exist before this run
+  std::string m_record_when_finished;  // the job record finish() writes; empty: the claim's stays
 };
 
 }  // namespace

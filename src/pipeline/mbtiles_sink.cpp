@@ -44,9 +44,11 @@ class MbtilesSink : public TileSink {
   bool claim(const std::string& fingerprint, bool force) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
-    if (recorded.empty() || recorded == fingerprint) return true;
-    const bool ours = claimFromDifferentJob(m_file->path(), recorded, fingerprint, force, true);
-    m_file->setMetadata({{io::kMbtilesJobRow, fingerprint}});
+    if (recorded.empty()) return true;
+    const bool ours = claimRecordedLayer(m_file->path(), recorded, fingerprint, force, [&](const std::string& record) {
+      m_file->setMetadata({{io::kMbtilesJobRow, record}});
+    });
+    if (!ours) m_record_when_finished = fingerprint;
     return ours;
   }
 
@@ -97,6 +99,7 @@ class MbtilesSink : public TileSink {
   // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
   void finish(const std::string& tilejson, const std::string& /*elevation_tilejson*/) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
+    if (!m_record_when_finished.empty()) m_file->setMetadata({{io::kMbtilesJobRow, m_record_when_finished}});
     m_file->setMetadata(io::mbtilesMetadata(tilejson));
     m_file->standAlone();
   }
@@ -109,6 +112,7 @@ class MbtilesSink : public TileSink {
  private:
   mutable std::mutex m_mutex;
   bool m_created;  // the file did not exist before this run
+  std::string m_record_when_finished;  // the job row finish() writes; empty: the claim's stays
   std::unique_ptr<io::MbtilesFile> m_file;
   bool m_high_res_mesh;
   bool m_tms_rows;

@@ -1,6 +1,9 @@
 #include "pipeline/tile_sink.hpp"
 
+#include <cstring>
+
 #include "config/tile_job.hpp"
+#include "core/text.hpp"
 #include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
@@ -10,6 +13,16 @@ bool claimFromDifferentJob(const std::string& location, const std::string& recor
   return config::claimLayerOfAnotherJob("output: layer '" + location + "'", recorded, fingerprint, force,
                                         "use another output.layer, or --force to overwrite it",
                                         resumable ? ", and --resume skips them" : "");
+}
+
+bool claimRecordedLayer(const std::string& location, const std::string& recorded, const std::string& fingerprint,
+                        bool force, const std::function<void(const std::string&)>& write_record) {
+  const bool taken_over = endsWith(recorded, kTakenOverLine);
+  const std::string job = taken_over ? recorded.substr(0, recorded.size() - std::strlen(kTakenOverLine)) : recorded;
+  if (job == fingerprint) return !taken_over;
+  const bool ours = claimFromDifferentJob(location, job, fingerprint, force, true) && !taken_over;
+  write_record(ours ? fingerprint : fingerprint + kTakenOverLine);
+  return ours;
 }
 
 std::unique_ptr<TileSink> openSink(const LayerPlan& plan, const std::atomic<bool>* stop) {

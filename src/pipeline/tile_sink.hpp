@@ -26,7 +26,8 @@ class TileSink {
   // layer exactly one gets it. Throws UsageError when the layer was made by a
   // different job, or holds files no terrabake job recorded, unless `force`.
   // Returns whether the tiles the layer holds are this job's: false when
-  // `force` took it over, so that --resume keeps none of them.
+  // `force` took it over, now or in a run that has not finished since
+  // (claimRecordedLayer), so that --resume keeps none of them.
   virtual bool claim(const std::string& fingerprint, bool force) = 0;
   // Undoes a claim this run made on a layer it created, when the run failed
   // before writing anything there: nothing of the layer is left. A layer
@@ -54,6 +55,16 @@ class TileSink {
   // description is written.
   virtual void close() {}
 };
+
+// TileSink::claim of a layer whose job record holds `recorded`, for the job
+// with `fingerprint`; `write_record` replaces the record. A run that takes a
+// layer over from another job (--force) records its job with kTakenOverLine
+// after it, and a run of the job that finishes records it alone (its sink
+// does, when its claim returned false): until then the layer may hold the
+// other job's tiles, so --resume makes every tile again.
+bool claimRecordedLayer(const std::string& location, const std::string& recorded, const std::string& fingerprint,
+                        bool force, const std::function<void(const std::string&)>& write_record);
+inline constexpr const char* kTakenOverLine = "taken_over: by --force from another job, not finished\n";
 
 // Where the plan stores its layer (io/layer_layout.hpp): PMTiles archives
 // written whole when the run finishes (nothing under their names before), a folder of
