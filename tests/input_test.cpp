@@ -639,13 +639,23 @@ TEST(Inputs, AContainersRastersAreTiledByTheirSubdatasetNames) {
   EXPECT_EQ(tilesOf(dir / "out" / "second").size(), tilesOf(dir / "out" / "plain").size());
 }
 
-TEST(Inputs, RotatedDemIsRefusedByName) {
+TEST(Inputs, RotatedDemIsRefusedByNameButNotForRoundingNoise) {
   const fs::path dir = caseDir();
   const double rotated[6] = {kHillWest, kHillPixelDeg, 0.0001, kHillNorth, 0.0001, -kHillPixelDeg};
   writeDem(dir / "rotated.tif", 50, 50, rotated, hill);
   const RunResult r = run(tileArgs(dir / "rotated.tif", dir / "out", "rotated"));
   EXPECT_EQ(r.exit_code, kExitInput) << describe(r);
   EXPECT_TRUE(contains(r.err, "rotated")) << describe(r);
+  // Rotation terms of rounding noise turn the grid by nothing: read north-up.
+  const double north_up[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  const double noise[6] = {kHillWest, kHillPixelDeg, 1e-15, kHillNorth, -1e-15, -kHillPixelDeg};
+  writeDem(dir / "north_up.tif", 50, 50, north_up, hill);
+  writeDem(dir / "noise.tif", 50, 50, noise, hill);
+  for (const std::string name : {"north_up", "noise"}) {
+    const RunResult read = run(tileArgs(dir / (name + ".tif"), dir / "out", name));
+    ASSERT_EQ(read.exit_code, kExitOk) << describe(read);
+  }
+  expectSameTiles(dir / "out" / "north_up", dir / "out" / "noise");
 }
 
 TEST(Inputs, ImplausibleHeightsAreVoidsWithAWarning) {

@@ -167,6 +167,10 @@ std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta, int overview = -1) 
 // the Moon's is 1,737,400 m and Mars' 3,396,190 m.
 constexpr double kEarthSemiMajorSlackM = 20000;
 
+// Rotation terms that move no corner of the raster by more than this many
+// pixels are rounding noise, read as none.
+constexpr double kNegligibleTurnPx = 1e-3;
+
 // Rasters no wider or taller than this: beyond, sizes overflow the integer
 // pixel coordinates GDAL's reads and VRTs use.
 constexpr long kMaxSidePixels = 1L << 30;
@@ -332,6 +336,13 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   }
 
   if (!has_geotransform) throw InputError("dem: " + name + " has no georeferencing (geotransform)");
+  // Rotation terms of rounding noise (1e-15 from a float conversion) turn
+  // the grid by nothing a tile can show: read north-up.
+  const long width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
+  if (std::abs(gt[2]) * double(height) <= kNegligibleTurnPx * std::abs(gt[1]) &&
+      std::abs(gt[4]) * double(width) <= kNegligibleTurnPx * std::abs(gt[5])) {
+    gt[2] = gt[4] = 0;
+  }
   if (gt[2] != 0.0 || gt[4] != 0.0) {
     throw InputError("dem: " + name +
                      " is rotated (its geotransform turns or shears the pixel grid); warp it north-up first, "
@@ -346,7 +357,6 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
                   gt[0], gt[3], gt[1], gt[5]);
     throw InputError("dem: " + name + " " + text);
   }
-  const long width = ds.GetRasterXSize(), height = ds.GetRasterYSize();
   if (width > kMaxSidePixels || height > kMaxSidePixels) {
     throw InputError("dem: " + name + " is " + std::to_string(width) + " x " + std::to_string(height) +
                      " pixels; at most " + std::to_string(kMaxSidePixels) + " a side (split it, or tile a VRT of tiles)");
