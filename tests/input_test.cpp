@@ -740,6 +740,51 @@ TEST(Inputs, ADeclaredNodataValueMarksItsSamplesWhateverTheBandsType) {
   }
 }
 
+// GDAL 3.6 stores Int8 as Byte marked PIXELTYPE=SIGNEDBYTE and reads it as
+// 0..255: such samples are read as the -128..127 they hold, a nodata value
+// of -128 included, at every zoom (no overviews GDAL averaged as unsigned).
+TEST(Inputs, SignedBytesAreReadAsTheSignedHeightsTheyHold) {
+  const fs::path dir = caseDir();
+  const auto height = [](int c, int r) {
+    return c >= 60 && c < 80 && r >= 90 && r < 110 ? -128.0f
+                                                   : float(std::round(100 * std::sin(c / 13.0) * std::cos(r / 17.0)));
+  };
+  const double gt[6] = {kHillWest, kHillPixelDeg, 0, kHillNorth, 0, -kHillPixelDeg};
+  writeDem(dir / "float.tif", kHillPixels, kHillPixels, gt,
+           [&](int c, int r) { return height(c, r) == -128.0f ? NAN : height(c, r); });
+  {
+    const char* const options[] = {"PIXELTYPE=SIGNEDBYTE", nullptr};
+    std::unique_ptr<GDALDataset> ds(GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        (dir / "signed.tif").c_str(), kHillPixels, kHillPixels, 1, GDT_Byte, const_cast<char**>(options)));
+    ASSERT_NE(ds, nullptr);
+    double transform[6];
+    std::copy(gt, gt + 6, transform);
+    ds->SetGeoTransform(transform);
+    OGRSpatialReference srs;
+    srs.importFromEPSG(4326);
+    ds->SetSpatialRef(&srs);
+    std::vector<std::int8_t> bytes(std::size_t(kHillPixels) * kHillPixels);
+    for (int r = 0; r < kHillPixels; ++r) {
+      for (int c = 0; c < kHillPixels; ++c) {
+        bytes[std::size_t(r) * kHillPixels + std::size_t(c)] = std::int8_t(height(c, r));
+      }
+    }
+    GDALRasterBand* band = ds->GetRasterBand(1);
+    ASSERT_EQ(band->RasterIO(GF_Write, 0, 0, kHillPixels, kHillPixels, bytes.data(), kHillPixels, kHillPixels, GDT_Byte,
+                             0, 0),
+              CE_None);
+    ASSERT_EQ(band->SetNoDataValue(-128), CE_None);
+  }
+  for (const std::string name : {"float", "signed"}) {
+    const RunResult r = run(tileArgs(dir / (name + ".tif"), dir / "out", name, "9-12"));
+    ASSERT_EQ(r.exit_code, kExitOk) << describe(r);
+    EXPECT_FALSE(contains(r.err, "warning")) << describe(r);
+  }
+  expectSameTiles(dir / "out" / "float", dir / "out" / "signed");
+  const RunResult info = run({"info", (dir / "signed.tif").string()});
+  EXPECT_TRUE(contains(info.out, "Int8 (signed bytes)")) << describe(info);
+}
+
 // Heights stored in centimetres are all beyond the plausible range: the
 // warning says so, and names the key that reads them, at coarse zooms (read
 // from the reduced levels) as at the deepest.

@@ -107,7 +107,7 @@ constexpr int kMaxMaskedBlockSide = 1024;
 // the pixel's centre.
 class MaskedDataset final : public GDALDataset {
  public:
-  MaskedDataset(DatasetPtr source, int band, NoDataMask mask);
+  MaskedDataset(DatasetPtr source, int band, NoDataMask mask, bool signed_bytes);
   CPLErr GetGeoTransform(double* gt) override { return m_source->GetGeoTransform(gt); }
   const OGRSpatialReference* GetSpatialRef() const override { return m_source->GetSpatialRef(); }
 
@@ -118,8 +118,9 @@ class MaskedDataset final : public GDALDataset {
 class MaskedBand final : public GDALRasterBand {
  public:
   // `mask`: null where only `covered` marks the voids.
-  MaskedBand(MaskedDataset* owner, GDALRasterBand* source, GDALRasterBand* mask, std::vector<Extent> covered)
-      : m_source(source), m_mask(mask), m_covered(std::move(covered)) {
+  MaskedBand(MaskedDataset* owner, GDALRasterBand* source, GDALRasterBand* mask, std::vector<Extent> covered,
+             bool signed_bytes)
+      : m_source(source), m_mask(mask), m_covered(std::move(covered)), m_signed_bytes(signed_bytes) {
     poDS = owner;
     nBand = 1;
     nRasterXSize = source->GetXSize();
@@ -138,6 +139,12 @@ class MaskedBand final : public GDALRasterBand {
     const GSpacing row = GSpacing(sizeof(float)) * nBlockXSize;
     if (m_source->RasterIO(GF_Read, x, y, w, h, heights, w, h, GDT_Float32, sizeof(float), row, nullptr) != CE_None) {
       return CE_Failure;
+    }
+    if (m_signed_bytes) {
+      for (int r = 0; r < h; ++r) {
+        float* const line = &heights[std::size_t(r) * std::size_t(nBlockXSize)];
+        for (int c = 0; c < w; ++c) line[c] = line[c] >= 128 ? line[c] - 256 : line[c];
+      }
     }
     // Of each pixel, whether it holds data: an alpha band's partial
     // transparency still does.
@@ -178,18 +185,20 @@ class MaskedBand final : public GDALRasterBand {
   GDALRasterBand* m_source;
   GDALRasterBand* m_mask;
   std::vector<Extent> m_covered;
+  bool m_signed_bytes;
   std::vector<GByte> m_opacity;  // of the block being read
   std::vector<GByte> m_in_box;   // of the block being read
 };
 
-MaskedDataset::MaskedDataset(DatasetPtr source, int band, NoDataMask mask) : m_source(std::move(source)) {
+MaskedDataset::MaskedDataset(DatasetPtr source, int band, NoDataMask mask, bool signed_bytes)
+    : m_source(std::move(source)) {
   nRasterXSize = m_source->GetRasterXSize();
   nRasterYSize = m_source->GetRasterYSize();
   GDALRasterBand* heights = m_source->GetRasterBand(band);
   GDALRasterBand* mask_band = mask.alpha_band  ? m_source->GetRasterBand(mask.alpha_band)
                               : mask.mask_band ? heights->GetMaskBand()
                                                : nullptr;
-  SetBand(1, new MaskedBand(this, heights, mask_band, std::move(mask.covered)));
+  SetBand(1, new MaskedBand(this, heights, mask_band, std::move(mask.covered), signed_bytes));
 }
 
 }  // namespace
@@ -209,8 +218,14 @@ NoDataMask noDataMaskOf(GDALDataset& file, int band) {
   return mask;
 }
 
-DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask) {
-  return DatasetPtr(new MaskedDataset(std::move(source), band, mask));
+DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask, bool signed_bytes) {
+  return DatasetPtr(new MaskedDataset(std::move(source), band, std::move(mask), signed_bytes));
+}
+
+bool holdsSignedBytes(GDALDataset& file, int band) {
+  GDALRasterBand* heights = file.GetRasterBand(band);
+  const char* pixel_type = heights->GetMetadataItem("PIXELTYPE", "IMAGE_STRUCTURE");
+  return heights->GetRasterDataType() == GDT_Byte && pixel_type && EQUAL(pixel_type, "SIGNEDBYTE");
 }
 
 DatasetPtr decimatedView(GDALDataset& level, int band, int factor) {

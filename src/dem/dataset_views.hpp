@@ -40,7 +40,11 @@ NoDataMask noDataMaskOf(GDALDataset& file, int band);
 
 // Band `band` of `source` as one Float32 band that reads NaN, a void,
 // where `mask` is 0 or covers nothing, whatever height is stored there.
-DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask);
+// `signed_bytes`: the band's bytes hold -128..127 (GDAL 3.6 marks such a
+// Byte band PIXELTYPE=SIGNEDBYTE, but reads it as 0..255).
+DatasetPtr maskedView(DatasetPtr source, int band, NoDataMask mask, bool signed_bytes);
+// Whether band `band` of `file` stores signed bytes (maskedView).
+bool holdsSignedBytes(GDALDataset& file, int band);
 
 // A level read every `factor`-th pixel (GDAL's nearest sampling), as a new
 // in-memory VRT over `level`'s band `band`, covering the same extent; null

@@ -152,8 +152,8 @@ std::pair<DatasetPtr, int> openNorthUp(const FileMeta& meta, int overview = -1) 
     throw InputError("dem: cannot reopen '" + shortened(meta.info().path) + "' (" + lastGdalError() + ")");
   }
   int band = meta.band();
-  if (meta.masked()) {
-    dataset = maskedView(std::move(dataset), band, meta.mask());
+  if (meta.masked() || meta.signedBytes()) {
+    dataset = maskedView(std::move(dataset), band, meta.mask(), meta.signedBytes());
     band = 1;
   }
   if (!meta.flipX() && !meta.flipY()) return {std::move(dataset), band};
@@ -397,13 +397,16 @@ FileMeta::FileMeta(const std::string& path, const DemOptions& options, const std
   // A VRT without a nodata value reads 0 where no source reaches: no height.
   if (!m_info.nodata) m_mask.covered = coveredBoxes(ds, m_band);
   m_info.mask = maskDescription(m_mask);
-  // A mirrored file is read at full resolution: its overviews are stored flipped too.
-  if (!m_flip_x && !m_flip_y) {
+  m_signed_bytes = holdsSignedBytes(ds, m_band);
+  // A mirrored file is read at full resolution: its overviews are stored
+  // flipped too. So is a file of signed bytes, whose overviews GDAL
+  // averaged as unsigned ones.
+  if (!m_flip_x && !m_flip_y && !m_signed_bytes) {
     for (int i = 0; i < band->GetOverviewCount(); ++i) m_overview_widths.push_back(band->GetOverview(i)->GetXSize());
   }
   m_info.overview_count = int(m_overview_widths.size());
   m_parts = vrtSourceParts(ds, m_band);
-  m_info.data_type = GDALGetDataTypeName(type);
+  m_info.data_type = m_signed_bytes ? "Int8 (signed bytes)" : GDALGetDataTypeName(type);
   m_info.crs_name = m_srs.GetName() ? m_srs.GetName() : "unnamed";
   m_info.epsg = epsgCode(m_srs);
   const char* unit = nullptr;  // owned by the spatial reference

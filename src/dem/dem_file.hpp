@@ -39,6 +39,8 @@ class FileMeta {
   // What marks where the file has no data besides nodata (dataset_views.hpp).
   const NoDataMask& mask() const { return m_mask; }
   bool masked() const { return m_mask.any(); }
+  // Bytes that hold -128..127 (holdsSignedBytes): read through maskedView too.
+  bool signedBytes() const { return m_signed_bytes; }
   // Rows stored south-up, columns east-to-west: read through a mirror.
   bool flipX() const { return m_flip_x; }
   bool flipY() const { return m_flip_y; }
@@ -81,6 +83,7 @@ class FileMeta {
   OGRSpatialReference m_srs;
   int m_band = 1;
   NoDataMask m_mask;
+  bool m_signed_bytes = false;
   bool m_flip_x = false, m_flip_y = false;
   std::vector<int> m_overview_widths;
   mutable std::atomic<long long> m_implausible{0};

@@ -157,7 +157,7 @@ bool tilesOfOneRaster(const std::vector<std::shared_ptr<const FileMeta>>& files)
     const GridSpec& f = info.grid;
     const double dx = (f.origin_x - g.origin_x) / g.cell_w, dy = (g.origin_y - f.origin_y) / g.cell_h;
     if (!sameNodata(info.nodata, one.nodata) || info.data_type != one.data_type || info.scale != one.scale ||
-        info.offset != one.offset || file->masked() || file->flipX() || file->flipY() ||
+        info.offset != one.offset || file->masked() || file->signedBytes() || file->flipX() || file->flipY() ||
         !file->srs().IsSame(&first.srs()) || std::abs(f.cell_w - g.cell_w) > kSameSize * g.cell_w ||
         std::abs(f.cell_h - g.cell_h) > kSameSize * g.cell_h || std::abs(dx - std::round(dx)) > kOnTheGridPx ||
         std::abs(dy - std::round(dy)) > kOnTheGridPx) {
