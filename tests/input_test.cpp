@@ -854,6 +854,18 @@ TEST(Inputs, DemsPlacedOffTheEarthAreRefusedSayingWhere) {
         << describe(far);
     EXPECT_TRUE(contains(far.err, "check its geotransform and CRS")) << describe(far);
   }
+
+  // Pixels of 1,000 km in a UTM zone: its middle lies beyond the
+  // projection's domain, which no scheme mends.
+  const double huge_gt[6] = {499040, 1e6, 0, 100960, 0, -1e6};
+  writeDem(dir / "huge.tif", 50, 50, huge_gt, hill, 32631);
+  for (const std::vector<std::string>& args : {tileArgs(dir / "huge.tif", dir / "out", "huge", "0-auto"),
+                                               std::vector<std::string>{"info", (dir / "huge.tif").string()}}) {
+    const RunResult huge = run(args);
+    EXPECT_EQ(huge.exit_code, kExitInput) << describe(huge);
+    EXPECT_TRUE(contains(huge.err, "lies outside the CRS's domain (check the DEM's geotransform and CRS)"))
+        << describe(huge);
+  }
 }
 
 // A 50 x 50 hill placed by `gt` in the CRS `crs` names (as

@@ -24,13 +24,12 @@ ToLonLat::ToLonLat(const std::string& crs) : m_impl(std::make_unique<Impl>()) {
 ToLonLat::~ToLonLat() = default;
 ToLonLat::ToLonLat(ToLonLat&&) noexcept = default;
 
-void ToLonLat::transform(std::vector<glm::dvec2>& points) const {
+void ToLonLat::transform(std::vector<glm::dvec2>& points, const std::string& outside) const {
   std::vector<double> x(points.size()), y(points.size());
   for (std::size_t i = 0; i < points.size(); ++i) x[i] = points[i].x, y[i] = points[i].y;
   std::vector<int> ok(points.size());
   if (!m_impl->transform->Transform(int(points.size()), x.data(), y.data(), nullptr, ok.data())) {
-    throw InputError("dem: cannot transform tile coordinates to longitude/latitude: part of the tile lies outside "
-                     "the CRS's domain; tile such a DEM in the webmercator or geodetic scheme");
+    throw InputError("dem: cannot transform coordinates to longitude/latitude: " + outside);
   }
   for (std::size_t i = 0; i < points.size(); ++i) points[i] = {x[i], y[i]};
 }

@@ -19,8 +19,11 @@ class ToLonLat {
   ~ToLonLat();
   ToLonLat(ToLonLat&&) noexcept;
 
-  // In place: (x, y) in the CRS becomes (lon_deg, lat_deg).
-  void transform(std::vector<glm::dvec2>& points) const;
+  // In place: (x, y) in the CRS becomes (lon_deg, lat_deg). Where a point
+  // lies outside the CRS's domain, throws InputError saying `outside`.
+  void transform(std::vector<glm::dvec2>& points, const std::string& outside = kTileOutsideDomain) const;
+  static constexpr const char* kTileOutsideDomain =
+      "part of the tile lies outside the CRS's domain; tile such a DEM in the webmercator or geodetic scheme";
 
  private:
   struct Impl;

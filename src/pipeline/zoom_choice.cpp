@@ -117,7 +117,9 @@ std::size_t groupJudging(const std::vector<FileGroup>& groups, std::size_t file)
 double cellGroundSizeM(const std::string& crs, double x, double y, double cell_w, double cell_h) {
   std::vector<glm::dvec2> ends = {
       {x - cell_w / 2, y}, {x + cell_w / 2, y}, {x, y - cell_h / 2}, {x, y + cell_h / 2}};
-  dem::ToLonLat(crs).transform(ends);
+  dem::ToLonLat(crs).transform(ends,
+                               "the cell whose ground size sets the zooms lies outside the CRS's domain (check the "
+                               "DEM's geotransform and CRS)");
   std::vector<glm::dvec3> ecef;
   for (const glm::dvec2& p : ends) ecef.push_back(geo::geodeticToEcef(p.x, p.y, 0));
   return std::sqrt(glm::distance(ecef[0], ecef[1]) * glm::distance(ecef[2], ecef[3]));
