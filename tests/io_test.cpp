@@ -2,6 +2,7 @@
 #include <sys/stat.h>
 
 #include <array>
+#include <chrono>
 #include <cmath>
 #include <cstring>
 #include <filesystem>
@@ -115,6 +116,23 @@ TEST(AtomicWrite, FailedRenameRemovesTheTempFile) {
 
   EXPECT_THROW(io::writeFileAtomically(path, {1, 2, 3}), InputError);
   EXPECT_EQ(listNames(dir), (std::set<std::string>{"tile.png", "tile.png/child"}));
+}
+
+// A temporary file a writer left over a minute ago is abandoned; a hidden
+// file of the user's whose name merely holds ".tmp-" is not, however old.
+TEST(AtomicWrite, OnlyItsOwnTemporaryFilesCountAsAbandoned) {
+  const fs::path dir = freshDir("abandoned");
+  const auto old_file = [&](const std::string& name) {
+    const fs::path path = dir / name;
+    std::ofstream(path) << "x";
+    fs::last_write_time(path, fs::file_time_type::clock::now() - std::chrono::hours(1));
+    return path.string();
+  };
+  EXPECT_TRUE(io::isAbandonedTempFile(old_file(".12.png.tmp-otherhost-4242-a1B2c3")));
+  for (const std::string name : {".draft.tmp-v2", ".notes.tmp-host-12", ".x.tmp-host-pid-abcdef", ".x.tmp--1-abcdef",
+                                 "12.png.tmp-otherhost-4242-a1B2c3"}) {
+    EXPECT_FALSE(io::isAbandonedTempFile(old_file(name))) << name;
+  }
 }
 
 // ------------------------------------------------------------------------ PNG

@@ -34,6 +34,7 @@ mode_t currentUmask() {
 const mode_t kFileMode = 0666 & ~currentUmask();
 
 constexpr const char* kTempMarker = ".tmp-";
+constexpr std::size_t kTempSuffixLength = 6;  // mkstemp's XXXXXX
 // A writer that has held a temporary file this long is gone, wherever it ran:
 // an atomic write takes milliseconds.
 constexpr std::chrono::minutes kAbandonedAge{1};
@@ -128,16 +129,23 @@ bool isAbandonedTempFile(const std::string& path) {
   const std::string name = fs::path(path).filename().string();
   const std::size_t marker = name.rfind(kTempMarker);
   if (name.empty() || name[0] != '.' || marker == std::string::npos) return false;
+  // "<host>-<pid>-XXXXXX" (mkstemp's six): a name of ours, not a user's
+  // hidden file that happens to hold ".tmp-".
+  const std::string tag = name.substr(marker + std::strlen(kTempMarker));
+  const std::size_t dash = tag.find('-'), last = tag.rfind('-');
+  if (dash == std::string::npos || dash == 0 || last == dash || tag.size() - last - 1 != kTempSuffixLength) {
+    return false;
+  }
+  const std::string pid_text = tag.substr(dash + 1, last - dash - 1);
+  const auto digit = [](char c) { return c >= '0' && c <= '9'; };
+  if (pid_text.empty() || !std::all_of(pid_text.begin(), pid_text.end(), digit)) return false;
   std::error_code ec;
   const auto age = fs::file_time_type::clock::now() - fs::last_write_time(path, ec);
   if (ec) return false;
   if (age > kAbandonedAge) return true;
-  // "<host>-<pid>-XXXXXX": a writer on this host that no longer runs.
-  const std::string tag = name.substr(marker + std::strlen(kTempMarker));
-  const std::size_t dash = tag.find('-'), last = tag.rfind('-');
-  if (dash == std::string::npos || last == dash || tag.substr(0, dash) != hostName()) return false;
-  const pid_t pid = pid_t(std::atol(tag.substr(dash + 1, last - dash - 1).c_str()));
-  return pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH;
+  // A writer on this host that no longer runs.
+  const pid_t pid = pid_t(std::atol(pid_text.c_str()));
+  return tag.substr(0, dash) == hostName() && pid > 0 && ::kill(pid, 0) != 0 && errno == ESRCH;
 }
 
 // No fsync: the rename alone keeps readers from seeing a partial file while

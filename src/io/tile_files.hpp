@@ -39,6 +39,8 @@ TempFile createTempFile(const std::string& path);
 
 // True for a temporary file of writeFileAtomically whose writer is gone: a
 // process of this host that no longer runs, or any writer over a minute ago.
+// Only names of the form writeFileAtomically gives count: a user's hidden
+// file that holds ".tmp-" is none.
 bool isAbandonedTempFile(const std::string& path);
 
 // PNG bytes of an RGB or RGBA image whose samples are 8-bit (0..255) or
