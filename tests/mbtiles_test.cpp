@@ -370,6 +370,24 @@ TEST(Mbtiles, WritersStartingTogetherBothWriteTheirFirstTiles) {
   }
 }
 
+// A file another process reads while the run ends keeps its write-ahead
+// log beside it (the run warns so); once no one else has it open, it folds in.
+TEST(Mbtiles, AFileOpenElsewhereKeepsItsLogUntilItIsClosedThere) {
+  const fs::path file = caseDir() / "read_elsewhere.mbtiles";
+  const auto writer = io::MbtilesFile::openForWriting(file.string(), false);
+  ASSERT_EQ(writer->claimJob("job"), "");
+  writer->writeTile({12, 1, 1}, {1}, {2}, {});
+  sqlite3* reader = nullptr;
+  ASSERT_EQ(sqlite3_open_v2(file.c_str(), &reader, SQLITE_OPEN_READONLY, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_exec(reader, "BEGIN; SELECT count(*) FROM tiles;", nullptr, nullptr, nullptr), SQLITE_OK);
+  EXPECT_FALSE(writer->standAlone());
+  EXPECT_TRUE(fs::exists(file.string() + "-wal"));
+  ASSERT_EQ(sqlite3_exec(reader, "COMMIT;", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(reader);
+  EXPECT_TRUE(writer->standAlone());
+  EXPECT_FALSE(fs::exists(file.string() + "-wal"));
+}
+
 // Two connections stand for two shards' runs. A run that read the meshes
 // leaves the tileset to one that added meshes since (that run rewrites it
 // when it ends), so no tileset over fewer meshes than the file holds lands

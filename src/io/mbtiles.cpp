@@ -463,7 +463,7 @@ std::int64_t MbtilesFile::dataVersion() const {
   return sqlite3_column_int64(s, 0);
 }
 
-void MbtilesFile::standAlone() {
+bool MbtilesFile::standAlone() {
   // Leaving WAL needs the file to itself; another process holding it open
   // must not hold this one up, so no waiting here: the busy answer is fine.
   sqlite3_busy_timeout(m_impl->db, 0);
@@ -473,6 +473,7 @@ void MbtilesFile::standAlone() {
     m_impl->fail("cannot fold in the write-ahead log");
   }
   m_impl->write_ahead = false;
+  return rc == SQLITE_OK;
 }
 
 }  // namespace terrabake::io

@@ -124,8 +124,8 @@ class MbtilesFile {
   // Folds the write-ahead log into the file and goes back to a rollback
   // journal, so the file stands alone: no -wal or -shm beside it, readable
   // from a read-only folder. While another process has the file open this
-  // is left to the last one to finish.
-  void standAlone();
+  // is left to the last one to finish: returns false then.
+  bool standAlone();
 
  private:
   std::int64_t rowCount(MbtilesTable table) const;

@@ -1,12 +1,12 @@
-#include "pipeline/sink_kinds.hpp"
-
 #include <algorithm>
 #include <filesystem>
 #include <mutex>
 #include <vector>
 
 #include "core/error.hpp"
+#include "core/log.hpp"
 #include "io/mbtiles.hpp"
+#include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
 namespace {
@@ -101,7 +101,11 @@ class MbtilesSink : public TileSink {
     const std::lock_guard<std::mutex> lock(m_mutex);
     if (!m_record_when_finished.empty()) m_file->setMetadata({{io::kMbtilesJobRow, m_record_when_finished}});
     m_file->setMetadata(io::mbtilesMetadata(tilejson));
-    m_file->standAlone();
+    if (!m_file->standAlone()) {
+      log::warning("output: '" + m_file->path() + "' is open in another process (a shard still running, a reader): " +
+                   "its last tiles stay in the -wal file beside it until every process has closed it; copy the " +
+                   "three files together until then");
+    }
   }
 
   void close() override {
