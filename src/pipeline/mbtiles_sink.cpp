@@ -1,3 +1,5 @@
+#include "pipeline/sink_kinds.hpp"
+
 #include <algorithm>
 #include <filesystem>
 #include <mutex>
@@ -6,7 +8,6 @@
 #include "core/error.hpp"
 #include "core/log.hpp"
 #include "io/mbtiles.hpp"
-#include "pipeline/sink_kinds.hpp"
 
 namespace terrabake::pipeline {
 namespace {
