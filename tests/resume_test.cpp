@@ -165,10 +165,12 @@ TEST(Resume, AFullDiskStopsTheRunAtItsFirstTileAndResumesToTheUninterruptedLayer
   const std::string script =
       "mount -t tmpfs -o size=" + std::to_string(pages / 3 * 4096) + " none " + shellQuoted(disk.string()) +
       " || exit 1; " + exe + " " + joined(jobArgs(disk)) + " >" + at + "/full.out 2>" + at + "/full.err; echo $? >" +
-      at + "/full.code; mount -o remount,size=" + std::to_string(pages * 3 * 4096) + " " +
-      shellQuoted(disk.string()) + " || exit 1; " + exe + " " + joined(resume_args) + " >" + at +
-      "/resumed.out 2>" + at + "/resumed.err; echo $? >" + at + "/resumed.code; cp -a " +
-      shellQuoted((disk / "layer").string()) + " " + shellQuoted(kept.string());
+      at + "/full.code; mount -o remount,size=" + std::to_string(pages * 3 * 4096) + " " + shellQuoted(disk.string()) +
+      " || exit 1; " + exe + " " + joined(resume_args) + " >" + at + "/resumed.out 2>" + at +
+      "/resumed.err; echo $? >" + at + "/resumed.code; cp -a " + shellQuoted((disk / "layer").string()) + " " +
+      shellQuoted(kept.string()) + "; dd if=/dev/zero of=" + shellQuoted((disk / "filler").string()) +
+      " bs=4096 2>/dev/null; " + exe + " " + joined(resume_args) + " >/dev/null 2>" + at + "/again.err; echo $? >" +
+      at + "/again.code";
   ASSERT_EQ(std::system(("unshare -rm sh -c " + shellQuoted(script)).c_str()), 0);
 
   // One error, for the tile the disk refused first, and the run ends there
@@ -190,6 +192,12 @@ TEST(Resume, AFullDiskStopsTheRunAtItsFirstTileAndResumesToTheUninterruptedLayer
   EXPECT_GT(summaryCount(resumed_out, "skipped"), 0) << resumed_out;
   EXPECT_EQ(summaryCount(resumed_out, "skipped") + summaryCount(resumed_out, "wrote"), tiles) << resumed_out;
   EXPECT_TRUE(test::snapshot(kept) == expected) << "the resumed layer differs from an uninterrupted run";
+
+  // The whole layer resumed again on a full disk: one error, saying what to do.
+  const std::string again_err = test::readBytes(work / "again.err");
+  EXPECT_EQ(std::stoi(test::readBytes(work / "again.code")), kExitInput) << again_err;
+  EXPECT_NE(again_err.find("No space left on device"), std::string::npos) << again_err;
+  EXPECT_NE(again_err.find("make room"), std::string::npos) << again_err;
 }
 
 // What the sqlite3 tool prints for `sql` on `file`, read-only.

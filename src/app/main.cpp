@@ -138,6 +138,10 @@ int main(int argc, char** argv) {
   } catch (const NothingToMake& e) {
     log::warning(messageLine(e.what()));
     return int(e.code());
+  } catch (const RunStoppingError& e) {
+    // Before any tile (the layer's record, say): what to do, as a tile's error says it.
+    log::error(messageLine(std::string(e.what()) + ": " + e.remedy));
+    return int(e.code());
   } catch (const Error& e) {
     log::error(messageLine(e.what()));
     return int(e.code());

@@ -103,14 +103,21 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
 
 std::string recordJob(const std::string& layer_dir, const std::string& fingerprint) {
   const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
+  const auto readRecord = [&] {
+    std::error_code ec;
+    if (std::filesystem::is_directory(record, ec)) throw InputError("'" + record + "' is a folder, not a job record");
+    std::ifstream in(record, std::ios::binary);
+    std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+    if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
+    return recorded;
+  };
+  // One there already is read without writing anything: a resumed run on a
+  // full disk fails at its first tile to write, not at the record.
+  std::error_code ec;
+  if (std::filesystem::exists(record, ec)) return readRecord();
   const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
   if (writeFileExclusively(record, bytes)) return fingerprint;
-  std::error_code ec;
-  if (std::filesystem::is_directory(record, ec)) throw InputError("'" + record + "' is a folder, not a job record");
-  std::ifstream in(record, std::ios::binary);
-  std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-  if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
-  return recorded;
+  return readRecord();
 }
 
 std::optional<std::string> foreignEntry(const std::string& layer_dir) {
