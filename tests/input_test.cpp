@@ -972,7 +972,7 @@ TEST(Inputs, ATinyDemAtCoarseZoomsMakesNothingWithoutRunningOutOfMemory) {
   limits.address_space = std::size_t(3) << 30;
   const RunResult r = run(tileArgs(dir / "tiny.tif", dir / "out", "tiny", "0-3"), limits, std::chrono::seconds(60));
   EXPECT_EQ(r.exit_code, kExitNothingMade) << describe(r);
-  EXPECT_TRUE(contains(r.err, "holds a valid DEM sample (the DEM is under two texels of zoom 3 across")) << describe(r);
+  EXPECT_TRUE(contains(r.err, "holds a valid DEM sample (the DEM is under two texels of zoom 3 wide and tall")) << describe(r);
   EXPECT_FALSE(contains(r.err, "bad_alloc")) << describe(r);
 }
 

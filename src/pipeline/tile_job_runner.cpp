@@ -260,13 +260,15 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     // footprint does: a DEM under two texels across may give none any.
     const tiling::LevelGrid deepest = plan->scheme->levelGrid(plan->max_zoom);
     const double texel_w = deepest.tile_w / plan->scheme->tileSize(), texel_h = deepest.tile_h / plan->scheme->tileSize();
-    const bool narrow =
-        plan->area.max_x - plan->area.min_x < 2 * texel_w || plan->area.max_y - plan->area.min_y < 2 * texel_h;
+    const bool thin_x = plan->area.max_x - plan->area.min_x < 2 * texel_w;
+    const bool thin_y = plan->area.max_y - plan->area.min_y < 2 * texel_h;
+    const bool narrow = thin_x || thin_y;
     const std::string reason =
         "no tile written: none of the " + std::to_string(count) + " tiles of the " +
         (options.shard_count > 1 ? "shard" : "job") + " holds a valid DEM sample " +
         (narrow ? "(the DEM is under two texels of zoom " + std::to_string(plan->max_zoom) +
-                      " across, and a texel needs half its area on data: " +
+                      (thin_x && thin_y ? " wide and tall" : thin_x ? " wide" : " tall") +
+                      ", and a texel needs half its area on data: " +
                       (plan->max_zoom < kMaxZoom ? "tile deeper zooms" : "tile with a larger tiling.tile_size") + ")"
                 : "(every sample is nodata, NaN or implausible there)");
     if (options.shard_count > 1) {
