@@ -392,6 +392,17 @@ TEST(Resume, ADifferentJobIsRefusedWithoutForce) {
   EXPECT_GT(pngs, 0);
 }
 
+// `layer` holds the files of one run's layer `expected`, byte for byte, but
+// for its record: the job's, and a line that a --force run took it over.
+void expectTheLayerOfOneRunAfterATakeover(const fs::path& layer, std::map<std::string, std::string> expected) {
+  std::map<std::string, std::string> found = test::snapshot(layer);
+  const std::string record = found["terrabake-job.txt"];
+  EXPECT_EQ(record.rfind(expected["terrabake-job.txt"] + "other_tiles: taken over by --force", 0), 0u) << record;
+  found.erase("terrabake-job.txt");
+  expected.erase("terrabake-job.txt");
+  EXPECT_TRUE(found == expected) << "the layer differs from one run of its job";
+}
+
 // A --force run stopped part way leaves a layer that holds both jobs'
 // tiles; resumed, it makes every tile again, and ends as an uninterrupted
 // run of the new job leaves it.
@@ -433,7 +444,39 @@ TEST(Resume, AStoppedForcedRunResumesToTheNewJobsLayer) {
   ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
   EXPECT_NE(resumed.err().find("every tile is made again"), std::string::npos) << resumed.err();
   EXPECT_EQ(summaryCount(resumed.out(), "skipped"), 0) << resumed.out();
-  EXPECT_TRUE(test::snapshot(dir / "layer") == expected) << "the resumed layer differs from the new job's";
+  expectTheLayerOfOneRunAfterATakeover(dir / "layer", expected);
+}
+
+// --force deletes nothing: a forced job of fewer zooms leaves the old job's
+// tiles at the others. A job that grows the layer back over them later
+// makes every tile again, and ends as one run of it leaves the layer.
+TEST(Resume, AJobGrowingALayerAForcedRunTookOverMakesEveryTileAgain) {
+  const fs::path whole_dir = freshDir("grown_after_force_whole"), dir = freshDir("grown_after_force");
+  const auto withBits16 = [](std::vector<std::string> args) {
+    args.insert(args.end(), {"--bits", "16"});
+    return args;
+  };
+  test::ChildProcess whole(withBits16(jobArgs(whole_dir)));
+  ASSERT_EQ(whole.wait(kRunLimit), 0) << whole.err();
+  const auto expected = test::snapshot(whole_dir / "layer");
+
+  test::ChildProcess old_job(jobArgs(dir));  // zooms 11-14, 8 bits
+  ASSERT_EQ(old_job.wait(kRunLimit), 0) << old_job.err();
+  std::vector<std::string> fewer_zooms = withBits16(jobArgs(dir));
+  fewer_zooms[4] = "12-13";
+  fewer_zooms.push_back("--force");
+  test::ChildProcess forced(fewer_zooms);
+  ASSERT_EQ(forced.wait(kRunLimit), 0) << forced.err();
+  std::vector<std::string> grown = withBits16(jobArgs(dir));
+  grown.push_back("--resume");
+  test::ChildProcess resumed(grown);
+  ASSERT_EQ(resumed.wait(kRunLimit), 0) << resumed.err();
+  EXPECT_EQ(summaryCount(resumed.out(), "skipped"), 0) << resumed.out();
+  expectTheLayerOfOneRunAfterATakeover(dir / "layer", expected);
+  // The same job again skips every tile.
+  test::ChildProcess again(grown);
+  ASSERT_EQ(again.wait(kRunLimit), 0) << again.err();
+  EXPECT_EQ(summaryCount(again.out(), "wrote"), 0) << again.out();
 }
 
 TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {

@@ -115,7 +115,7 @@ class FolderSink : public TileSink {
     // Files no job recorded are taken over as another job's are.
     if (found) writeRecord(fingerprint + kTakenOverLine);
     const bool ours = !found && claimRecordedLayer(m_dir, recorded, fingerprint, force, writeRecord);
-    if (!ours) m_record_when_finished = fingerprint;
+    if (!ours) m_record_when_finished = takenOverRecord(fingerprint);
     return ours;
   }
 

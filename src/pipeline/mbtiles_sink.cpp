@@ -49,7 +49,7 @@ class MbtilesSink : public TileSink {
     const bool ours = claimRecordedLayer(m_file->path(), recorded, fingerprint, force, [&](const std::string& record) {
       m_file->setMetadata({{io::kMbtilesJobRow, record}});
     });
-    if (!ours) m_record_when_finished = fingerprint;
+    if (!ours) m_record_when_finished = takenOverRecord(fingerprint);
     return ours;
   }
 

@@ -17,10 +17,12 @@ bool claimFromDifferentJob(const std::string& location, const std::string& recor
 
 bool claimRecordedLayer(const std::string& location, const std::string& recorded, const std::string& fingerprint,
                         bool force, const std::function<void(const std::string&)>& write_record) {
-  const bool taken_over = endsWith(recorded, kTakenOverLine);
-  const std::string job = taken_over ? recorded.substr(0, recorded.size() - std::strlen(kTakenOverLine)) : recorded;
+  const bool taken_over = endsWith(recorded, kTakenOverLine), other_tiles = endsWith(recorded, kOtherTilesLine);
+  const std::size_t note = taken_over ? std::strlen(kTakenOverLine) : other_tiles ? std::strlen(kOtherTilesLine) : 0;
+  const std::string job = recorded.substr(0, recorded.size() - note);
+  // Another job's tiles beyond this job's zooms and box are never read.
   if (job == fingerprint) return !taken_over;
-  const bool ours = claimFromDifferentJob(location, job, fingerprint, force, true) && !taken_over;
+  const bool ours = claimFromDifferentJob(location, job, fingerprint, force, true) && !taken_over && !other_tiles;
   write_record(ours ? fingerprint : fingerprint + kTakenOverLine);
   return ours;
 }

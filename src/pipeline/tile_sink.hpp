@@ -59,12 +59,18 @@ class TileSink {
 // TileSink::claim of a layer whose job record holds `recorded`, for the job
 // with `fingerprint`; `write_record` replaces the record. A run that takes a
 // layer over from another job (--force) records its job with kTakenOverLine
-// after it, and a run of the job that finishes records it alone (its sink
-// does, when its claim returned false): until then the layer may hold the
-// other job's tiles, so --resume makes every tile again.
+// after it: until a run of the job finishes, the layer may hold the other
+// job's tiles, so --resume makes every tile again. The run that finishes
+// then records kOtherTilesLine in its place (takenOverRecord), as --force
+// deletes nothing: a job that grows the layer later makes every tile
+// again too, since the other job's may lie in what it grows into.
 bool claimRecordedLayer(const std::string& location, const std::string& recorded, const std::string& fingerprint,
                         bool force, const std::function<void(const std::string&)>& write_record);
 inline constexpr const char* kTakenOverLine = "taken_over: by --force from another job, not finished\n";
+inline constexpr const char* kOtherTilesLine =
+    "other_tiles: taken over by --force; another job's tiles may lie beyond this job's zooms and box\n";
+// The record a finished run leaves where its claim returned false.
+inline std::string takenOverRecord(const std::string& fingerprint) { return fingerprint + kOtherTilesLine; }
 
 // Where the plan stores its layer (io/layer_layout.hpp): PMTiles archives
 // written whole when the run finishes (nothing under their names before), a folder of
