@@ -584,6 +584,22 @@ TEST(Inputs, HeightsInFeetAreWarnedAboutUntilZScaleIsSet) {
                                  "they are read as metres: if they are feet too, set heights.z_scale (--z-scale) "
                                  "to 0.3048006096"))
       << describe(info);
+  // Units spelt other ways: decimetres get their factor, metres with a space none.
+  for (const auto& [unit, factor] :
+       {std::pair<std::string, std::string>{"decimetre", "0.1"}, {"km", "1000"}, {"meter ", ""}}) {
+    writeHills(dir / "unit.tif");
+    {
+      std::unique_ptr<GDALDataset> ds(GDALDataset::Open((dir / "unit.tif").c_str(), GDAL_OF_RASTER | GDAL_OF_UPDATE));
+      ASSERT_NE(ds, nullptr);
+      ASSERT_EQ(ds->GetRasterBand(1)->SetUnitType(unit.c_str()), CE_None);
+    }
+    const RunResult r = run({"info", (dir / "unit.tif").string()});
+    if (factor.empty()) {
+      EXPECT_FALSE(contains(r.err, "warning")) << unit << "\n" << describe(r);
+    } else {
+      EXPECT_TRUE(contains(r.err, "set heights.z_scale (--z-scale) to " + factor)) << unit << "\n" << describe(r);
+    }
+  }
 }
 
 TEST(Inputs, ADemPlacedByControlPointsIsRefusedSayingSo) {

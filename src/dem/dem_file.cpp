@@ -63,15 +63,23 @@ std::optional<int> epsgCode(const OGRSpatialReference& srs) {
 // metres or no unit, nothing for a unit it does not know.
 std::optional<double> metresPerHeightUnit(const std::string& unit) {
   std::string u;
-  for (char c : unit) u += char(std::tolower(static_cast<unsigned char>(c)));
-  for (const char* metres : {"", "m", "metre", "metres", "meter", "meters"}) {
-    if (u == metres) return 1.0;
+  for (char c : unit) {
+    if (!std::isspace(static_cast<unsigned char>(c))) u += char(std::tolower(static_cast<unsigned char>(c)));
   }
-  for (const char* centimetres : {"cm", "centimetre", "centimetres", "centimeter", "centimeters"}) {
-    if (u == centimetres) return 0.01;
-  }
-  for (const char* millimetres : {"mm", "millimetre", "millimetres", "millimeter", "millimeters"}) {
-    if (u == millimetres) return 0.001;
+  if (u.empty()) return 1.0;
+  // Each metric unit by its symbol or its name, either spelling, one or more.
+  struct MetricUnit {
+    const char* symbol;
+    const char* prefix;
+    double metres;
+  };
+  constexpr MetricUnit kMetric[] = {
+      {"m", "", 1.0}, {"km", "kilo", 1000.0}, {"dm", "deci", 0.1}, {"cm", "centi", 0.01}, {"mm", "milli", 0.001}};
+  for (const MetricUnit& metric : kMetric) {
+    if (u == metric.symbol) return metric.metres;
+    for (const char* name : {"metre", "metres", "meter", "meters"}) {
+      if (u == std::string(metric.prefix) + name) return metric.metres;
+    }
   }
   const bool feet = u.find("ft") != std::string::npos || u.find("foot") != std::string::npos ||
                     u.find("feet") != std::string::npos;
