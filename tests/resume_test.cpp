@@ -479,6 +479,30 @@ TEST(Resume, AJobGrowingALayerAForcedRunTookOverMakesEveryTileAgain) {
   EXPECT_EQ(summaryCount(again.out(), "wrote"), 0) << again.out();
 }
 
+// A run that ends after another grew the layer meanwhile leaves the grown
+// job's record and tilejson, which hold its tiles too.
+TEST(Resume, ARunEndingAfterAnotherGrewTheLayerLeavesTheGrownJobsTilejson) {
+  const fs::path dir = freshDir("grown_meanwhile");
+  std::vector<std::string> narrow = jobArgs(dir);
+  narrow[4] = "12-14";
+  test::ChildProcess first(narrow);
+  test::waitUntil([&] { return countMeshes(dir) >= kMeshesBeforeCrash || !first.running(); }, kRunLimit,
+                  std::chrono::milliseconds(1));
+  ASSERT_TRUE(first.running()) << "the run ended before it could be paused: " << first.err();
+  first.signal(SIGSTOP);
+  std::vector<std::string> grown = jobArgs(dir);  // zooms 11-14
+  grown.push_back("--resume");
+  test::ChildProcess grower(grown);
+  const int grower_code = grower.wait(kRunLimit);
+  first.signal(SIGCONT);
+  ASSERT_EQ(grower_code, 0) << grower.err();
+  ASSERT_EQ(first.wait(kRunLimit), 0) << first.err();
+  EXPECT_NE(first.err().find("was grown by another run meanwhile"), std::string::npos) << first.err();
+  const std::string tilejson = test::readBytes(dir / "layer" / "tilejson.json");
+  EXPECT_NE(tilejson.find("\"minzoom\": 11,"), std::string::npos) << tilejson;
+  EXPECT_NE(test::readBytes(dir / "layer" / "terrabake-job.txt").find("tiling.zoom: 11-14"), std::string::npos);
+}
+
 TEST(Resume, AFolderAnotherToolMadeIsLeftAsItWasWithoutForce) {
   const fs::path dir = freshDir("foreign");
   const fs::path layer = dir / "layer";

@@ -101,23 +101,26 @@ void writeTileFiles(const std::string& layer_dir, const TileId& tile, const Tile
   }
 }
 
-std::string recordJob(const std::string& layer_dir, const std::string& fingerprint) {
+std::string jobRecordOf(const std::string& layer_dir) {
   const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
-  const auto readRecord = [&] {
-    std::error_code ec;
-    if (std::filesystem::is_directory(record, ec)) throw InputError("'" + record + "' is a folder, not a job record");
-    std::ifstream in(record, std::ios::binary);
-    std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-    if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
-    return recorded;
-  };
+  std::error_code ec;
+  if (!std::filesystem::exists(record, ec)) return "";
+  if (std::filesystem::is_directory(record, ec)) throw InputError("'" + record + "' is a folder, not a job record");
+  std::ifstream in(record, std::ios::binary);
+  std::string recorded{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+  if (!in.eof() && !in) throw InputError("cannot read '" + record + "'");
+  return recorded;
+}
+
+std::string recordJob(const std::string& layer_dir, const std::string& fingerprint) {
   // One there already is read without writing anything: a resumed run on a
   // full disk fails at its first tile to write, not at the record.
-  std::error_code ec;
-  if (std::filesystem::exists(record, ec)) return readRecord();
+  const std::string recorded = jobRecordOf(layer_dir);
+  if (!recorded.empty()) return recorded;
+  const std::string record = (std::filesystem::path(layer_dir) / kJobFile).string();
   const std::vector<std::uint8_t> bytes(fingerprint.begin(), fingerprint.end());
   if (writeFileExclusively(record, bytes)) return fingerprint;
-  return readRecord();
+  return jobRecordOf(layer_dir);
 }
 
 std::optional<std::string> foreignEntry(const std::string& layer_dir) {

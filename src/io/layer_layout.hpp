@@ -34,6 +34,8 @@ inline constexpr const char* kJobFile = "terrabake-job.txt";
 // several writers racing, exactly one records); returns what the record holds.
 // Throws InputError naming the record when it cannot be written or read.
 std::string recordJob(const std::string& layer_dir, const std::string& fingerprint);
+// What the layer folder's job record holds; empty when it has none.
+std::string jobRecordOf(const std::string& layer_dir);
 
 // A visible entry of a layer folder that records no job, which a folder only
 // terrabake wrote into would not have (hidden files are writers' temporary

@@ -116,6 +116,7 @@ class FolderSink : public TileSink {
     if (found) writeRecord(fingerprint + kTakenOverLine);
     const bool ours = !found && claimRecordedLayer(m_dir, recorded, fingerprint, force, writeRecord);
     if (!ours) m_record_when_finished = takenOverRecord(fingerprint);
+    m_fingerprint = fingerprint;
     return ours;
   }
 
@@ -159,6 +160,10 @@ class FolderSink : public TileSink {
   }
 
   void finish(const std::string& tilejson, const std::string& elevation_tilejson) override {
+    if (recordedJob(io::jobRecordOf(m_dir)) != m_fingerprint) {
+      log::info(grownMeanwhile(m_dir));
+      return;
+    }
     if (!m_record_when_finished.empty()) {
       io::writeTextFileAtomically((fs::path(m_dir) / io::kJobFile).string(), m_record_when_finished);
     }
@@ -195,8 +200,9 @@ class FolderSink : public TileSink {
 
   std::string m_dir;
   std::vector<io::TileFormat> m_tile_formats;
-  const std::atomic<bool>* m_stop;  // ends the wait for the tileset's turn
-  bool m_created = false;          // the folder did not exist before this run
+  const std::atomic<bool>* m_stop;     // ends the wait for the tileset's turn
+  bool m_created = false;              // the folder did not exist before this run
+  std::string m_fingerprint;           // of the job that claimed the layer
   std::string m_record_when_finished;  // the job record finish() writes; empty: the claim's stays
 };
 

@@ -45,6 +45,7 @@ class MbtilesSink : public TileSink {
   bool claim(const std::string& fingerprint, bool force) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
     const std::string recorded = m_file->claimJob(fingerprint);
+    m_fingerprint = fingerprint;
     if (recorded.empty()) return true;
     const bool ours = claimRecordedLayer(m_file->path(), recorded, fingerprint, force, [&](const std::string& record) {
       m_file->setMetadata({{io::kMbtilesJobRow, record}});
@@ -100,8 +101,12 @@ class MbtilesSink : public TileSink {
   // planLayer refuses elevation tiles for MBTiles: there is no elevation tilejson.
   void finish(const std::string& tilejson, const std::string& /*elevation_tilejson*/) override {
     const std::lock_guard<std::mutex> lock(m_mutex);
-    if (!m_record_when_finished.empty()) m_file->setMetadata({{io::kMbtilesJobRow, m_record_when_finished}});
-    m_file->setMetadata(io::mbtilesMetadata(tilejson));
+    if (recordedJob(m_file->metadata(io::kMbtilesJobRow).value_or("")) != m_fingerprint) {
+      log::info(grownMeanwhile(m_file->path()));
+    } else {
+      if (!m_record_when_finished.empty()) m_file->setMetadata({{io::kMbtilesJobRow, m_record_when_finished}});
+      m_file->setMetadata(io::mbtilesMetadata(tilejson));
+    }
     if (!m_file->standAlone()) {
       log::warning("output: '" + m_file->path() + "' is open in another process (a shard still running, a reader): " +
                    "its last tiles stay in the -wal file beside it until every process has closed it; copy the " +
@@ -117,6 +122,7 @@ class MbtilesSink : public TileSink {
  private:
   mutable std::mutex m_mutex;
   bool m_created;  // the file did not exist before this run
+  std::string m_fingerprint;           // of the job that claimed the file
   std::string m_record_when_finished;  // the job row finish() writes; empty: the claim's stays
   std::unique_ptr<io::MbtilesFile> m_file;
   bool m_high_res_mesh;

@@ -15,11 +15,22 @@ bool claimFromDifferentJob(const std::string& location, const std::string& recor
                                         resumable ? ", and --resume skips them" : "");
 }
 
+std::string recordedJob(const std::string& recorded) {
+  for (const char* note : {kTakenOverLine, kOtherTilesLine}) {
+    if (endsWith(recorded, note)) return recorded.substr(0, recorded.size() - std::strlen(note));
+  }
+  return recorded;
+}
+
+std::string grownMeanwhile(const std::string& location) {
+  return "output: layer '" + location +
+         "' was grown by another run meanwhile: its record and tilejson, that job's, stay";
+}
+
 bool claimRecordedLayer(const std::string& location, const std::string& recorded, const std::string& fingerprint,
                         bool force, const std::function<void(const std::string&)>& write_record) {
   const bool taken_over = endsWith(recorded, kTakenOverLine), other_tiles = endsWith(recorded, kOtherTilesLine);
-  const std::size_t note = taken_over ? std::strlen(kTakenOverLine) : other_tiles ? std::strlen(kOtherTilesLine) : 0;
-  const std::string job = recorded.substr(0, recorded.size() - note);
+  const std::string job = recordedJob(recorded);
   // Another job's tiles beyond this job's zooms and box are never read.
   if (job == fingerprint) return !taken_over;
   const bool ours = claimFromDifferentJob(location, job, fingerprint, force, true) && !taken_over && !other_tiles;

@@ -69,6 +69,12 @@ bool claimRecordedLayer(const std::string& location, const std::string& recorded
 inline constexpr const char* kTakenOverLine = "taken_over: by --force from another job, not finished\n";
 inline constexpr const char* kOtherTilesLine =
     "other_tiles: taken over by --force; another job's tiles may lie beyond this job's zooms and box\n";
+// The job a record names, without the lines above.
+std::string recordedJob(const std::string& recorded);
+// What a run that ends says when another run has recorded a job that grows
+// the layer meanwhile: that job's record and description stay, as they hold
+// this run's tiles too.
+std::string grownMeanwhile(const std::string& location);
 // The record a finished run leaves where its claim returned false.
 inline std::string takenOverRecord(const std::string& fingerprint) { return fingerprint + kOtherTilesLine; }
 
