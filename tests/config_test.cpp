@@ -651,6 +651,18 @@ TEST(LayerFingerprint, AJobWithMoreZoomsOrALargerBoxGrowsTheLayer) {
   EXPECT_FALSE(growsLayer(across, fingerprintOf({{"tiling.zoom", "5"}, {"tiling.bbox", "160,-10,-160,10"}})));
   EXPECT_TRUE(growsLayer(across, fingerprintOf({{"tiling.zoom", "5"}})));
   EXPECT_FALSE(growsLayer("", layer));
+  // A key the job's mesh does not read changes no byte.
+  const std::string adaptive = fingerprintOf({{"low_poly.mesh", "adaptive"}});
+  EXPECT_TRUE(growsLayer(adaptive, fingerprintOf({{"low_poly.mesh", "adaptive"}, {"low_poly.grid", "33"}})));
+  EXPECT_FALSE(
+      growsLayer(adaptive, fingerprintOf({{"low_poly.mesh", "adaptive"}, {"low_poly.max_error_texels", "2"}})));
+  EXPECT_TRUE(growsLayer(
+      fingerprintOf({{"low_poly.mesh", "adaptive"}, {"low_poly.max_error_m", "5"}}),
+      fingerprintOf(
+          {{"low_poly.mesh", "adaptive"}, {"low_poly.max_error_m", "5"}, {"low_poly.max_error_texels", "2"}})));
+  const std::string grid = fingerprintOf({{"low_poly.mesh", "grid"}});
+  EXPECT_TRUE(growsLayer(grid, fingerprintOf({{"low_poly.mesh", "grid"}, {"low_poly.max_error_m", "5"}})));
+  EXPECT_FALSE(growsLayer(grid, fingerprintOf({{"low_poly.mesh", "grid"}, {"low_poly.grid", "33"}})));
 }
 
 }  // namespace

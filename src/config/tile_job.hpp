@@ -77,7 +77,8 @@ std::string fingerprintDifferences(const std::string& recorded, const std::strin
 // ones (zooms holding the recorded zooms, a deep end of auto only after
 // auto, whose zoom is the DEM's; a box holding the recorded box, or none).
 // A tile's bytes depend on neither, so the tiles the layer holds are the
-// grown job's too.
+// grown job's too. Keys the job's low-poly mesh does not read may differ
+// as well (low_poly.grid for adaptive meshes, the error bounds for grids).
 bool growsLayer(const std::string& recorded, const std::string& wanted);
 
 // A layer that another job, whose fingerprint is `recorded`, made, claimed
