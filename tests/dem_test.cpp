@@ -5,6 +5,7 @@
 #include <gdalwarper.h>
 
 #include <gdal_alg.h>
+#include <gdal_utils.h>
 
 #include <array>
 #include <cmath>
@@ -19,6 +20,7 @@
 #include "core/error.hpp"
 #include "core/floor.hpp"
 #include "dem/crs_transform.hpp"
+#include "dem/dataset_views.hpp"
 #include "dem/dem_source.hpp"
 #include "dem/fill_holes.hpp"
 #include "dem/gdal_util.hpp"
@@ -26,6 +28,7 @@
 #include "dem/mask_dilation.hpp"
 #include "dem/reduced_levels.hpp"
 #include "dem/void_samples.hpp"
+#include "dem/vrt_parts.hpp"
 #include "layer_check.hpp"
 #include "support/analytic_terrain.hpp"
 #include "tiling/scheme.hpp"
@@ -263,6 +266,72 @@ TEST(ContinueIntoHoles, DependsOnlyOnPosition) {
     }
   }
   EXPECT_GT(shared_holes, 100);
+}
+
+// A VRT without a nodata value read through its sources' boxes, whole or
+// sampled onto fewer pixels (as a decimated level reads it): NaN exactly
+// where the same VRT declaring NaN reads NaN, its heights elsewhere.
+TEST(MaskedView, ReadsNoDataWhereNoVrtSourceReachesAtAnySampling) {
+  GDALAllRegister();
+  constexpr int kPartW = 40, kGap = 7, kH = 30, kW = 2 * kPartW + kGap;
+  const std::string dir = "/vsimem/masked_view/";
+  std::string names[2];
+  for (int part = 0; part < 2; ++part) {
+    names[part] = dir + "part" + std::to_string(part) + ".tif";
+    std::unique_ptr<GDALDataset> ds(GetGDALDriverManager()->GetDriverByName("GTiff")->Create(
+        names[part].c_str(), kPartW, kH, 1, GDT_Float32, nullptr));
+    double gt[6] = {double(part * (kPartW + kGap)), 1, 0, double(kH), 0, -1};
+    ds->SetGeoTransform(gt);
+    std::vector<float> heights(std::size_t(kPartW) * kH);
+    for (int r = 0; r < kH; ++r) {
+      for (int c = 0; c < kPartW; ++c) heights[std::size_t(r) * kPartW + std::size_t(c)] = float(c + 100 * r + 1);
+    }
+    ASSERT_EQ(ds->GetRasterBand(1)->RasterIO(GF_Write, 0, 0, kPartW, kH, heights.data(), kPartW, kH, GDT_Float32, 0,
+                                             0, nullptr),
+              CE_None);
+  }
+  const char* const sources[] = {names[0].c_str(), names[1].c_str()};
+  const char* const say_nan[] = {"-vrtnodata", "nan", nullptr};
+  GDALBuildVRTOptions* nan_options = GDALBuildVRTOptionsNew(const_cast<char**>(say_nan), nullptr);
+  GDALClose(GDALBuildVRT((dir + "plain.vrt").c_str(), 2, nullptr, sources, nullptr, nullptr));
+  GDALClose(GDALBuildVRT((dir + "nan.vrt").c_str(), 2, nullptr, sources, nan_options, nullptr));
+  GDALBuildVRTOptionsFree(nan_options);
+  dem::DatasetPtr plain(GDALDataset::Open((dir + "plain.vrt").c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  dem::DatasetPtr with_nan(GDALDataset::Open((dir + "nan.vrt").c_str(), GDAL_OF_RASTER | GDAL_OF_READONLY));
+  ASSERT_TRUE(plain && with_nan);
+  ASSERT_EQ(plain->GetRasterXSize(), kW);
+  dem::NoDataMask mask;
+  for (const Extent& box : dem::vrtSourceBoxes(*plain, 1)) {
+    mask.covered.push_back({box.min_x / kW, box.min_y / kH, box.max_x / kW, box.max_y / kH});
+  }
+  ASSERT_EQ(mask.covered.size(), 2u);
+  const dem::DatasetPtr view = dem::maskedView(std::move(plain), 1, mask, false);
+  for (const int factor : {1, 2, 3}) {
+    SCOPED_TRACE("sampled every " + std::to_string(factor) + " pixels");
+    const int w = kW / factor, h = kH / factor;
+    std::vector<float> got(std::size_t(w) * std::size_t(h)), want(got.size());
+    ASSERT_EQ(view->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, kW, kH, got.data(), w, h, GDT_Float32, 0, 0, nullptr),
+              CE_None);
+    ASSERT_EQ(with_nan->GetRasterBand(1)->RasterIO(GF_Read, 0, 0, kW, kH, want.data(), w, h, GDT_Float32, 0, 0,
+                                                   nullptr),
+              CE_None);
+    // GDAL's VRT gives a sample whose pixel lies in the gap the height of a
+    // pixel beside it where its window overlaps a source; the view, none.
+    int voids = 0, voided_beside_the_gap = 0;
+    for (std::size_t i = 0; i < got.size(); ++i) {
+      voids += std::isnan(want[i]);
+      if (std::isnan(want[i])) {
+        EXPECT_TRUE(std::isnan(got[i])) << i << ": " << got[i];
+      } else if (std::isnan(got[i])) {
+        ++voided_beside_the_gap;
+      } else {
+        EXPECT_EQ(got[i], want[i]) << i;
+      }
+    }
+    EXPECT_GT(voids, 0);
+    EXPECT_LE(voided_beside_the_gap, 2 * h);
+  }
+  VSIRmdirRecursive(dir.c_str());
 }
 
 TEST(DemSource, ReadsItsOwnGridExactly) {

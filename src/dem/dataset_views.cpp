@@ -135,48 +135,80 @@ class MaskedBand final : public GDALRasterBand {
   CPLErr IReadBlock(int block_x, int block_y, void* data) override {
     const int x = block_x * nBlockXSize, y = block_y * nBlockYSize;
     const int w = std::min(nBlockXSize, nRasterXSize - x), h = std::min(nBlockYSize, nRasterYSize - y);
-    auto* heights = static_cast<float*>(data);
-    const GSpacing row = GSpacing(sizeof(float)) * nBlockXSize;
-    if (m_source->RasterIO(GF_Read, x, y, w, h, heights, w, h, GDT_Float32, sizeof(float), row, nullptr) != CE_None) {
+    return read(x, y, w, h, static_cast<float*>(data), w, h, std::size_t(nBlockXSize), nullptr);
+  }
+
+  // Every read goes to the source in one call, whatever its window: through
+  // blocks, a VRT of many sources would walk them all once a block, and a
+  // read sampling fewer pixels than its window would read every one.
+  CPLErr IRasterIO(GDALRWFlag flag, int x, int y, int w, int h, void* data, int buffer_w, int buffer_h,
+                   GDALDataType type, GSpacing pixel_space, GSpacing line_space, GDALRasterIOExtraArg* extra) override {
+    if (flag != GF_Read) return CE_Failure;
+    if (type == GDT_Float32 && pixel_space == GSpacing(sizeof(float)) && line_space % GSpacing(sizeof(float)) == 0) {
+      return read(x, y, w, h, static_cast<float*>(data), buffer_w, buffer_h, std::size_t(line_space) / sizeof(float),
+                  extra);
+    }
+    m_heights.resize(std::size_t(buffer_w) * std::size_t(buffer_h));
+    if (read(x, y, w, h, m_heights.data(), buffer_w, buffer_h, std::size_t(buffer_w), extra) != CE_None) {
       return CE_Failure;
     }
-    if (m_signed_bytes) {
-      for (int r = 0; r < h; ++r) {
-        float* const line = &heights[std::size_t(r) * std::size_t(nBlockXSize)];
-        for (int c = 0; c < w; ++c) line[c] = line[c] >= 128 ? line[c] - 256 : line[c];
-      }
-    }
-    // Of each pixel, whether it holds data: an alpha band's partial
-    // transparency still does.
-    m_opacity.assign(std::size_t(w) * std::size_t(h), 255);
-    if (m_mask && m_mask->RasterIO(GF_Read, x, y, w, h, m_opacity.data(), w, h, GDT_Byte, 0, 0, nullptr) != CE_None) {
-      return CE_Failure;
-    }
-    if (!m_covered.empty()) keepCovered(x, y, w, h);
-    for (int r = 0; r < h; ++r) {
-      for (int c = 0; c < w; ++c) {
-        if (m_opacity[std::size_t(r) * std::size_t(w) + std::size_t(c)] == 0) {
-          heights[std::size_t(r) * std::size_t(nBlockXSize) + std::size_t(c)] = NAN;
-        }
-      }
+    for (int r = 0; r < buffer_h; ++r) {
+      GDALCopyWords(&m_heights[std::size_t(r) * std::size_t(buffer_w)], GDT_Float32, sizeof(float),
+                    static_cast<GByte*>(data) + r * line_space, type, int(pixel_space), buffer_w);
     }
     return CE_None;
   }
 
  private:
-  // Zeroes the opacity of the block's pixels (at x, y, w by h) whose centres
-  // lie in no covered box.
-  void keepCovered(int x, int y, int w, int h) {
+  // The window at (x, y), w by h pixels, sampled onto buffer_w x buffer_h
+  // heights at `out`, rows `stride` apart: NaN where there is no data.
+  CPLErr read(int x, int y, int w, int h, float* out, int buffer_w, int buffer_h, std::size_t stride,
+              GDALRasterIOExtraArg* extra) {
+    if (m_source->RasterIO(GF_Read, x, y, w, h, out, buffer_w, buffer_h, GDT_Float32, sizeof(float),
+                           GSpacing(stride * sizeof(float)), extra) != CE_None) {
+      return CE_Failure;
+    }
+    // Of each sample, whether it holds data: an alpha band's partial
+    // transparency still does.
+    m_opacity.assign(std::size_t(buffer_w) * std::size_t(buffer_h), 255);
+    if (m_mask &&
+        m_mask->RasterIO(GF_Read, x, y, w, h, m_opacity.data(), buffer_w, buffer_h, GDT_Byte, 0, 0, extra) != CE_None) {
+      return CE_Failure;
+    }
+    if (!m_covered.empty()) keepCovered(x, y, w, h, buffer_w, buffer_h);
+    for (int r = 0; r < buffer_h; ++r) {
+      float* const line = &out[std::size_t(r) * stride];
+      const GByte* const opacity = &m_opacity[std::size_t(r) * std::size_t(buffer_w)];
+      for (int c = 0; c < buffer_w; ++c) {
+        if (m_signed_bytes && line[c] >= 128) line[c] -= 256;
+        if (opacity[c] == 0) line[c] = NAN;
+      }
+    }
+    return CE_None;
+  }
+
+  // Zeroes the opacity of the samples whose pixels' centres lie in no
+  // covered box; a sample is of the pixel that holds its centre, as GDAL's
+  // nearest sampling takes it.
+  void keepCovered(int x, int y, int w, int h, int buffer_w, int buffer_h) {
+    const auto sampled = [](int first, int count, int samples, std::vector<int>& pixels) {
+      pixels.resize(std::size_t(samples));
+      for (int k = 0; k < samples; ++k) pixels[std::size_t(k)] = first + int(std::floor((k + 0.5) * count / samples));
+    };
+    sampled(x, w, buffer_w, m_columns);
+    sampled(y, h, buffer_h, m_rows);
+    // The first sample whose pixel's centre lies at or past `edge`, a
+    // fraction of `size` pixels.
+    const auto firstFrom = [](const std::vector<int>& pixels, double edge, int size) {
+      const int pixel = int(std::ceil(edge * size - 0.5));
+      return int(std::lower_bound(pixels.begin(), pixels.end(), pixel) - pixels.begin());
+    };
     m_in_box.assign(m_opacity.size(), 0);
-    // The first pixel whose centre lies at or past `edge`, a fraction of `size` pixels.
-    const auto firstFrom = [](double edge, int size) { return int(std::ceil(edge * size - 0.5)); };
     for (const Extent& box : m_covered) {
-      const int c0 = std::max(x, firstFrom(box.min_x, nRasterXSize)),
-                c1 = std::min(x + w, firstFrom(box.max_x, nRasterXSize));
-      const int r0 = std::max(y, firstFrom(box.min_y, nRasterYSize)),
-                r1 = std::min(y + h, firstFrom(box.max_y, nRasterYSize));
-      for (int r = r0; r < r1; ++r) {
-        std::fill_n(&m_in_box[std::size_t(r - y) * std::size_t(w) + std::size_t(c0 - x)], std::max(0, c1 - c0), 1);
+      const int c0 = firstFrom(m_columns, box.min_x, nRasterXSize), c1 = firstFrom(m_columns, box.max_x, nRasterXSize);
+      const int r0 = firstFrom(m_rows, box.min_y, nRasterYSize), r1 = firstFrom(m_rows, box.max_y, nRasterYSize);
+      for (int r = r0; r < r1 && c0 < c1; ++r) {
+        std::fill_n(&m_in_box[std::size_t(r) * std::size_t(buffer_w) + std::size_t(c0)], c1 - c0, 1);
       }
     }
     for (std::size_t i = 0; i < m_opacity.size(); ++i) m_opacity[i] = m_in_box[i] ? m_opacity[i] : 0;
@@ -186,8 +218,11 @@ class MaskedBand final : public GDALRasterBand {
   GDALRasterBand* m_mask;
   std::vector<Extent> m_covered;
   bool m_signed_bytes;
-  std::vector<GByte> m_opacity;  // of the block being read
-  std::vector<GByte> m_in_box;   // of the block being read
+  // Of the read in progress (a view is read by one thread):
+  std::vector<float> m_heights;  // in Float32, where another type was asked for
+  std::vector<GByte> m_opacity;
+  std::vector<GByte> m_in_box;
+  std::vector<int> m_columns, m_rows;  // the pixel each sample is of
 };
 
 MaskedDataset::MaskedDataset(DatasetPtr source, int band, NoDataMask mask, bool signed_bytes)
