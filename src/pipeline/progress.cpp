@@ -31,9 +31,10 @@ Progress::Progress(std::size_t total, bool terminal)
   m_next_report = (m_total + kLogLinesPerRun - 1) / kLogLinesPerRun;
 }
 
-void Progress::tileDone() {
+void Progress::tileDone(bool skipped) {
   std::lock_guard<std::mutex> lock(m_mutex);
   ++m_done;
+  m_skipped += skipped;
   const auto now = std::chrono::steady_clock::now();
   if (m_terminal) {
     if (now - m_last_draw >= kRedrawInterval || m_done == m_total) report(now);
@@ -49,12 +50,16 @@ void Progress::finish() {
 }
 
 void Progress::report(std::chrono::steady_clock::time_point now) {
+  // The rate of the tiles made: those --resume skips would make a run that
+  // skips its first part look nearly done.
   const double elapsed = std::chrono::duration<double>(now - m_start).count();
-  const double rate = elapsed > 0 ? double(m_done) / elapsed : 0.0;
+  const std::size_t made = m_done - m_skipped;
+  const double rate = elapsed > 0 ? double(made) / elapsed : 0.0;
   const std::string left = rate > 0 ? duration(double(m_total - m_done) / rate) : "?";
-  char line[160];
-  std::snprintf(line, sizeof line, "%zu/%zu tiles (%.0f%%), %.1f tiles/s, %s left", m_done, m_total,
-                100.0 * double(m_done) / double(m_total), rate, left.c_str());
+  const std::string skipped = m_skipped > 0 ? ", " + std::to_string(m_skipped) + " skipped" : "";
+  char line[200];
+  std::snprintf(line, sizeof line, "%zu/%zu tiles (%.0f%%%s), %.1f tiles/s, %s left", m_done, m_total,
+                100.0 * double(m_done) / double(m_total), skipped.c_str(), rate, left.c_str());
   if (m_terminal) {
     std::fprintf(stderr, "\r\033[K%s", line);  // clear to end of line, redraw
     std::fflush(stderr);

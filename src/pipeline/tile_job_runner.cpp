@@ -157,8 +157,10 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
     for (std::size_t i = next++; i < count; i = next++) {
       if (options.stop && *options.stop) break;
       const TileId tile = tileOf(i);
+      bool held = false;
       try {
         if (skip_held_tiles && sink->hasTile(tile)) {
+          held = true;
           ++skipped;
         } else if (const auto files = maker->make(tile)) {
           const auto write_start = std::chrono::steady_clock::now();
@@ -183,7 +185,7 @@ RunSummary runTileJob(const config::TileJob& job, const RunOptions& options) {
         log::error("tile " + tile.str() + ": " + oneLine(e.what()));
         ++failed;
       }
-      progress.tileDone();
+      progress.tileDone(held);
     }
     StageTimes worker_times = maker->stageTimes();
     worker_times.write = written_for;
