@@ -1,12 +1,12 @@
 // The progress lines of a run: tiles made per second and the time left at
 // that rate, whatever --resume skips.
-#include "pipeline/progress.hpp"
-
 #include <gtest/gtest.h>
 
 #include <chrono>
 #include <string>
 #include <thread>
+
+#include "pipeline/progress.hpp"
 
 namespace terrabake::pipeline {
 namespace {

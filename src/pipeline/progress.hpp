@@ -1,7 +1,8 @@
 #pragma once
-// Progress of a run on stderr. On a terminal: one line redrawn in place (tiles
-// done / total, tiles made per second, time left at that rate). Otherwise (logs, CI): a log line
-// every tenth of the run, so logs do not flood.
+// Progress of a run on stderr. On a terminal: one line redrawn in place
+// (tiles done / total, tiles made per second, time left at that rate).
+// Otherwise (logs, CI): a log line every tenth of the run, so logs do not
+// flood.
 #include <chrono>
 #include <cstddef>
 #include <mutex>
