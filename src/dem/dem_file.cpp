@@ -126,9 +126,10 @@ std::optional<std::string> heightUnitWarning(GDALRasterBand& band, int band_numb
 
 // How `info` names a mask (DemInfo::mask); empty when there is none.
 std::string maskDescription(const NoDataMask& mask) {
-  std::string text = mask.alpha_band  ? "band " + std::to_string(mask.alpha_band) + " (alpha): no data where it is 0"
-                     : mask.mask_band ? "its mask band: no data where it is 0"
-                                      : "";
+  const std::string text = mask.alpha_band
+                               ? "band " + std::to_string(mask.alpha_band) + " (alpha): no data where it is 0"
+                           : mask.mask_band ? "its mask band: no data where it is 0"
+                                            : "";
   const std::string sources = mask.covered.empty() ? "" : "no data where none of its sources reaches";
   return text + (text.empty() || sources.empty() ? "" : "; ") + sources;
 }

@@ -61,11 +61,11 @@ struct Region {
 // The region that holds every triangle of a mesh whose vertices are
 // `points` (metres in `frame`), `triangles` three indices each, and whose
 // longest edge is `longest_edge_m`: the vertices' extent (those of no
-// triangle included), widened by how far
-// a straight edge that long bows away from its ends on the curved earth
-// (below them, and towards a pole). Its longitudes are those the triangles
-// cover, each the short way round between its vertices; every longitude,
-// and the pole, for a mesh round a pole (a polar CRS's native tile).
+// triangle included), widened by how far a straight edge that long bows
+// away from its ends on the curved earth (below them, and towards a pole).
+// Its longitudes are those the triangles cover, each the short way round
+// between its vertices; every longitude, and the pole, for a mesh round a
+// pole (a polar CRS's native tile).
 Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std::uint32_t>& triangles,
                     const LocalFrame& frame, double longest_edge_m);
 
