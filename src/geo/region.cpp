@@ -86,9 +86,11 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
   // vertices'; the mesh's, the narrowest holding those. A mesh round a pole
   // (a polar CRS's native tile) holds every longitude.
   std::vector<std::pair<double, double>> arcs, corners;
+  std::vector<bool> in_a_triangle(points.size(), false);
   bool round_the_axis = false;
   for (std::size_t t = 0; t + 2 < triangles.size(); t += 3) {
     const std::uint32_t a = triangles[t], b = triangles[t + 1], c = triangles[t + 2];
+    in_a_triangle[a] = in_a_triangle[b] = in_a_triangle[c] = true;
     if (holdsTheAxis(ecef[a], ecef[b], ecef[c])) {
       round_the_axis = true;
       if (ecef[a].z > 0) {
@@ -104,10 +106,9 @@ Region regionOfMesh(const std::vector<glm::vec3>& points, const std::vector<std:
     }
     if (const auto arc = narrowestRunHolding(corners)) arcs.push_back(*arc);
   }
-  // Vertices of no triangle (those `nodata.surface: cut` leaves) are held
-  // too; the others already lie in their triangles' arcs.
-  for (const double lon : along) {
-    if (!std::isnan(lon)) arcs.emplace_back(lon, lon);
+  // Vertices of no triangle (those `nodata.surface: cut` leaves) are held too.
+  for (std::size_t i = 0; i < points.size(); ++i) {
+    if (!in_a_triangle[i] && !std::isnan(along[i])) arcs.emplace_back(along[i], along[i]);
   }
   double min_d = 1, max_d = 0;  // every longitude: round a pole, or on it alone
   if (!round_the_axis) {
